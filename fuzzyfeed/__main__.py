@@ -1,0 +1,5 @@
+import sys
+
+from fuzzyfeed.cli import main
+
+sys.exit(main())

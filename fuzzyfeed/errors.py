@@ -1,0 +1,41 @@
+"""One exception hierarchy for fuzzyfeed.
+
+Every error is also the builtin a caller would expect (``ValueError`` for a bad value,
+``OSError`` for an unreadable file), so ``except ValueError`` keeps working. Messages name the
+value, where it is (file, line, field, index) and the rule it breaks, in one line; the CLI prints
+that line and exits with code 2.
+"""
+
+from __future__ import annotations
+
+
+class FuzzyfeedError(Exception):
+    """Base class of every error fuzzyfeed raises on purpose."""
+
+
+class NurbsError(ValueError, FuzzyfeedError):
+    """A NURBS definition breaks a rule (degree, knots, control points, weights)."""
+
+
+class ShapeFileError(ValueError, FuzzyfeedError):
+    """A shape file is unreadable, malformed, or names an unknown shape."""
+
+
+class RuleTableError(ValueError, FuzzyfeedError):
+    """A rule table file or an in-memory rule table breaks a rule."""
+
+
+class MachineLimitsError(ValueError, FuzzyfeedError):
+    """A machine limit (feed, velocity, acceleration, jerk, tolerance, period) is invalid."""
+
+
+class InputError(ValueError, FuzzyfeedError):
+    """Numeric input that cannot be processed (NaN, infinite, empty, out of range)."""
+
+
+class PathFormatError(ValueError, FuzzyfeedError):
+    """An imported path file (CSV, G-code, DXF) is malformed or has nothing usable."""
+
+
+class ExportError(ValueError, FuzzyfeedError):
+    """A profile cannot be exported in the requested format."""

@@ -1,0 +1,164 @@
+"""Shape files: one editable text file per NURBS tool path (TOML, or JSON in geomdl's style).
+
+Fields: ``name``, ``units`` ("mm" or "inch"; inches are converted to mm on load), ``source``,
+``notes`` (optional), ``degree``, ``knotvector`` (alias ``knots``), ``control_points`` and
+``weights`` (optional, default 1). geomdl's JSON exchange layout
+``{"shape": {"data": [{"degree", "knotvector", "control_points": {"points", "weights"}}]}}`` loads
+as well. A SHAPE argument is a shipped shape's name (see :func:`shape_names`) or a file path.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fuzzyfeed.errors import NurbsError, ShapeFileError
+from fuzzyfeed.nurbs import Nurbs
+
+#: Units a shape file may declare, with the factor that converts them to mm.
+UNIT_TO_MM = {"mm": 1.0, "inch": 25.4, "in": 25.4}
+
+
+@dataclass(frozen=True, eq=False)
+class Shape:
+    """A named tool path: the NURBS in mm plus where it came from."""
+
+    name: str
+    curve: Nurbs
+    source: str = ""
+    notes: str = ""
+    path: Path | None = None
+
+
+def shapes_dir() -> Path:
+    """Folder of the shipped shapes: inside the installed package, or the repository's shapes/."""
+    here = Path(__file__).resolve().parent.parent
+    for candidate in (here / "_data" / "shapes", here.parent / "shapes"):
+        if candidate.is_dir():
+            return candidate
+    raise ShapeFileError(f"shipped shapes not found (looked in {here / '_data' / 'shapes'} and "
+                         f"{here.parent / 'shapes'}); reinstall fuzzyfeed")
+
+
+def shape_names() -> list[str]:
+    """Names of the shipped shapes, sorted."""
+    return sorted(p.stem for p in shapes_dir().glob("*.toml"))
+
+
+def resolve_shape_path(spec: str | Path) -> Path:
+    """Turn a SHAPE argument (shipped name or path) into an existing file path."""
+    candidate = Path(spec)
+    if candidate.is_file():
+        return candidate
+    if candidate.suffix == "" and len(candidate.parts) == 1:
+        shipped = shapes_dir() / f"{spec}.toml"
+        if shipped.is_file():
+            return shipped
+        raise ShapeFileError(f"shape {str(spec)!r}: no such shipped shape or file; "
+                             f"shipped shapes are: {', '.join(shape_names())}")
+    if candidate.exists():
+        raise ShapeFileError(f"{candidate}: not a regular file")
+    raise ShapeFileError(f"{candidate}: no such file")
+
+
+def load_shape(spec: str | Path) -> Shape:
+    """Load a SHAPE (shipped name or path to a .toml/.json shape file)."""
+    path = resolve_shape_path(spec)
+    loader = _LOADERS.get(path.suffix.lower())
+    if loader is None:
+        raise ShapeFileError(f"{path}: unsupported file type {path.suffix!r}; "
+                             f"shape files are {', '.join(sorted(_LOADERS))}")
+    return loader(path)
+
+
+def _read_text(path: Path) -> str:
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ShapeFileError(f"{path}: cannot read ({exc.strerror})") from None
+    if b"\x00" in raw[:8192]:
+        raise ShapeFileError(f"{path}: binary file; expected a text shape file")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ShapeFileError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+
+
+def _load_toml(path: Path) -> Shape:
+    try:
+        data = tomllib.loads(_read_text(path))
+    except tomllib.TOMLDecodeError as exc:
+        raise ShapeFileError(f"{path}: invalid TOML: {exc}") from None
+    return shape_from_mapping(data, path)
+
+
+def _load_json(path: Path) -> Shape:
+    try:
+        data = json.loads(_read_text(path))
+    except json.JSONDecodeError as exc:
+        raise ShapeFileError(f"{path}:{exc.lineno}: invalid JSON: {exc.msg}") from None
+    if isinstance(data, dict) and isinstance(data.get("shape"), dict):  # geomdl exchange layout
+        items = data["shape"].get("data") or []
+        if len(items) != 1 or not isinstance(items[0], dict):
+            raise ShapeFileError(f"{path}: shape.data must hold exactly one curve, found {len(items)}")
+        item = dict(items[0])
+        cp = item.get("control_points")
+        if isinstance(cp, dict):
+            item["control_points"] = cp.get("points")
+            if "weights" in cp:
+                item["weights"] = cp["weights"]
+        item.setdefault("name", item.get("name") or path.stem)
+        data = item
+    return shape_from_mapping(data, path)
+
+
+def shape_from_mapping(data: object, path: Path | None = None) -> Shape:
+    """Build a :class:`Shape` from parsed file contents; errors name the file and the field."""
+    where = str(path) if path is not None else "shape"
+    if not isinstance(data, dict):
+        raise ShapeFileError(f"{where}: expected a table of fields, found {type(data).__name__}")
+    knots = data.get("knotvector", data.get("knots"))
+    for key, value in (("degree", data.get("degree")), ("knotvector", knots),
+                       ("control_points", data.get("control_points"))):
+        if value is None:
+            raise ShapeFileError(f"{where}: field '{key}' is missing")
+    units = data.get("units", "mm")
+    if units not in UNIT_TO_MM:
+        raise ShapeFileError(f"{where}: units = {units!r}; use one of {', '.join(UNIT_TO_MM)}")
+    try:
+        points = np.array(data["control_points"], dtype=float) * UNIT_TO_MM[units]
+    except (TypeError, ValueError):
+        raise ShapeFileError(f"{where}: control_points must be a list of [x, y] or [x, y, z] numbers") from None
+    try:
+        curve = Nurbs(data["degree"], knots, points, data.get("weights"))
+    except NurbsError as exc:
+        raise ShapeFileError(f"{where}: {exc}") from None
+    name = data.get("name") or (path.stem if path is not None else "shape")
+    return Shape(name=str(name), curve=curve, source=str(data.get("source", "")),
+                 notes=str(data.get("notes", "")), path=path)
+
+
+def shape_to_toml(shape: Shape) -> str:
+    """TOML text of a shape in the shipped layout (full float precision)."""
+    c = shape.curve
+
+    def num(v: float) -> str:
+        return repr(float(v))
+
+    lines = [f"name = {json.dumps(shape.name)}", 'units = "mm"', f"source = {json.dumps(shape.source)}"]
+    if shape.notes:
+        lines.append(f"notes = {json.dumps(shape.notes)}")
+    lines += [f"degree = {c.degree}",
+              "knotvector = [" + ", ".join(num(k) for k in c.knots) + "]",
+              "weights = [" + ", ".join(num(w) for w in c.weights) + "]",
+              "control_points = ["]
+    lines += ["  [" + ", ".join(num(x) for x in p) + "]," for p in c.control_points]
+    lines.append("]")
+    return "\n".join(lines) + "\n"
+
+
+_LOADERS = {".toml": _load_toml, ".json": _load_json}
