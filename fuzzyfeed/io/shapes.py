@@ -18,6 +18,7 @@ import numpy as np
 
 from fuzzyfeed.errors import NurbsError, ShapeFileError
 from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.sampling import DEFAULT_POINTS, PathSamples, sample_uniform_u, samples_from_points
 
 #: Units a shape file may declare, with the factor that converts them to mm.
 UNIT_TO_MM = {"mm": 1.0, "inch": 25.4, "in": 25.4}
@@ -32,6 +33,9 @@ class Shape:
     source: str = ""
     notes: str = ""
     path: Path | None = None
+    #: For paths imported as point sequences (G-code/CSV/DXF polylines): the points, (N, 2|3) mm.
+    #: ``curve`` is then the degree-1 NURBS through them (chord-length knots).
+    polyline: np.ndarray | None = None
 
 
 def shapes_dir() -> Path:
@@ -47,6 +51,14 @@ def shapes_dir() -> Path:
 def shape_names() -> list[str]:
     """Names of the shipped shapes, sorted."""
     return sorted(p.stem for p in shapes_dir().glob("*.toml"))
+
+
+def sample_shape(shape: Shape, points: int = DEFAULT_POINTS) -> PathSamples:
+    """The planners' samples of a shape: ``points`` uniform in u for a NURBS (seed 002); the
+    vertices themselves with the three-point curvature (seed 002 eq. 4-9) for a polyline."""
+    if shape.polyline is not None:
+        return samples_from_points(shape.polyline)
+    return sample_uniform_u(shape.curve, points)
 
 
 def resolve_shape_path(spec: str | Path) -> Path:
