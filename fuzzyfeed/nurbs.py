@@ -201,11 +201,14 @@ def _check_knots(knots: object, n: int, p: int) -> np.ndarray:
         i = int(np.argmax(dec)) + 1
         raise NurbsError(f"knots[{i}] = {_fmt(arr[i])} < knots[{i - 1}] = {_fmt(arr[i - 1])}; "
                          "knots must be non-decreasing")
-    for side, block, first in (("first", arr[: p + 1], 0), ("last", arr[-(p + 1):], arr.size - p - 1)):
-        if np.ptp(block) != 0.0:
-            j = first + int(np.argmax(block != block[0]))
+    n_end = p + 1
+    for side, ref in (("first", 0), ("last", arr.size - 1)):
+        block = np.arange(n_end) if side == "first" else np.arange(arr.size - n_end, arr.size)
+        off = block[arr[block] != arr[ref]]
+        if off.size:
+            j = int(off[0])
             raise NurbsError(f"knots[{j}] = {_fmt(arr[j])}; the knot vector must be clamped: the {side} "
-                             f"p + 1 = {p + 1} knots must be equal (knots[{first}] = {_fmt(block[0])})")
+                             f"p + 1 = {n_end} knots must equal knots[{ref}] = {_fmt(arr[ref])}")
     if arr[0] == arr[-1]:
         raise NurbsError(f"knots: all equal to {_fmt(arr[0])}; the parameter range must not be empty")
     interior = arr[p + 1: arr.size - p - 1]
