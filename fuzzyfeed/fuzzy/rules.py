@@ -1,0 +1,593 @@
+"""Rule tables of the fuzzy feedrate advisor (seed 002, section 2.7.1, rules R1-R30 / Table 6).
+
+A rule table is a TOML file (one per table, in ``rules/``): the feature settings (WS, the Dκ clip,
+the average-filter size, a feed floor), three fuzzy variables — ``curvature`` (κ, 1/mm),
+``curvature_variation`` (normalised Dκ) and ``feed`` (% of the maximum feed) — each with a
+universe and named terms (triangles ``[a, b, c]`` or trapezoids ``[a, b, c, d]``), and the grid
+``[rules]``: one row per κ term, the Dκ column labels given once. ``rules/paper.toml`` is the
+documented example and the default.
+
+Files are read with :mod:`tomllib`; :func:`set_cell` edits them with :mod:`tomlkit` so comments and
+layout survive. Every error is a :class:`~fuzzyfeed.errors.RuleTableError` whose one-line message
+names the file and line (or the field of an in-memory table), the bad value and the rule broken.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from fuzzyfeed.errors import RuleTableError
+
+#: Section names of the three fuzzy variables, in the order inputs, output.
+KAPPA, DK, FEED = "curvature", "curvature_variation", "feed"
+VARIABLES = (KAPPA, DK, FEED)
+#: Keys of a variable section that are not terms.
+RESERVED_KEYS = ("universe", "unit")
+UNITS = {KAPPA: "1/mm", DK: "", FEED: "%"}
+DEFAULT_TABLE = "paper"
+#: Settings of the [features] section.
+FEATURE_KEYS = ("window_points", "dk_clip_1_mm", "filter_points", "feed_floor_pct")
+
+# where(section, key) -> "file:line" (or a field path for an in-memory table)
+Locator = Callable[..., str]
+
+
+@dataclass(frozen=True)
+class Term:
+    """A fuzzy term: a triangle (a, b, c) or a trapezoid (a, b, c, d), a <= b <= c <= d, a < d."""
+
+    label: str
+    points: tuple[float, ...]
+
+    @property
+    def trapezoid(self) -> tuple[float, float, float, float]:
+        """The term as a trapezoid (a, b, c, d); a triangle has b = c."""
+        p = self.points
+        return (p[0], p[1], p[1], p[2]) if len(p) == 3 else (p[0], p[1], p[2], p[3])
+
+    def membership(self, x: float) -> float:
+        """μ(x): 0 outside [a, d], linear on the edges, 1 on [b, c] (a shoulder a = b gives 1 at a)."""
+        a, b, c, d = self.trapezoid
+        if x < a or x > d:
+            return 0.0
+        if x < b:
+            return (x - a) / (b - a)
+        if x <= c:
+            return 1.0
+        return (d - x) / (d - c)
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A fuzzy variable: its universe [lo, hi] and its terms in file order."""
+
+    name: str
+    universe: tuple[float, float]
+    terms: tuple[Term, ...]
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        return tuple(t.label for t in self.terms)
+
+    def index(self, label: str) -> int:
+        return self.labels.index(label)
+
+    def term(self, label: str) -> Term:
+        return self.terms[self.index(label)]
+
+
+@dataclass(frozen=True, eq=False)
+class RuleTable:
+    """A validated Mamdani rule table (seed 002 Table 6 layout).
+
+    ``grid[i][j]`` is the feed label of the rule "IF κ is curvature.terms[i] AND Dκ is
+    curvature_variation.terms[j]"; every cell is filled. ``window_points`` is WS (seed 002
+    eq. 10), ``dk_clip_1_mm`` the clip applied to Dκ before normalisation, ``filter_points`` the
+    size M of the centred average filter and ``feed_floor_pct`` the lowest feed advised.
+    """
+
+    name: str
+    curvature: Variable
+    curvature_variation: Variable
+    feed: Variable
+    grid: tuple[tuple[str, ...], ...]
+    window_points: int = 30
+    dk_clip_1_mm: float = 3.0
+    filter_points: int = 21
+    feed_floor_pct: float = 5.0
+    source: str = ""
+    path: Path | None = field(default=None, compare=False)
+
+    def __post_init__(self) -> None:
+        _validate(self, _field_locator(self.name))
+
+    @property
+    def variables(self) -> tuple[Variable, Variable, Variable]:
+        return (self.curvature, self.curvature_variation, self.feed)
+
+    @property
+    def rules(self) -> list[tuple[str, str, str]]:
+        """The rules as (κ label, Dκ label, feed label), row by row (R1 = first row, first column)."""
+        return [(k.label, d.label, self.grid[i][j])
+                for i, k in enumerate(self.curvature.terms)
+                for j, d in enumerate(self.curvature_variation.terms)]
+
+    def rule_names(self) -> list[str]:
+        """Readable rule names, e.g. ``"k=VS & Dk=M -> VHF"``, in the order of :attr:`rules`."""
+        return [f"k={k} & Dk={d} -> {f}" for k, d, f in self.rules]
+
+    def with_cell(self, row: str, column: str, label: str) -> "RuleTable":
+        """A copy with one grid cell changed (validated)."""
+        i = _lookup(self.curvature, row, f"rule table {self.name!r}: row")
+        j = _lookup(self.curvature_variation, column, f"rule table {self.name!r}: column")
+        grid = [list(r) for r in self.grid]
+        grid[i][j] = label
+        return replace(self, grid=tuple(tuple(r) for r in grid))
+
+
+def _lookup(var: Variable, label: str, where: str) -> int:
+    if label not in var.labels:
+        raise RuleTableError(f"{where} {label!r}: unknown {var.name} label; "
+                             f"{var.name} terms are {', '.join(var.labels)}")
+    return var.index(label)
+
+
+# --------------------------------------------------------------------------------------------
+# validation (shared by the in-memory constructor and the file loader)
+
+def _field_locator(name: str) -> Locator:
+    def where(section: str, key: str | None = None, line_hint: int | None = None) -> str:
+        return f"rule table {name!r}: {section}" + (f".{key}" if key else "")
+    return where
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+def _validate_features(values: Mapping[str, object], where: Locator) -> None:
+    for key in ("window_points", "filter_points"):
+        v = values[key]
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            raise RuleTableError(f"{where('features', key)}: {key} = {v!r}; must be an integer >= 1")
+    clip = values["dk_clip_1_mm"]
+    if not _is_number(clip) or not math.isfinite(clip) or clip <= 0:
+        raise RuleTableError(f"{where('features', 'dk_clip_1_mm')}: dk_clip_1_mm = {clip!r}; "
+                             "must be a finite number > 0 (1/mm)")
+    floor = values["feed_floor_pct"]
+    if not _is_number(floor) or not math.isfinite(floor) or not 0 < floor <= 100:
+        raise RuleTableError(f"{where('features', 'feed_floor_pct')}: feed_floor_pct = "
+                             f"{floor!r}; must be in (0, 100] (a feed is never 0)")
+
+
+def _validate(t: RuleTable, where: Locator) -> None:
+    _validate_features({k: getattr(t, k) for k in FEATURE_KEYS}, where)
+    for var in t.variables:
+        _validate_variable(var, where, require_cover=var.name != FEED)
+    k, d, f = t.curvature, t.curvature_variation, t.feed
+    if len(t.grid) != len(k.terms):
+        raise RuleTableError(f"{where('rules')}: {len(t.grid)} rows; expected one per curvature term "
+                             f"({len(k.terms)}: {', '.join(k.labels)})")
+    for i, row in enumerate(t.grid):
+        if len(row) != len(d.terms):
+            raise RuleTableError(f"{where('rules', k.labels[i])}: row {k.labels[i]} has {len(row)} cells; "
+                                 f"expected {len(d.terms)}, one per curvature_variation term "
+                                 f"({', '.join(d.labels)})")
+        for j, label in enumerate(row):
+            if label not in f.labels:
+                raise RuleTableError(f"{where('rules', k.labels[i])}: row {k.labels[i]}, column "
+                                     f"{d.labels[j]} (cell {j + 1}): unknown feed label {label!r}; "
+                                     f"feed terms are {', '.join(f.labels)}")
+
+
+def _is_number(x: object) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _validate_variable(var: Variable, where: Locator, require_cover: bool) -> None:
+    unit = UNITS.get(var.name, "")
+    lo_hi = var.universe
+    if (len(lo_hi) != 2 or not all(_is_number(x) and math.isfinite(x) for x in lo_hi)
+            or not lo_hi[0] < lo_hi[1]):
+        raise RuleTableError(f"{where(var.name, 'universe')}: universe = {list(lo_hi)!r}; must be "
+                             "[lo, hi], two finite numbers with lo < hi")
+    lo, hi = lo_hi
+    if not var.terms:
+        raise RuleTableError(f"{where(var.name)}: no terms; give at least one term = [a, b, c]")
+    seen: set[str] = set()
+    for term in var.terms:
+        w = where(var.name, term.label)
+        if term.label in seen:
+            raise RuleTableError(f"{w}: term {term.label!r} given twice in {var.name}")
+        seen.add(term.label)
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", term.label):
+            raise RuleTableError(f"{w}: term label {term.label!r}; use letters, digits and _ only")
+        p = term.points
+        if len(p) not in (3, 4) or not all(_is_number(x) for x in p):
+            raise RuleTableError(f"{w}: {var.name}.{term.label} = {list(p)!r}; a term is 3 numbers "
+                                 "[a, b, c] (triangle) or 4 [a, b, c, d] (trapezoid)")
+        if not all(math.isfinite(x) for x in p):
+            raise RuleTableError(f"{w}: {var.name}.{term.label} = {list(p)!r}; breakpoints must be finite")
+        for m in range(len(p) - 1):
+            if p[m + 1] < p[m]:
+                raise RuleTableError(
+                    f"{w}: {var.name}.{term.label} = {list(p)!r}; breakpoints must be non-decreasing "
+                    f"({_fmt(p[m + 1])} follows {_fmt(p[m])})")
+        if not p[0] < p[-1]:
+            raise RuleTableError(f"{w}: {var.name}.{term.label} = {list(p)!r}; a term needs a "
+                                 "width, first breakpoint < last")
+        if p[0] < lo or p[-1] > hi:
+            raise RuleTableError(f"{w}: {var.name}.{term.label} = {list(p)!r} leaves the universe "
+                                 f"[{_fmt(lo)}, {_fmt(hi)}] {unit}".rstrip())
+    if require_cover:
+        gap = uncovered(var)
+        if gap is not None:
+            a, b = gap
+            span = f"{_fmt(a)}" if a == b else f"{_fmt(a)} to {_fmt(b)}"
+            raise RuleTableError(
+                f"{where(var.name)}: no {var.name} term covers {span} {unit}".rstrip()
+                + f"; no rule can fire for {var.name} = {span}; widen or add a term")
+
+
+def uncovered(var: Variable) -> tuple[float, float] | None:
+    """The first stretch of the universe where every term's membership is 0, or None.
+
+    μ > 0 on the open support (a, d), and also at a when a = b and at d when c = d (a shoulder).
+    Returns (start, end) of the gap; a single uncovered point gives start = end.
+    """
+    lo, hi = var.universe
+    pieces = sorted(((a, a == b, d, c == d) for a, b, c, d in (t.trapezoid for t in var.terms)),
+                    key=lambda q: (q[0], not q[1]))
+    reach, reach_closed = lo, False          # covered so far: [lo, reach), plus reach if closed
+    for start, start_closed, end, end_closed in pieces:
+        if reach > hi or (reach == hi and reach_closed):
+            return None
+        if start > reach or (start == reach and not reach_closed and not start_closed):
+            return (reach, start)
+        if end > reach:
+            reach, reach_closed = end, end_closed
+        elif end == reach:
+            reach_closed = reach_closed or end_closed
+    if reach < hi or not reach_closed:
+        return (reach, hi)
+    return None
+
+
+# --------------------------------------------------------------------------------------------
+# files
+
+def rules_dir() -> Path:
+    """Folder of the shipped rule tables: inside the installed package, or the repository's rules/."""
+    here = Path(__file__).resolve().parent.parent
+    for candidate in (here / "_data" / "rules", here.parent / "rules"):
+        if candidate.is_dir():
+            return candidate
+    raise RuleTableError(f"shipped rule tables not found (looked in {here / '_data' / 'rules'} and "
+                         f"{here.parent / 'rules'}); reinstall fuzzyfeed")
+
+
+def table_names() -> list[str]:
+    """Names of the shipped rule tables, sorted."""
+    return sorted(p.stem for p in rules_dir().glob("*.toml"))
+
+
+def resolve_rules_path(spec: str | Path | None) -> Path:
+    """A --rules argument (None = the default table, a shipped name, or a path) as an existing file."""
+    if spec is None:
+        spec = DEFAULT_TABLE
+    candidate = Path(spec)
+    if candidate.is_file():
+        return candidate
+    if candidate.suffix == "" and len(candidate.parts) == 1:
+        shipped = rules_dir() / f"{spec}.toml"
+        if shipped.is_file():
+            return shipped
+        raise RuleTableError(f"rule table {str(spec)!r}: no such shipped table or file; shipped "
+                             f"tables are: {', '.join(table_names())}")
+    if candidate.exists():
+        raise RuleTableError(f"{candidate}: not a regular file")
+    raise RuleTableError(f"{candidate}: no such file")
+
+
+def _read_text(path: Path) -> str:
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise RuleTableError(f"{path}: cannot read ({exc.strerror})") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise RuleTableError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+
+
+_HEADER = re.compile(r"^\s*\[\s*([A-Za-z0-9_.\-\"' ]+?)\s*\]\s*(#.*)?$")
+_KEY = re.compile(r"^\s*([A-Za-z0-9_\-]+|\"[^\"]*\")\s*=")
+
+
+class _Lines:
+    """Where each (section, key) sits in the file text, for messages (first occurrence)."""
+
+    def __init__(self, text: str):
+        self.first: dict[tuple[str, str], int] = {}
+        self.sections: dict[str, int] = {}
+        self.duplicates: list[tuple[str, str, int, int]] = []
+        section = ""
+        for n, line in enumerate(text.splitlines(), start=1):
+            m = _HEADER.match(line)
+            if m:
+                section = m.group(1).strip().strip("\"'")
+                self.sections.setdefault(section, n)
+                continue
+            m = _KEY.match(line)
+            if m:
+                key = m.group(1).strip('"')
+                if (section, key) in self.first:
+                    self.duplicates.append((section, key, self.first[(section, key)], n))
+                else:
+                    self.first[(section, key)] = n
+
+    def line(self, section: str, key: str | None = None) -> int | None:
+        if key is not None and (section, key) in self.first:
+            return self.first[(section, key)]
+        return self.sections.get(section)
+
+
+def _file_locator(path: Path, lines: _Lines) -> Locator:
+    def where(section: str, key: str | None = None) -> str:
+        n = lines.line(section, key)
+        return f"{path}:{n}" if n else f"{path}: [{section}]"
+    return where
+
+
+def load_rule_table(spec: str | Path | None = None) -> RuleTable:
+    """Load and validate a rule table (None = ``rules/paper.toml``, a shipped name, or a path)."""
+    path = resolve_rules_path(spec)
+    return parse_rule_table(_read_text(path), path)
+
+
+def parse_rule_table(text: str, path: Path | str = "<rules>") -> RuleTable:
+    """Parse and validate rule-table TOML text; messages name ``path`` and the line."""
+    path = Path(path)
+    lines = _Lines(text)
+    for section, key, first, again in lines.duplicates:
+        what = (f"row {key!r}" if section == "rules" else
+                f"term {key!r}" if section in VARIABLES else f"key {key!r}")
+        raise RuleTableError(f"{path}:{again}: duplicate {what} in [{section}] (first at line {first}); "
+                             "give each once")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RuleTableError(f"{path}: invalid TOML: {exc}") from None
+    where = _file_locator(path, lines)
+    return table_from_mapping(data, where, path)
+
+
+def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path | None = None) -> RuleTable:
+    """Build a :class:`RuleTable` from parsed TOML; ``where`` turns (section, key) into a location."""
+    where = where or _field_locator(str(data.get("name", "rules")))
+    top = str(path) if path is not None else "rule table"
+    for section in ("features", *VARIABLES, "rules"):
+        if not isinstance(data.get(section), Mapping):
+            raise RuleTableError(f"{top}: section [{section}] is missing; a rule table has [features], "
+                                 "[curvature], [curvature_variation], [feed] and [rules]")
+    feats = data["features"]
+    known = set(FEATURE_KEYS)
+    for key in feats:
+        if key not in known:
+            raise RuleTableError(f"{where('features', key)}: unknown setting {key!r}; "
+                                 f"[features] takes {', '.join(sorted(known))}")
+    for key in known:
+        if key not in feats:
+            raise RuleTableError(f"{where('features')}: setting {key!r} is missing from [features]")
+    variables = {}
+    for name in VARIABLES:
+        sec = data[name]
+        if "universe" not in sec:
+            raise RuleTableError(f"{where(name)}: [{name}] has no universe = [lo, hi]")
+        uni = sec["universe"]
+        if not isinstance(uni, list):
+            raise RuleTableError(f"{where(name, 'universe')}: universe = {uni!r}; must be [lo, hi]")
+        terms = []
+        for key, value in sec.items():
+            if key in RESERVED_KEYS:
+                continue
+            if not isinstance(value, list):
+                raise RuleTableError(f"{where(name, key)}: {name}.{key} = {value!r}; a term is a list "
+                                     "of 3 or 4 breakpoints")
+            terms.append(Term(key, tuple(value)))
+        variables[name] = Variable(name, tuple(uni), tuple(terms))
+    for var in variables.values():
+        _validate_variable(var, where, require_cover=var.name != FEED)
+    grid = _grid_from_mapping(data["rules"], variables[KAPPA], variables[DK], variables[FEED], where)
+    _validate_features(feats, where)
+    return RuleTable(name=str(data.get("name", path.stem if path else "rules")),
+                     curvature=variables[KAPPA], curvature_variation=variables[DK],
+                     feed=variables[FEED], grid=grid,
+                     window_points=feats["window_points"], dk_clip_1_mm=feats["dk_clip_1_mm"],
+                     filter_points=feats["filter_points"], feed_floor_pct=feats["feed_floor_pct"],
+                     source=str(data.get("source", "")), path=path)
+
+
+def _grid_from_mapping(rules: Mapping, k: Variable, d: Variable, f: Variable,
+                       where: Locator) -> tuple[tuple[str, ...], ...]:
+    if "columns" not in rules:
+        raise RuleTableError(f"{where('rules')}: [rules] has no columns = [...] (the "
+                             f"curvature_variation labels: {', '.join(d.labels)})")
+    cols = rules["columns"]
+    if not isinstance(cols, list) or not all(isinstance(c, str) for c in cols):
+        raise RuleTableError(f"{where('rules', 'columns')}: columns = {cols!r}; must be a list of "
+                             "curvature_variation labels")
+    seen: dict[str, int] = {}
+    for j, c in enumerate(cols):
+        if c not in d.labels:
+            raise RuleTableError(f"{where('rules', 'columns')}: column {j + 1} {c!r}: unknown "
+                                 f"curvature_variation label; terms are {', '.join(d.labels)}")
+        if c in seen:
+            raise RuleTableError(f"{where('rules', 'columns')}: column {c!r} given twice (columns "
+                                 f"{seen[c] + 1} and {j + 1}); each cell must be given once")
+        seen[c] = j
+    missing = [c for c in d.labels if c not in seen]
+    if missing:
+        raise RuleTableError(f"{where('rules', 'columns')}: no column for curvature_variation "
+                             f"{', '.join(missing)}; missing cells for every row")
+    rows: dict[str, list[str]] = {}
+    for key, row in rules.items():
+        if key == "columns":
+            continue
+        if key not in k.labels:
+            raise RuleTableError(f"{where('rules', key)}: row {key!r}: unknown curvature label; "
+                                 f"curvature terms are {', '.join(k.labels)}")
+        if not isinstance(row, list):
+            raise RuleTableError(f"{where('rules', key)}: row {key} = {row!r}; must be a list of "
+                                 "feed labels, one per column")
+        if len(row) != len(cols):
+            what = "missing cell" if len(row) < len(cols) else "extra cell"
+            raise RuleTableError(f"{where('rules', key)}: row {key} has {len(row)} cells for "
+                                 f"{len(cols)} columns ({what}); give one feed label per column")
+        for j, cell in enumerate(row):
+            if not isinstance(cell, str) or cell == "":
+                raise RuleTableError(f"{where('rules', key)}: row {key}, column {cols[j]} (cell "
+                                     f"{j + 1}): {cell!r}; missing cell, give a feed label "
+                                     f"({', '.join(f.labels)})")
+            if cell not in f.labels:
+                raise RuleTableError(f"{where('rules', key)}: row {key}, column {cols[j]} (cell "
+                                     f"{j + 1}): unknown feed label {cell!r}; feed terms are "
+                                     f"{', '.join(f.labels)}")
+        rows[key] = row
+    missing_rows = [r for r in k.labels if r not in rows]
+    if missing_rows:
+        raise RuleTableError(f"{where('rules')}: no row for curvature {', '.join(missing_rows)}; "
+                             "missing cells (every curvature term needs a row)")
+    return tuple(tuple(rows[r][seen[c]] for c in d.labels) for r in k.labels)
+
+
+# --------------------------------------------------------------------------------------------
+# writing and editing
+
+def _num(x: float) -> str:
+    return repr(float(x))
+
+
+def table_to_toml(t: RuleTable) -> str:
+    """TOML text of a table in the shipped layout (aligned grid, full float precision)."""
+    out = [f"name = {_quote(t.name)}"]
+    if t.source:
+        out.append(f"source = {_quote(t.source)}")
+    out += ["", "[features]", f"window_points = {t.window_points}",
+            f"dk_clip_1_mm = {_num(t.dk_clip_1_mm)}", f"filter_points = {t.filter_points}",
+            f"feed_floor_pct = {_num(t.feed_floor_pct)}"]
+    for var in t.variables:
+        width = max(len(x) for x in var.labels)
+        out += ["", f"[{var.name}]", f"universe = [{_num(var.universe[0])}, {_num(var.universe[1])}]"]
+        out += [f"{term.label:<{width}} = [" + ", ".join(_num(x) for x in term.points) + "]"
+                for term in var.terms]
+    cells = [list(t.curvature_variation.labels)] + [list(r) for r in t.grid]
+    cw = max(len(c) for row in cells for c in row) + 3
+    kw = max(len("columns"), *(len(x) for x in t.curvature.labels))
+
+    def row_text(key: str, row: Sequence[str]) -> str:
+        parts = [f'"{c}",'.ljust(cw) for c in row[:-1]] + [f'"{row[-1]}"']
+        return f"{key:<{kw}} = [" + " ".join(parts) + "]"
+
+    out += ["", "[rules]", row_text("columns", t.curvature_variation.labels)]
+    out += [row_text(label, t.grid[i]) for i, label in enumerate(t.curvature.labels)]
+    return "\n".join(out) + "\n"
+
+
+def _quote(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def save_rule_table(t: RuleTable, path: str | Path) -> None:
+    """Write ``t`` to ``path`` atomically (comments are not kept; use :func:`set_cell` for edits)."""
+    from fuzzyfeed.io.atomic import atomic_write
+
+    with atomic_write(path, "w") as handle:
+        handle.write(table_to_toml(t))
+
+
+def set_cell_text(text: str, row: str, column: str, label: str, path: Path | str = "<rules>") -> str:
+    """The TOML text with rule (row, column) set to ``label``; comments and layout are kept.
+
+    The result is validated before it is returned (an unknown label or row is an error).
+    """
+    import tomlkit
+
+    path = Path(path)
+    table = parse_rule_table(text, path)
+    _lookup(table.curvature, row, f"{path}: row")
+    _lookup(table.curvature_variation, column, f"{path}: column")
+    if label not in table.feed.labels:
+        raise RuleTableError(f"{path}: label {label!r}: unknown feed label; feed terms are "
+                             f"{', '.join(table.feed.labels)}")
+    doc = tomlkit.parse(text)
+    rules = doc["rules"]
+    j = list(rules["columns"]).index(column)
+    arr = rules[row]
+    old = str(arr[j])
+    # keep the aligned look: replace the quoted cell in the row's own line when possible
+    new_text = _replace_cell_in_line(text, row, j, old, label)
+    if new_text is None:
+        arr[j] = label
+        new_text = tomlkit.dumps(doc)
+    parse_rule_table(new_text, path)
+    return new_text
+
+
+def _replace_cell_in_line(text: str, row: str, j: int, old: str, label: str) -> str | None:
+    """Rewrite cell j of row ``row`` in [rules] in place, padding to keep the columns aligned."""
+    lines = text.splitlines(keepends=True)
+    section = ""
+    for n, line in enumerate(lines):
+        m = _HEADER.match(line)
+        if m:
+            section = m.group(1).strip()
+            continue
+        if section != "rules":
+            continue
+        m = _KEY.match(line)
+        if not m or m.group(1).strip('"') != row:
+            continue
+        cells = list(re.finditer(r'"([^"]*)"', line[m.end():]))
+        if j >= len(cells) or cells[j].group(1) != old:
+            return None
+        start, end = m.end() + cells[j].start(), m.end() + cells[j].end()
+        rest = line[end:]
+        new_cell = f'"{label}"'
+        grow = len(new_cell) - (end - start)
+        if grow < 0 and rest.startswith(","):
+            rest = "," + " " * (-grow) + rest[1:]
+        elif grow > 0 and rest.startswith(","):
+            spaces = len(rest[1:]) - len(rest[1:].lstrip(" "))
+            take = min(grow, max(spaces - 1, 0))
+            rest = "," + rest[1 + take:]
+        lines[n] = line[:start] + new_cell + rest
+        return "".join(lines)
+    return None
+
+
+def set_cell(path: str | Path, row: str, column: str, label: str) -> RuleTable:
+    """Change one rule of the file at ``path`` in place (atomically, comments kept); returns the table."""
+    from fuzzyfeed.io.atomic import atomic_write
+
+    path = Path(path)
+    new_text = set_cell_text(_read_text(path), row, column, label, path)
+    with atomic_write(path, "w") as handle:
+        handle.write(new_text)
+    return parse_rule_table(new_text, path)
+
+
+def grid_text(t: RuleTable, sep: str | None = None) -> str:
+    """The grid as text: aligned columns (``sep=None``) or separated by ``sep`` (tab/comma for
+    spreadsheets); first row 'k \\ Dk' and the Dκ labels."""
+    rows = [["k \\ Dk", *t.curvature_variation.labels]]
+    rows += [[label, *t.grid[i]] for i, label in enumerate(t.curvature.labels)]
+    if sep is not None:
+        return "\n".join(sep.join(r) for r in rows) + "\n"
+    width = max(len(c) for r in rows for c in r) + 2
+    return "\n".join("".join(c.ljust(width) for c in r).rstrip() for r in rows) + "\n"
