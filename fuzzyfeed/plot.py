@@ -38,7 +38,8 @@ def colored_path(ax, samples: PathSamples, values: np.ndarray, label: str, cmap:
     mid = 0.5 * (values[:-1] + values[1:])
     if log:
         positive = mid[mid > 0]
-        floor = positive.min() if positive.size else 1e-6
+        # four decades below the peak are enough to see where a path is sharp
+        floor = max(positive.min(), mid.max() * 1e-4) if positive.size else 1e-6
         norm = LogNorm(vmin=floor, vmax=max(mid.max(), floor * 10))
         mid = np.maximum(mid, floor)
     else:
@@ -50,7 +51,7 @@ def colored_path(ax, samples: PathSamples, values: np.ndarray, label: str, cmap:
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
-    return ax.figure.colorbar(lc, ax=ax, label=label)
+    return ax.figure.colorbar(lc, ax=ax, label=label, shrink=0.8)
 
 
 def plot_shape_curvature(samples: PathSamples, title: str, output: str | os.PathLike) -> None:
