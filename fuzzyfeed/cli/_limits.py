@@ -1,0 +1,42 @@
+"""The machine-limit flags, the same on every subcommand that takes limits."""
+
+from __future__ import annotations
+
+import argparse
+
+from fuzzyfeed.cli._common import positive_float
+from fuzzyfeed.limits import (DEFAULT_AXIS_ACC_MM_S2, DEFAULT_AXIS_VEL_MM_S, DEFAULT_CHORD_TOL_MM,
+                              DEFAULT_FEED_MM_S, DEFAULT_JERK_MM_S3, DEFAULT_TS_S, MachineLimits)
+
+
+def axis_values(text: str) -> float | tuple[float, ...]:
+    """argparse type: one positive number for all axes, or three comma-separated (x,y,z)."""
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) not in (1, 3):
+        raise argparse.ArgumentTypeError(f"{text!r}: give one number for all axes or three as X,Y,Z")
+    values = tuple(positive_float(p) for p in parts)
+    return values[0] if len(values) == 1 else values
+
+
+def add_limit_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add --feed-mm-min, --axis-vel-mm-s, --axis-acc-mm-s2, --jerk-mm-s3, --chord-tol-mm, --ts-s."""
+    g = parser.add_argument_group("machine limits")
+    g.add_argument("--feed-mm-min", type=positive_float, default=DEFAULT_FEED_MM_S * 60.0, metavar="F",
+                   help="command feed in mm/min (default: %(default)g)")
+    g.add_argument("--axis-vel-mm-s", type=axis_values, default=DEFAULT_AXIS_VEL_MM_S, metavar="V",
+                   help="axis velocity limit in mm/s, one value or X,Y,Z (default: %(default)g)")
+    g.add_argument("--axis-acc-mm-s2", type=axis_values, default=DEFAULT_AXIS_ACC_MM_S2, metavar="A",
+                   help="axis acceleration limit in mm/s^2, one value or X,Y,Z (default: %(default)g)")
+    g.add_argument("--jerk-mm-s3", type=positive_float, default=DEFAULT_JERK_MM_S3, metavar="J",
+                   help="tangential jerk limit in mm/s^3 (default: %(default)g)")
+    g.add_argument("--chord-tol-mm", type=positive_float, default=DEFAULT_CHORD_TOL_MM, metavar="D",
+                   help="chord error tolerance in mm (default: %(default)g)")
+    g.add_argument("--ts-s", type=positive_float, default=DEFAULT_TS_S, metavar="T",
+                   help="servo (interpolation) period in s (default: %(default)g)")
+
+
+def limits_from_args(args: argparse.Namespace) -> MachineLimits:
+    """The validated :class:`MachineLimits` of parsed limit flags (MachineLimitsError if invalid)."""
+    return MachineLimits(feed_mm_s=args.feed_mm_min / 60.0, axis_vel_mm_s=args.axis_vel_mm_s,
+                         axis_acc_mm_s2=args.axis_acc_mm_s2, jerk_mm_s3=args.jerk_mm_s3,
+                         chord_tol_mm=args.chord_tol_mm, ts_s=args.ts_s)
