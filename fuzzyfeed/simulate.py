@@ -1,0 +1,238 @@
+"""One simulator for every feed profile, one set of metrics (DESIGN §3 "One simulator").
+
+Any planner's output becomes a :class:`TimeLaw` — the arc length reached at every servo tick
+t_k = k·Ts together with the commanded feed, tangential acceleration and jerk. The SLW scheduler
+produces one directly; a feed given per sample (fuzzy advice, a constant feed, the time-optimal
+bound) is turned into one by :func:`time_law_from_profile`. :func:`simulate` then executes the law
+through the one interpolator (:func:`fuzzyfeed.interpolate.interpolate_u`) and measures the
+positions the machine would visit, the same way for everybody.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzyfeed.errors import InputError
+from fuzzyfeed.interpolate import feed_fluctuation, interpolate_u
+from fuzzyfeed.limits import AXES, MachineLimits
+from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.profile import FeedProfile
+
+#: A tick counts as a violation when it exceeds a limit by more than this fraction (rounding and
+#: the O(ΔL³) chord-to-arc difference must not count).
+VIOLATION_TOLERANCE = 1e-6
+#: Fractions of each tick's parameter interval where the chord error is measured.
+_CHORD_PROBES = np.array([0.25, 0.5, 0.75])
+
+
+@dataclass(frozen=True, eq=False)
+class TimeLaw:
+    """Arc length and its time derivatives at every servo tick t_k = k·Ts, k = 0 … K.
+
+    ``s_mm`` runs from 0 to the path length L (s_K = L: the last tick may be shorter, which is the
+    terminal-error compensation); ``duration_s`` is the exact time the law reaches L
+    ((K − 1)·Ts < duration ≤ K·Ts).
+    """
+
+    ts_s: float
+    s_mm: np.ndarray
+    feed_mm_s: np.ndarray
+    acc_mm_s2: np.ndarray
+    jerk_mm_s3: np.ndarray
+    duration_s: float
+
+    def __post_init__(self) -> None:
+        n = np.shape(self.s_mm)[0]
+        for name in ("s_mm", "feed_mm_s", "acc_mm_s2", "jerk_mm_s3"):
+            arr = np.array(getattr(self, name), dtype=float)
+            if arr.shape != (n,):
+                raise InputError(f"time law: {name} has shape {arr.shape}, expected ({n},)")
+            if not np.isfinite(arr).all():
+                i = int(np.argmax(~np.isfinite(arr)))
+                raise InputError(f"time law: {name}[{i}] = {arr[i]}; values must be finite")
+            arr.flags.writeable = False
+            object.__setattr__(self, name, arr)
+        if n < 2:
+            raise InputError("time law: fewer than 2 ticks")
+
+    @property
+    def t_s(self) -> np.ndarray:
+        return np.arange(self.s_mm.size) * self.ts_s
+
+
+def time_law_from_profile(profile: FeedProfile, ts_s: float) -> TimeLaw:
+    """Execute a feed given per sample with constant acceleration between samples.
+
+    Between samples a and b (arc length Δs apart) the feed goes linearly in time from v_a to v_b:
+    T = 2Δs/(v_a + v_b), a = (v_b − v_a)/T = (v_b² − v_a²)/(2Δs). This is exact for the
+    time-optimal bound (v² linear in s) and handles a stop at either end of a segment. The jerk is
+    the change of that acceleration from tick to tick over Ts — what executing the table literally
+    asks of the machine.
+    """
+    if not math.isfinite(ts_s) or ts_s <= 0:
+        raise InputError(f"ts_s = {ts_s!r}; the servo period must be finite and > 0")
+    s = profile.samples.s
+    v = profile.feed_mm_s
+    ds = np.diff(s)
+    vsum = v[:-1] + v[1:]
+    stalled = (ds > 0) & (vsum <= 0)
+    if stalled.any():
+        i = int(np.argmax(stalled))
+        raise InputError(f"{profile.method}: feed is 0 at both samples {i} and {i + 1} "
+                         f"(s = {s[i]:.6g} mm); the path is never completed")
+    seg_time = np.divide(2.0 * ds, vsum, out=np.zeros_like(ds), where=ds > 0)
+    seg_acc = np.divide(v[1:] - v[:-1], seg_time, out=np.zeros_like(ds), where=seg_time > 0)
+    nodes = np.concatenate([[0.0], np.cumsum(seg_time)])
+    duration = float(nodes[-1])
+    ticks = max(1, math.ceil(duration / ts_s - 1e-9))
+    t = np.arange(ticks + 1) * ts_s
+    seg = np.clip(np.searchsorted(nodes, t, side="right") - 1, 0, ds.size - 1)
+    tau = np.minimum(t - nodes[seg], seg_time[seg])
+    s_k = np.minimum(s[seg] + v[seg] * tau + 0.5 * seg_acc[seg] * tau * tau, s[-1])
+    s_k[0], s_k[-1] = 0.0, s[-1]
+    s_k = np.maximum.accumulate(s_k)
+    feed = np.maximum(v[seg] + seg_acc[seg] * tau, 0.0)
+    acc = seg_acc[seg]
+    feed[-1], acc[-1] = v[-1], 0.0 if v[-1] == 0 else acc[-1]
+    jerk = np.concatenate([np.diff(acc) / ts_s, [0.0]])
+    return TimeLaw(ts_s=ts_s, s_mm=s_k, feed_mm_s=feed, acc_mm_s2=acc, jerk_mm_s3=jerk,
+                   duration_s=duration)
+
+
+@dataclass(frozen=True, eq=False)
+class Metrics:
+    """The metric set of DESIGN §3, measured from the interpolated positions at Ts.
+
+    Velocities and accelerations per axis are finite differences of the positions; the chord
+    error is the largest distance of the curve from each tick's chord; the feed fluctuation
+    compares each chord with the commanded step; the tangential acceleration and jerk are the time
+    law's. ``violations`` maps each limit to (ticks over it, worst value/limit ratio).
+    """
+
+    method: str
+    cycle_time_s: float
+    chord_err_max_um: float
+    chord_err_mean_um: float
+    feed_fluct_max_pct: float
+    feed_fluct_mean_pct: float
+    feed_max_mm_s: float
+    tan_acc_max_mm_s2: float
+    tan_jerk_max_mm_s3: float
+    axis_vel_max_mm_s: tuple[float, float, float]
+    axis_acc_max_mm_s2: tuple[float, float, float]
+    violations: dict[str, tuple[int, float]]
+    ratio_to_bound: float = float("nan")
+
+    def row(self) -> dict[str, object]:
+        """Flat mapping with units in the names: one CSV row of a comparison."""
+        out: dict[str, object] = {
+            "method": self.method, "cycle_time_s": self.cycle_time_s,
+            "ratio_to_bound": self.ratio_to_bound,
+            "chord_err_max_um": self.chord_err_max_um, "chord_err_mean_um": self.chord_err_mean_um,
+            "feed_fluct_max_pct": self.feed_fluct_max_pct, "feed_fluct_mean_pct": self.feed_fluct_mean_pct,
+            "feed_max_mm_s": self.feed_max_mm_s,
+            "tan_acc_max_mm_s2": self.tan_acc_max_mm_s2, "tan_jerk_max_mm_s3": self.tan_jerk_max_mm_s3,
+        }
+        for axis, vel, acc in zip(AXES, self.axis_vel_max_mm_s, self.axis_acc_max_mm_s2):
+            out[f"axis_vel_max_{axis}_mm_s"] = vel
+            out[f"axis_acc_max_{axis}_mm_s2"] = acc
+        for name, (count, worst) in self.violations.items():
+            out[f"violations_{name}"] = count
+            out[f"worst_ratio_{name}"] = worst
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """The executed trajectory (one row per tick) and its metrics."""
+
+    law: TimeLaw
+    u: np.ndarray
+    xyz: np.ndarray
+    chord_err_mm: np.ndarray   # per tick interval (K values)
+    metrics: Metrics
+
+
+def _chord_errors(curve: Nurbs, u: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Largest distance of C(u) from the chord C(u_k)C(u_k+1), probed inside every interval."""
+    a, b = pts[:-1], pts[1:]
+    chord = b - a
+    length2 = np.einsum("ij,ij->i", chord, chord)
+    worst = np.zeros(a.shape[0])
+    for f in _CHORD_PROBES:
+        q = curve(u[:-1] + f * (u[1:] - u[:-1]))
+        if q.shape[1] < 3:
+            q = np.hstack([q, np.zeros((q.shape[0], 3 - q.shape[1]))])
+        rel = q - a
+        t = np.divide(np.einsum("ij,ij->i", rel, chord), length2, out=np.zeros_like(length2),
+                      where=length2 > 0)
+        t = np.clip(t, 0.0, 1.0)
+        worst = np.maximum(worst, np.linalg.norm(rel - t[:, None] * chord, axis=1))
+    return worst
+
+
+def _violation(values: np.ndarray, limit: float) -> tuple[int, float]:
+    values = np.abs(np.asarray(values, dtype=float))
+    if values.size == 0:
+        return 0, 0.0
+    ratio = values / limit
+    return int(np.sum(ratio > 1.0 + VIOLATION_TOLERANCE)), float(ratio.max())
+
+
+def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
+             bound_time_s: float | None = None, interpolation: str = "best") -> Simulation:
+    """Execute ``law`` on ``curve`` through the one interpolator and measure it (DESIGN §3)."""
+    if abs(law.ts_s - limits.ts_s) > 1e-12 * limits.ts_s:
+        raise InputError(f"time law at Ts = {law.ts_s} s, limits at Ts = {limits.ts_s} s; "
+                         "simulate with the limits' servo period")
+    u = interpolate_u(curve, law.s_mm, method=interpolation)
+    pts = curve(u)
+    if pts.shape[1] < 3:
+        pts = np.hstack([pts, np.zeros((pts.shape[0], 3 - pts.shape[1]))])
+    # tick durations: Ts, except the last (terminal) tick, which ends when the law reaches L
+    dt = np.full(law.s_mm.size - 1, law.ts_s)
+    dt[-1] = max(law.duration_s - (dt.size - 1) * law.ts_s, 1e-12 * law.ts_s)
+    step = np.diff(pts, axis=0)
+    vel = step / dt[:, None]                                  # per tick, per axis
+    acc = np.diff(vel, axis=0) / (0.5 * (dt[:-1] + dt[1:]))[:, None]  # per tick boundary
+    feed = np.linalg.norm(vel, axis=1)
+    chord = _chord_errors(curve, u, pts)
+    fluct = feed_fluctuation(curve, u, law.s_mm)
+    fluct = fluct[np.isfinite(fluct)]
+    vel_max = tuple(float(x) for x in np.abs(vel).max(axis=0))
+    acc_max = tuple(float(x) for x in (np.abs(acc).max(axis=0) if acc.size else np.zeros(3)))
+    violations = {
+        "feed": _violation(feed, limits.feed_mm_s),
+        "chord_error": _violation(chord, limits.chord_tol_mm),
+        "tangential_acc": _violation(law.acc_mm_s2, limits.tangential_acc_mm_s2),
+        "jerk": _violation(law.jerk_mm_s3, limits.jerk_mm_s3),
+    }
+    for j, axis in enumerate(AXES):
+        violations[f"axis_vel_{axis}"] = _violation(vel[:, j], limits.axis_vel_mm_s[j])
+        violations[f"axis_acc_{axis}"] = _violation(acc[:, j] if acc.size else np.zeros(0),
+                                                    limits.axis_acc_mm_s2[j])
+    metrics = Metrics(
+        method=method, cycle_time_s=law.duration_s,
+        chord_err_max_um=float(chord.max()) * 1e3, chord_err_mean_um=float(chord.mean()) * 1e3,
+        feed_fluct_max_pct=float(fluct.max()) * 100 if fluct.size else 0.0,
+        feed_fluct_mean_pct=float(fluct.mean()) * 100 if fluct.size else 0.0,
+        feed_max_mm_s=float(feed.max()),
+        tan_acc_max_mm_s2=float(np.abs(law.acc_mm_s2).max()),
+        tan_jerk_max_mm_s3=float(np.abs(law.jerk_mm_s3).max()),
+        axis_vel_max_mm_s=vel_max, axis_acc_max_mm_s2=acc_max, violations=violations,
+        ratio_to_bound=(law.duration_s / bound_time_s) if bound_time_s else float("nan"),
+    )
+    return Simulation(law=law, u=u, xyz=pts, chord_err_mm=chord, metrics=metrics)
+
+
+def simulate_profile(profile: FeedProfile, limits: MachineLimits,
+                     bound_time_s: float | None = None) -> Simulation:
+    """:func:`simulate` for a feed given per sample (see :func:`time_law_from_profile`)."""
+    curve = profile.samples.curve
+    if curve is None:
+        raise InputError(f"{profile.method}: the samples carry no curve to interpolate on")
+    law = time_law_from_profile(profile, limits.ts_s)
+    return simulate(curve, law, limits, profile.method, bound_time_s=bound_time_s)
