@@ -4,7 +4,9 @@ Fields: ``name``, ``units`` ("mm" or "inch"; inches are converted to mm on load)
 ``notes`` (optional), ``degree``, ``knotvector`` (alias ``knots``), ``control_points`` and
 ``weights`` (optional, default 1). geomdl's JSON exchange layout
 ``{"shape": {"data": [{"degree", "knotvector", "control_points": {"points", "weights"}}]}}`` loads
-as well. A SHAPE argument is a shipped shape's name (see :func:`shape_names`) or a file path.
+as well. A SHAPE argument is a shipped shape's name (see :func:`shape_names`) or a file path; DXF
+(:mod:`fuzzyfeed.io.dxf`), G-code (:mod:`fuzzyfeed.io.gcode`) and CSV point lists
+(:mod:`fuzzyfeed.io.points`) load as paths too, with ``FILE#SELECTOR`` to pick one of several.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.errors import NurbsError, ShapeFileError
+from fuzzyfeed.io.gcode import GCODE_SUFFIXES
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.sampling import DEFAULT_POINTS, PathSamples, sample_uniform_u, samples_from_points
 
@@ -77,14 +80,40 @@ def resolve_shape_path(spec: str | Path) -> Path:
     raise ShapeFileError(f"{candidate}: no such file")
 
 
+def split_selector(spec: str | Path) -> tuple[str | Path, str | None]:
+    """Split ``FILE#SELECTOR`` (see :data:`SELECTOR_HELP`); an existing path is never split."""
+    if isinstance(spec, Path) or Path(spec).exists() or "#" not in str(spec):
+        return spec, None
+    base, selector = str(spec).rsplit("#", 1)
+    return base, selector
+
+
 def load_shape(spec: str | Path) -> Shape:
-    """Load a SHAPE (shipped name or path to a .toml/.json shape file)."""
-    path = resolve_shape_path(spec)
+    """Load a SHAPE: a shipped name, a .toml/.json shape file, or a DXF, G-code or CSV point file,
+    optionally followed by ``#SELECTOR`` to pick one path of a file that holds several."""
+    base, selector = split_selector(spec)
+    path = resolve_shape_path(base)
     loader = _LOADERS.get(path.suffix.lower())
     if loader is None:
         raise ShapeFileError(f"{path}: unsupported file type {path.suffix!r}; "
                              f"shape files are {', '.join(sorted(_LOADERS))}")
+    if selector is not None:
+        if path.suffix.lower() in (".toml", ".json"):
+            raise ShapeFileError(f"{spec}: a shape file holds one curve; '#{selector}' selects a "
+                                 "path only in DXF, G-code and CSV files")
+        return loader(path, selector)
     return loader(path)
+
+
+def load_shapes(spec: str | Path) -> list[Shape]:
+    """Every path in a file (DXF entities, G-code chains), or the one shape of any other SHAPE."""
+    base, selector = split_selector(spec)
+    if selector is None:
+        path = resolve_shape_path(base)
+        many = _MULTI_LOADERS.get(path.suffix.lower())
+        if many is not None:
+            return many(path)
+    return [load_shape(spec)]
 
 
 def _read_text(path: Path) -> str:
@@ -173,4 +202,37 @@ def shape_to_toml(shape: Shape) -> str:
     return "\n".join(lines) + "\n"
 
 
-_LOADERS = {".toml": _load_toml, ".json": _load_json}
+#: How to pick one path of a file that holds several (shown in the CLI's SHAPE help).
+SELECTOR_HELP = ("FILE#SELECTOR picks one path of a file with several: DXF FILE#HANDLE, "
+                 "FILE#handle=H, FILE#layer=NAME or FILE#path=N; G-code (one path per chain of "
+                 "G1/G5.2 moves between G0 rapids) FILE#N or FILE#path=N")
+
+
+def _load_gcode(path: Path, selector: str | None = None) -> Shape:
+    from fuzzyfeed.io.gcode import load_gcode
+    return load_gcode(path, selector)
+
+
+def _load_gcode_all(path: Path) -> list[Shape]:
+    from fuzzyfeed.io.gcode import load_gcode_shapes
+    return load_gcode_shapes(path)
+
+
+def _load_dxf(path: Path, selector: str | None = None) -> Shape:
+    from fuzzyfeed.io.dxf import load_dxf
+    return load_dxf(path, selector)
+
+
+def _load_dxf_all(path: Path) -> list[Shape]:
+    from fuzzyfeed.io.dxf import load_dxf_shapes
+    return load_dxf_shapes(path)
+
+
+def _load_csv(path: Path, selector: str | None = None) -> Shape:
+    from fuzzyfeed.io.points import load_points_csv
+    return load_points_csv(path, selector)
+
+
+_LOADERS = {".toml": _load_toml, ".json": _load_json, ".dxf": _load_dxf, ".csv": _load_csv,
+            **{suffix: _load_gcode for suffix in GCODE_SUFFIXES}}
+_MULTI_LOADERS = {".dxf": _load_dxf_all, **{suffix: _load_gcode_all for suffix in GCODE_SUFFIXES}}

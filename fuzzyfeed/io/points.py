@@ -1,0 +1,160 @@
+"""Point lists as paths: CSV import, and the polyline :class:`Shape` every point-sequence importer
+(CSV, G-code G1 chains, DXF polylines) builds.
+
+CSV: a header row, then one point per row. The coordinate columns are ``x_mm, y_mm[, z_mm]`` or
+``x, y[, z]`` (case and surrounding spaces ignored); other columns are ignored, so a CSV that
+fuzzyfeed wrote loads back as a path. Values are parsed with Python's ``float`` (exact for the
+``repr`` text fuzzyfeed writes). An empty, non-numeric, NaN or infinite value, or a point that
+repeats the previous one, is an error naming the file, the row (the file's line number) and the
+column.
+
+A polyline shape keeps the points (``Shape.polyline``) — the planners sample it at its vertices
+with the three-point curvature (seed 002, eq. 4–9) — and carries as ``Shape.curve`` the degree-1
+NURBS through the points with chord-length knots, for plotting and arc length.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from fuzzyfeed.errors import InputError, PathFormatError
+
+_COLUMN_SETS = (("x_mm", "y_mm", "z_mm"), ("x", "y", "z"))
+
+
+def read_text(path: str | os.PathLike, kind: str) -> str:
+    """The file's text; a binary, unreadable or non-UTF-8 file is a one-line error."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise PathFormatError(f"{path}: cannot read ({exc.strerror})") from None
+    if b"\x00" in raw[:8192]:
+        raise PathFormatError(f"{path}: binary file; expected a {kind} text file")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        if kind == "G-code":  # comments in old controllers' files are often Latin-1
+            return raw.decode("latin-1")
+        raise PathFormatError(f"{path}: not UTF-8 text (byte {exc.start}); expected a {kind} "
+                              "text file") from None
+
+
+def chord_knots(points: np.ndarray) -> np.ndarray:
+    """Knot vector of the degree-1 NURBS through ``points``: cumulative chord length on [0, 1],
+    clamped (first and last knot doubled)."""
+    chords = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    t = np.concatenate([[0.0], np.cumsum(chords)])
+    t /= t[-1]
+    t[-1] = 1.0
+    return np.concatenate([[0.0], t, [1.0]])
+
+
+def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Path | None = None,
+                   notes: str = "", where: str | None = None):
+    """A polyline :class:`Shape` from (N, 2|3) points in mm (N ≥ 2, finite, consecutive points
+    distinct). With two points only the curve is kept (a straight line, sampled as a NURBS)."""
+    from fuzzyfeed.io.shapes import Shape
+    from fuzzyfeed.nurbs import Nurbs
+
+    where = where or str(path or name)
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] not in (2, 3):
+        raise PathFormatError(f"{where}: points have shape {pts.shape}; need N rows of 2 or 3 coordinates")
+    if pts.shape[0] < 2:
+        raise PathFormatError(f"{where}: {pts.shape[0]} point(s); a path needs at least 2")
+    if not np.isfinite(pts).all():
+        i = int(np.argwhere(~np.isfinite(pts))[0, 0])
+        raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must be finite")
+    same = np.all(pts[1:] == pts[:-1], axis=1)
+    if same.any():
+        i = int(np.argmax(same)) + 1
+        raise PathFormatError(f"{where}: point {i} repeats point {i - 1}; consecutive points must differ")
+    curve = Nurbs(1, chord_knots(pts), pts)
+    polyline = pts.copy() if pts.shape[0] >= 3 else None
+    if polyline is not None:
+        polyline.flags.writeable = False
+    return Shape(name=name, curve=curve, source=source, notes=notes, path=path, polyline=polyline)
+
+
+def pick_by_index(path: Path, selector: str | None, described: list[str]) -> int:
+    """Index (0-based) chosen by ``selector`` ``N`` or ``path=N`` (1-based) among ``described``.
+    Without a selector the file must hold exactly one path."""
+    if selector is None:
+        if len(described) == 1:
+            return 0
+        raise PathFormatError(f"{path}: {len(described)} paths ({', '.join(described)}); pick one "
+                              f"with {path}#path=N")
+    text = selector.strip()
+    if text.lower().startswith("path="):
+        text = text[5:]
+    try:
+        number = int(text)
+    except ValueError:
+        raise PathFormatError(f"{path}#{selector}: selector must be N or path=N (1-based path "
+                              "number)") from None
+    if not 1 <= number <= len(described):
+        raise PathFormatError(f"{path}#{selector}: path {number} does not exist; the file has "
+                              f"{len(described)} path(s): {', '.join(described)}")
+    return number - 1
+
+
+def read_points_csv(path: str | os.PathLike) -> np.ndarray:
+    """The (N, 2|3) points of a point-list CSV (see the module docstring), float64 exact."""
+    path = Path(path)
+    text = read_text(path, "CSV")
+    rows = csv.reader(io.StringIO(text))
+    try:
+        header = next(rows)
+    except StopIteration:
+        raise PathFormatError(f"{path}: empty file; expected a header row with x_mm,y_mm[,z_mm] "
+                              "or x,y[,z]") from None
+    names = [h.strip().lower() for h in header]
+    columns = None
+    for candidates in _COLUMN_SETS:
+        if candidates[0] in names and candidates[1] in names:
+            columns = [names.index(c) for c in candidates if c in names]
+            labels = [header[i].strip() for i in columns]
+            break
+    if columns is None:
+        raise PathFormatError(f"{path}:1: header {header!r} has no x_mm,y_mm or x,y columns")
+    points = []
+    for line_no, row in enumerate(rows, start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        values = []
+        for col, label in zip(columns, labels):
+            cell = row[col].strip() if col < len(row) else ""
+            try:
+                value = float(cell)
+            except ValueError:
+                raise PathFormatError(f"{path}:{line_no}: column {label} = {cell!r} is not a number") from None
+            if not np.isfinite(value):
+                raise PathFormatError(f"{path}:{line_no}: column {label} = {cell}; coordinates must "
+                                      "be finite")
+            values.append(value)
+        if points and values == points[-1]:
+            raise PathFormatError(f"{path}:{line_no}: point {values} repeats the previous row; "
+                                  "consecutive points must differ")
+        points.append(values)
+    if len(points) < 2:
+        raise PathFormatError(f"{path}: {len(points)} point row(s); a path needs at least 2")
+    return np.array(points, dtype=float)
+
+
+def load_points_csv(path: str | os.PathLike, selector: str | None = None):
+    """A point-list CSV as a polyline :class:`Shape` (one path per file)."""
+    path = Path(path)
+    if selector is not None:
+        pick_by_index(path, selector, ["1"])
+    pts = read_points_csv(path)
+    try:
+        return polyline_shape(pts, name=path.stem, source=f"{path} (CSV point list)", path=path,
+                              notes=f"{len(pts)} points from CSV")
+    except InputError as exc:  # pragma: no cover - checked above
+        raise PathFormatError(f"{path}: {exc}") from None
