@@ -1,0 +1,74 @@
+"""The fuzzy feedrate advisor (seed 002): features → Mamdani engine → average filter → feed.
+
+Feed % = centroid of the controller (exact, see :mod:`fuzzyfeed.fuzzy.engine`), smoothed by a
+centred moving average of M = ``table.filter_points`` points (seed 002 section 2.7.2; the window
+shrinks symmetrically at the two ends, so it never reaches past the path and the end points keep
+their own value), then held to [feed_floor_pct, 100]. Feed [mm/s] = feed % / 100 × F_max.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzyfeed.errors import InputError, MachineLimitsError
+from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
+from fuzzyfeed.fuzzy.features import Features, features
+from fuzzyfeed.fuzzy.rules import RuleTable, load_rule_table
+from fuzzyfeed.profile import FeedProfile
+from fuzzyfeed.sampling import PathSamples
+
+
+def average_filter(values: np.ndarray, points: int) -> np.ndarray:
+    """Centred moving average over ``points`` samples; at the ends the window shrinks symmetrically
+    (point i averages i − h … i + h with h = min(M // 2, i, N − 1 − i); an even M uses M − 1)."""
+    v = np.asarray(values, dtype=float)
+    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 1:
+        raise InputError(f"filter_points = {points!r}; must be an integer >= 1")
+    n = v.size
+    half = np.minimum(points // 2, np.minimum(np.arange(n), n - 1 - np.arange(n)))
+    csum = np.concatenate([[0.0], np.cumsum(v)])
+    idx = np.arange(n)
+    return (csum[idx + half + 1] - csum[idx - half]) / (2 * half + 1)
+
+
+@dataclass(frozen=True, eq=False)
+class FuzzyAdvice:
+    """Everything the advisor computed, for plots and CSV: the profile plus its intermediates."""
+
+    profile: FeedProfile
+    features: Features
+    controller_pct: np.ndarray     # engine output before the filter
+    feed_pct: np.ndarray           # after filter, floor and cap (= profile.feed_pct)
+    table: RuleTable
+
+
+def _check_feed(max_feed_mm_s: float) -> float:
+    try:
+        f = float(max_feed_mm_s)
+    except (TypeError, ValueError):
+        raise MachineLimitsError(f"max feed = {max_feed_mm_s!r}; must be a number > 0 (mm/s)") from None
+    if not np.isfinite(f) or f <= 0:
+        raise MachineLimitsError(f"max feed = {max_feed_mm_s!r} mm/s; the maximum feed must be "
+                                 "finite and > 0")
+    return f
+
+
+def advise_details(samples: PathSamples, table: RuleTable | None = None, max_feed_mm_s: float = 100.0,
+                   engine: FuzzyEngine | None = None) -> FuzzyAdvice:
+    """Run the advisor on ``samples`` and keep the features and the unfiltered controller output."""
+    f_max = _check_feed(max_feed_mm_s)
+    table = table if table is not None else (engine.table if engine is not None else load_rule_table())
+    engine = engine if engine is not None else compile_table(table)
+    feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm)
+    raw = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
+    pct = np.clip(average_filter(raw, table.filter_points), table.feed_floor_pct, 100.0)
+    profile = FeedProfile(samples=samples, feed_mm_s=pct / 100.0 * f_max, method="fuzzy",
+                          max_feed_mm_s=f_max)
+    return FuzzyAdvice(profile=profile, features=feats, controller_pct=raw, feed_pct=pct, table=table)
+
+
+def advise(samples: PathSamples, table: RuleTable | None = None, max_feed_mm_s: float = 100.0) -> FeedProfile:
+    """The fuzzy advisor's :class:`FeedProfile` (method "fuzzy"); ``table`` defaults to rules/paper.toml."""
+    return advise_details(samples, table, max_feed_mm_s).profile
