@@ -67,3 +67,84 @@ def plot_shape_curvature(samples: PathSamples, title: str, output: str | os.Path
     ax_k.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     save_figure(fig, output)
+
+
+# ---- fuzzy advisor (seed 002) ------------------------------------------------------------------
+
+def plot_fuzzy_advice(advice, title: str, output: str | os.PathLike) -> None:
+    """Fuzzy advice: feed % against arc length (controller output and filtered feed) over κ and the
+    normalised Dκ, and the path coloured by the advised feed (mm/min)."""
+    plt = _pyplot()
+    samples = advice.profile.samples
+    s = samples.s
+    fig = plt.figure(figsize=(13, 7.5))
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.5, 1], height_ratios=[1, 1])
+    ax_f = fig.add_subplot(grid[0, 0])
+    ax_k = fig.add_subplot(grid[1, 0], sharex=ax_f)
+    ax_p = fig.add_subplot(grid[:, 1])
+    ax_f.plot(s, advice.controller_pct, lw=0.8, color="0.6", label="controller (before filter)")
+    ax_f.plot(s, advice.feed_pct, lw=1.6, color="C0",
+              label=f"advised feed (average filter M = {advice.table.filter_points})")
+    ax_f.axhline(advice.table.feed_floor_pct, color="C3", lw=0.8, ls=":", label="feed floor")
+    ax_f.set_ylabel("feed (% of max)")
+    ax_f.set_ylim(0, 105)
+    ax_f.grid(True, alpha=0.3)
+    ax_f.legend(loc="lower right", fontsize=8)
+    ax_f.set_title(f"{title}: fuzzy feed advice ({advice.table.name} rules, "
+                   f"F = {advice.profile.max_feed_mm_s * 60:g} mm/min)")
+    ax_k.semilogy(s, np.maximum(advice.features.curvature_1_mm, 1e-5), lw=1.0, color="C1",
+                  label="curvature κ (1/mm)")
+    ax_k.set_ylabel("curvature κ (1/mm)")
+    ax_k.set_xlabel("arc length s (mm)")
+    ax_k.grid(True, which="both", alpha=0.3)
+    ax_d = ax_k.twinx()
+    ax_d.plot(s, advice.features.curvature_variation, lw=1.0, color="C2",
+              label=f"normalised Dκ (WS = {advice.table.window_points})")
+    ax_d.set_ylabel("normalised Dκ")
+    ax_d.set_ylim(-0.02, 1.05)
+    lines = ax_k.get_lines() + ax_d.get_lines()
+    ax_k.legend(lines, [ln.get_label() for ln in lines], loc="lower right", fontsize=8)
+    colored_path(ax_p, samples, advice.profile.feed_mm_min, "advised feed (mm/min)", cmap="turbo_r")
+    ax_p.set_title("path coloured by advised feed")
+    fig.tight_layout()
+    save_figure(fig, output)
+
+
+def plot_rule_surface(table, output: str | os.PathLike, points: int = 81) -> None:
+    """The controller's surface feed %(κ, Dκ) and the membership functions of the three variables."""
+    from fuzzyfeed.fuzzy.engine import compile_table, membership
+
+    plt = _pyplot()
+    engine = compile_table(table)
+    k_lo, k_hi = table.curvature.universe
+    d_lo, d_hi = table.curvature_variation.universe
+    kk, dd = np.meshgrid(np.linspace(k_lo, k_hi, points), np.linspace(d_lo, d_hi, points))
+    zz = engine.feed_pct(kk.ravel(), dd.ravel()).reshape(kk.shape)
+    fig = plt.figure(figsize=(13, 8))
+    grid = fig.add_gridspec(3, 2, width_ratios=[1.3, 1])
+    ax_s = fig.add_subplot(grid[:, 0], projection="3d")
+    surf = ax_s.plot_surface(kk, dd, zz, cmap="turbo_r", linewidth=0, antialiased=True)
+    ax_s.set_xlabel("curvature κ (1/mm)")
+    ax_s.set_ylabel("normalised Dκ")
+    ax_s.set_zlabel("feed (%)")
+    ax_s.set_title(f"control surface: {table.name} rules (exact centroid)")
+    ax_s.view_init(elev=28, azim=-135)
+    fig.colorbar(surf, ax=ax_s, shrink=0.55, pad=0.1, label="feed (%)")
+    for row, (var, xlabel) in enumerate(((table.curvature, "curvature κ (1/mm)"),
+                                         (table.curvature_variation, "normalised Dκ"),
+                                         (table.feed, "feed (% of max)"))):
+        ax = fig.add_subplot(grid[row, 1])
+        lo, hi = var.universe
+        x = np.union1d(np.linspace(lo, hi, 1001), [p for t in var.terms for p in t.points])
+        mu = membership(var, x)
+        for j, term in enumerate(var.terms):
+            line, = ax.plot(x, mu[:, j], lw=1.3, label=term.label)
+            peak = 0.5 * (term.trapezoid[1] + term.trapezoid[2])
+            ax.text(peak, 1.04, term.label, ha="center", va="bottom", fontsize=7, color=line.get_color())
+        ax.set_ylim(-0.03, 1.18)
+        ax.set_xlim(lo, hi)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("membership")
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, output)
