@@ -1,0 +1,268 @@
+"""G-code export: LinuxCNC's own interpreter (rs274) accepts every program and reads back the
+exported points and feeds; F rules (never 0, written only on change, quantised); G5.2 for uniform
+clamped knots and a clear refusal otherwise; atomic output."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fuzzyfeed.errors import ExportError
+from fuzzyfeed.io.gcode import (check_g52_curve, gcode_program, linuxcnc_knots, write_gcode,
+                                write_gcode_nurbs)
+from fuzzyfeed.io.shapes import load_shape, shape_names
+from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.profile import FeedProfile
+from fuzzyfeed.sampling import sample_uniform_u, samples_from_points
+
+UNIFORM_SHAPES = ("infinity", "trident", "trident2")
+NON_UNIFORM_SHAPES = ("wm", "butterfly")
+#: rs274 prints coordinates and feeds with 4 decimals.
+RS274_DECIMALS = 4
+
+
+def rs274_binary() -> str:
+    """Path of rs274; fails when CI demands it (FUZZYFEED_REQUIRE_RS274=1), else skips."""
+    found = shutil.which("rs274")
+    if found:
+        return found
+    reason = ("rs274 not found: install Debian's linuxcnc-uspace (apt-get install linuxcnc-uspace) "
+              "to check exported programs with LinuxCNC's interpreter")
+    if os.environ.get("FUZZYFEED_REQUIRE_RS274"):
+        pytest.fail(reason + " (FUZZYFEED_REQUIRE_RS274 is set)")
+    pytest.skip(reason)
+
+
+def run_rs274(program, tmp_path):
+    """Run ``rs274 -g`` on a program file; returns the canonical-call lines (exit 0 asserted)."""
+    out = tmp_path / (program.stem + ".canon")
+    result = subprocess.run([rs274_binary(), "-g", str(program), str(out)], capture_output=True,
+                            text=True, stdin=subprocess.DEVNULL, timeout=120)
+    assert result.returncode == 0, f"rs274 rejected {program}: {result.stdout[-500:]} {result.stderr[-500:]}"
+    text = out.read_text()
+    assert "PROGRAM_END" in text
+    return text.splitlines()
+
+
+def canon_moves(lines):
+    """(traverse targets, feed-move targets, feed in force per feed move, SET_FEED_RATE values)."""
+    call = re.compile(r"\b([A-Z_]+)\((.*)\)\s*$")
+    traverses, feeds_xyz, feed_per_move, set_rates = [], [], [], []
+    rate = None
+    for line in lines:
+        m = call.search(line)
+        if not m:
+            continue
+        name, args = m.groups()
+        if name == "SET_FEED_RATE":
+            rate = float(args)
+            set_rates.append(rate)
+        elif name in ("STRAIGHT_FEED", "STRAIGHT_TRAVERSE"):
+            xyz = [float(a) for a in args.split(",")[:3]]
+            if name == "STRAIGHT_FEED":
+                feeds_xyz.append(xyz)
+                feed_per_move.append(rate)
+            else:
+                traverses.append(xyz)
+    return np.array(traverses), np.array(feeds_xyz), np.array(feed_per_move), set_rates
+
+
+def curvature_profile(shape_name: str, n: int = 2000, rest_at_ends: bool = True) -> FeedProfile:
+    """A curvature-dependent feed on the seed-002 sampling, 0 at both ends like an SLW profile."""
+    samples = sample_uniform_u(load_shape(shape_name).curve, n)
+    k = samples.curvature
+    feed = 10.0 + 90.0 / (1.0 + 20.0 * k / k.max())
+    if rest_at_ends:
+        feed[0] = feed[-1] = 0.0
+    return FeedProfile(samples, feed, "test", 100.0)
+
+
+def assert_rs274_reproduces(path, program, profile, tmp_path, decimals):
+    lines = run_rs274(path, tmp_path)
+    traverses, xyz, feed, _ = canon_moves(lines)
+    tol = 0.5 * 10.0 ** -RS274_DECIMALS + 1e-9
+    # the G0 target and every G1 end point, as written, read back by LinuxCNC
+    np.testing.assert_allclose(traverses[-1], program.start_mm, rtol=0, atol=tol)
+    assert xyz.shape == program.points_mm.shape
+    np.testing.assert_allclose(xyz, program.points_mm, rtol=0, atol=tol)
+    np.testing.assert_allclose(feed, program.feeds_mm_min, rtol=0, atol=tol)
+    # ... and those are the profile's samples to the written precision
+    if len(program.points_mm) == len(profile.samples) - 1:
+        coarse = 0.5 * 10.0 ** -min(decimals, RS274_DECIMALS) + 1e-9
+        if decimals > RS274_DECIMALS:  # written rounded to `decimals`, printed rounded to 4
+            coarse += 0.5 * 10.0 ** -decimals
+        np.testing.assert_allclose(xyz, profile.samples.xyz[1:], rtol=0, atol=coarse)
+        np.testing.assert_allclose(traverses[-1], profile.samples.xyz[0], rtol=0, atol=coarse)
+    assert np.all(feed > 0)
+
+
+@pytest.mark.parametrize("name", shape_names())
+def test_rs274_accepts_and_reproduces_curvature_profile(name, tmp_path):
+    profile = curvature_profile(name)
+    path = tmp_path / f"{name}.ngc"
+    program = write_gcode(path, profile)
+    assert path.read_text() == program.text
+    assert_rs274_reproduces(path, program, profile, tmp_path, 4)
+    # F of each move = mean of its two end feeds (mm/min), to the F word's 0.1 mm/min
+    seg = 0.5 * (profile.feed_mm_min[:-1] + profile.feed_mm_min[1:])
+    np.testing.assert_allclose(program.feeds_mm_min, seg, rtol=0, atol=0.05 + 1e-9)
+
+
+@pytest.mark.parametrize("options", [
+    {"decimals": 3}, {"decimals": 6}, {"line_numbers": True}, {"feed_step_mm_min": 100.0},
+    {"feed_step_mm_min": 250.0, "line_numbers": True, "decimals": 5}, {"feed_decimals": 3},
+])
+def test_rs274_accepts_every_option(options, tmp_path):
+    profile = curvature_profile("infinity", n=500)
+    path = tmp_path / "opt.ngc"
+    program = write_gcode(path, profile, **options)
+    assert_rs274_reproduces(path, program, profile, tmp_path, options.get("decimals", 4))
+    text = path.read_text()
+    assert text.count("\nG17 G21 G90 G94\n") + text.count(" G17 G21 G90 G94\n") == 1
+    decimals = options.get("decimals", 4)
+    first_move = next(line for line in text.splitlines() if "G1 " in line)
+    assert re.search(rf"X-?\d+\.\d{{{decimals}}}\b", first_move)
+    if options.get("line_numbers"):
+        assert all(line.startswith("N") for line in text.splitlines() if not line.startswith("("))
+
+
+def test_constant_feed_writes_one_f_word_and_2d_path_has_no_z(tmp_path):
+    t = np.linspace(0, 2 * np.pi, 400)
+    pts = np.column_stack([20 * np.cos(t), 10 * np.sin(2 * t)])[:-1]
+    samples = samples_from_points(pts)
+    assert samples.dim == 2
+    profile = FeedProfile(samples, np.full(len(samples), 25.0), "constant", 50.0)
+    path = tmp_path / "constant.ngc"
+    program = write_gcode(path, profile)
+    code = "\n".join(line for line in path.read_text().splitlines() if not line.startswith("("))
+    assert code.count("F") == 1 and "F1500.0" in code and "Z" not in code
+    assert program.n_feed_words == 1
+    assert_rs274_reproduces(path, program, profile, tmp_path, 4)
+
+
+def test_feed_step_rounds_down_and_reduces_f_words(tmp_path):
+    profile = curvature_profile("butterfly")
+    fine = gcode_program(profile)
+    coarse = gcode_program(profile, feed_step_mm_min=200.0)
+    seg = 0.5 * (profile.feed_mm_min[:-1] + profile.feed_mm_min[1:])
+    assert coarse.n_feed_words < fine.n_feed_words / 5
+    assert np.all(coarse.feeds_mm_min <= seg + 1e-9)                      # never faster than advised
+    assert np.all((coarse.feeds_mm_min > seg - 200.0) | (coarse.feeds_mm_min == 200.0))
+    assert np.allclose(coarse.feeds_mm_min / 200.0, np.round(coarse.feeds_mm_min / 200.0))
+
+
+def test_zero_feed_ends_are_never_written_as_f0():
+    profile = curvature_profile("trident", n=300)
+    assert profile.feed_mm_s[0] == 0 and profile.feed_mm_s[-1] == 0
+    program = gcode_program(profile)
+    assert "F0.0" not in program.text and "F0 " not in program.text
+    assert program.feeds_mm_min[0] == pytest.approx(profile.feed_mm_min[1] / 2, abs=0.05)
+    assert program.feeds_mm_min[-1] == pytest.approx(profile.feed_mm_min[-2] / 2, abs=0.05)
+
+
+def test_segment_with_zero_at_both_ends_takes_next_positive_feed():
+    samples = sample_uniform_u(load_shape("infinity").curve, 6)
+    profile = FeedProfile(samples, [0, 0, 0, 30, 30, 0], "slw", 50.0)
+    program = gcode_program(profile)
+    # segments: (0,0) -> next positive (0,30)/2; (0,0) -> same; (0,30); (30,30); (30,0)
+    np.testing.assert_allclose(program.feeds_mm_min, [900, 900, 900, 1800, 900])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.one_of(st.just(0.0), st.floats(0.0, 500.0)), min_size=5, max_size=60),
+       st.sampled_from([None, 1.0, 50.0, 1000.0]))
+def test_property_f_words_positive_and_written_only_on_change(feeds, step):
+    feeds = np.array(feeds)
+    if not np.any(0.5 * (feeds[:-1] + feeds[1:]) > 0):
+        feeds[len(feeds) // 2] = 1.0
+    samples = sample_uniform_u(load_shape("trident").curve, len(feeds))
+    program = gcode_program(FeedProfile(samples, feeds, "h", 500.0), feed_step_mm_min=step)
+    code = "\n".join(line for line in program.lines if not line.startswith("("))
+    f_words = re.findall(r"F(\S+)", code)
+    values = [float(f) for f in f_words]
+    assert all(v > 0 and np.isfinite(v) for v in values)
+    assert all(a != b for a, b in zip(f_words, f_words[1:]))       # written only when it changes
+    assert len(f_words) == program.n_feed_words == 1 + int(np.sum(np.diff(program.feeds_mm_min) != 0))
+
+
+def test_points_that_round_together_are_dropped(tmp_path):
+    pts = np.array([[0, 0], [1e-5, 0], [1, 0], [1, 1], [1, 1 + 2e-5], [2, 1]], dtype=float)
+    samples = samples_from_points(np.array([[0, 0], [1, 0.1], [1.5, 0.3], [2, 0.8], [2.5, 1.5],
+                                            [3, 2.5]], dtype=float))
+    profile = FeedProfile(samples, np.full(6, 10.0), "c", 10.0)
+    # replace positions via a polyline profile where neighbours coincide at 4 decimals
+    samples2 = type(samples)(u=samples.u, xyz=np.column_stack([pts, np.zeros(6)]), s=samples.s,
+                             tangent=samples.tangent, curvature=samples.curvature, d1=samples.d1,
+                             d2=samples.d2, dim=2)
+    program = write_gcode(tmp_path / "drop.ngc", FeedProfile(samples2, profile.feed_mm_s, "c", 10.0))
+    np.testing.assert_allclose(program.points_mm[:, :2], [[1, 0], [1, 1], [2, 1]])
+    assert_rs274_reproduces(tmp_path / "drop.ngc", program, profile, tmp_path, 4)
+
+
+def test_bad_options_and_profiles_leave_no_file(tmp_path):
+    profile = curvature_profile("infinity", n=50)
+    target = tmp_path / "keep.ngc"
+    target.write_text("old\n")
+    for kwargs, match in (({"decimals": 2}, "decimals = 2"), ({"feed_step_mm_min": 0.0}, "feed_step"),
+                          ({"feed_step_mm_min": float("nan")}, "feed_step")):
+        with pytest.raises(ExportError, match=match):
+            write_gcode(target, profile, **kwargs)
+    zero = FeedProfile(profile.samples, np.zeros(50), "slw", 100.0)
+    with pytest.raises(ExportError, match="0 everywhere"):
+        write_gcode(target, zero)
+    with pytest.raises(ExportError, match="0 everywhere"):
+        write_gcode(tmp_path / "new.ngc", zero)
+    assert target.read_text() == "old\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.ngc"]
+
+
+# ------------------------------------------------------------------------------------- G5.2
+def test_linuxcnc_knot_vector():
+    np.testing.assert_allclose(linuxcnc_knots(7, 4), [0, 0, 0, 0, .25, .5, .75, 1, 1, 1, 1])
+    np.testing.assert_allclose(linuxcnc_knots(7, 3), [0, 0, 0, .2, .4, .6, .8, 1, 1, 1])
+    np.testing.assert_allclose(linuxcnc_knots(4, 4), [0, 0, 0, 0, 1, 1, 1, 1])   # Bezier
+
+
+@pytest.mark.parametrize("name", UNIFORM_SHAPES)
+def test_g52_program_accepted_by_rs274(name, tmp_path):
+    curve = load_shape(name).curve
+    profile = curvature_profile(name, n=300)
+    path = tmp_path / f"{name}_g52.ngc"
+    lines = write_gcode_nurbs(path, curve, profile, line_numbers=(name == "trident"))
+    canon = run_rs274(path, tmp_path)
+    nurbs = [line for line in canon if "NURBS_FEED(" in line]
+    assert len(nurbs) == 1
+    assert re.search(rf"NURBS_FEED\({curve.n_control_points},", nurbs[0])
+    _, _, _, rates = canon_moves(canon)
+    f_word = float(re.search(r"\bF(\d\S*)", "\n".join(lines)).group(1))
+    assert f_word in rates and f_word > 0
+    seg = 0.5 * (profile.feed_mm_min[:-1] + profile.feed_mm_min[1:])
+    assert f_word == pytest.approx(seg.min(), abs=0.05)   # one F: the slowest segment's feed
+    # the block read back as a NURBS is the curve itself (same knots, weights, points)
+    back = load_shape(str(path)).curve
+    u = np.linspace(0, 1, 2001)
+    np.testing.assert_allclose(back(u)[:, :curve.dim], curve(u), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", NON_UNIFORM_SHAPES)
+def test_g52_refused_for_non_uniform_knots(name, tmp_path):
+    with pytest.raises(ExportError, match=r"knots\[\d+\] = .*uniform clamped.*G1 moves"):
+        write_gcode_nurbs(tmp_path / "x.ngc", load_shape(name).curve, 1000.0)
+    assert not list(tmp_path.iterdir())
+
+
+def test_g52_refused_for_degree_one_and_non_planar():
+    with pytest.raises(ExportError, match="order L = degree \\+ 1 >= 3"):
+        check_g52_curve(Nurbs(1, [0, 0, 1, 1], [[0, 0], [1, 1]]))
+    bent = Nurbs(2, [0, 0, 0, 1, 1, 1], [[0, 0, 0], [1, 1, 0], [2, 0, 1]])
+    with pytest.raises(ExportError, match="planar"):
+        check_g52_curve(bent)
+    with pytest.raises(ExportError, match="feed_mm_min"):
+        write_gcode_nurbs("unused.ngc", load_shape("infinity").curve, 0.0)
