@@ -110,39 +110,66 @@ def plot_fuzzy_advice(advice, title: str, output: str | os.PathLike) -> None:
     save_figure(fig, output)
 
 
-def plot_rule_surface(table, output: str | os.PathLike, points: int = 81) -> None:
-    """The controller's surface feed %(κ, Dκ) and the membership functions of the three variables."""
+def _kappa_axis(ax, table) -> None:
+    lo, hi = table.curvature.universe
+    positive = [p for t in table.curvature.terms for p in t.points if p > 0]
+    ax.set_xscale("symlog", linthresh=min(positive) if positive else 0.01, linscale=0.5)
+    ax.set_xlim(lo, hi)
+
+
+def plot_rule_surface(table, output: str | os.PathLike, points: int = 241) -> None:
+    """The controller's surface feed %(κ, Dκ) as a map with contours (κ on a symlog axis, so the
+    small curvatures where most terms sit stay visible) and the membership functions."""
     from fuzzyfeed.fuzzy.engine import compile_table, membership
 
     plt = _pyplot()
     engine = compile_table(table)
     k_lo, k_hi = table.curvature.universe
     d_lo, d_hi = table.curvature_variation.universe
-    kk, dd = np.meshgrid(np.linspace(k_lo, k_hi, points), np.linspace(d_lo, d_hi, points))
+    k_breaks = [p for t in table.curvature.terms for p in t.points]
+    positive = [p for p in k_breaks if p > 0] or [max(k_hi, 1e-9) * 1e-2]
+    k_axis = np.union1d(np.concatenate([[k_lo], np.geomspace(min(positive) / 10, k_hi, points)]),
+                        k_breaks)
+    k_axis = k_axis[(k_axis >= k_lo) & (k_axis <= k_hi)]
+    d_axis = np.union1d(np.linspace(d_lo, d_hi, points),
+                        [p for t in table.curvature_variation.terms for p in t.points])
+    kk, dd = np.meshgrid(k_axis, d_axis)
     zz = engine.feed_pct(kk.ravel(), dd.ravel()).reshape(kk.shape)
-    fig = plt.figure(figsize=(13, 8))
-    grid = fig.add_gridspec(3, 2, width_ratios=[1.3, 1])
-    ax_s = fig.add_subplot(grid[:, 0], projection="3d")
-    surf = ax_s.plot_surface(kk, dd, zz, cmap="turbo_r", linewidth=0, antialiased=True)
-    ax_s.set_xlabel("curvature κ (1/mm)")
-    ax_s.set_ylabel("normalised Dκ")
-    ax_s.set_zlabel("feed (%)")
-    ax_s.set_title(f"control surface: {table.name} rules (exact centroid)")
-    ax_s.view_init(elev=28, azim=-135)
-    fig.colorbar(surf, ax=ax_s, shrink=0.55, pad=0.1, label="feed (%)")
-    for row, (var, xlabel) in enumerate(((table.curvature, "curvature κ (1/mm)"),
+    fig = plt.figure(figsize=(13, 7.5))
+    grid = fig.add_gridspec(3, 2, width_ratios=[1.25, 1])
+    ax_s = fig.add_subplot(grid[:, 0])
+    f_lo, f_hi = table.feed.universe
+    mesh = ax_s.pcolormesh(kk, dd, zz, cmap="turbo_r", vmin=f_lo, vmax=f_hi, shading="gouraud")
+    levels = np.arange(np.ceil(zz.min() / 10) * 10, zz.max() + 1e-9, 10)
+    if levels.size:
+        cs = ax_s.contour(kk, dd, zz, levels=levels, colors="k", linewidths=0.6)
+        ax_s.clabel(cs, fmt="%g %%", fontsize=7)
+    _kappa_axis(ax_s, table)
+    ax_s.set_ylim(d_lo, d_hi)
+    ax_s.set_xlabel("curvature κ (1/mm, symlog)")
+    ax_s.set_ylabel("normalised curvature variation Dκ")
+    ax_s.set_title(f"control surface: {table.name} rules, feed % (exact centroid)")
+    fig.colorbar(mesh, ax=ax_s, label="feed (% of max)")
+    for row, (var, xlabel) in enumerate(((table.curvature, "curvature κ (1/mm, symlog)"),
                                          (table.curvature_variation, "normalised Dκ"),
                                          (table.feed, "feed (% of max)"))):
         ax = fig.add_subplot(grid[row, 1])
         lo, hi = var.universe
-        x = np.union1d(np.linspace(lo, hi, 1001), [p for t in var.terms for p in t.points])
+        x = np.union1d(np.linspace(lo, hi, 2001), [p for t in var.terms for p in t.points])
+        if row == 0:
+            x = np.union1d(x, k_axis)
         mu = membership(var, x)
         for j, term in enumerate(var.terms):
             line, = ax.plot(x, mu[:, j], lw=1.3, label=term.label)
-            peak = 0.5 * (term.trapezoid[1] + term.trapezoid[2])
+            a, b, c, d = term.trapezoid
+            peak = b if b == c else (b + c) / 2
+            if row == 0 and b != c:
+                peak = (b * c) ** 0.5 if b > 0 else c / 3
             ax.text(peak, 1.04, term.label, ha="center", va="bottom", fontsize=7, color=line.get_color())
         ax.set_ylim(-0.03, 1.18)
         ax.set_xlim(lo, hi)
+        if row == 0:
+            _kappa_axis(ax, table)
         ax.set_xlabel(xlabel)
         ax.set_ylabel("membership")
         ax.grid(True, alpha=0.3)

@@ -1,0 +1,101 @@
+"""``fuzzyfeed advise SHAPE -o OUT.csv``: the fuzzy advisor's feed (seed 002) for every sampled point."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from fuzzyfeed.cli._common import add_shape_argument, point_count
+from fuzzyfeed.errors import MachineLimitsError
+from fuzzyfeed.sampling import DEFAULT_POINTS
+
+#: Default maximum feed F (mm/min) when --feed-mm-min is not given.
+DEFAULT_FEED_MM_MIN = 6000.0
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "advise", help="advise the feed along a shape with the fuzzy controller (seed 002)",
+        description="Sample SHAPE, compute curvature and the windowed curvature variation, run the "
+                    "Mamdani rule table (exact centroid) and the average filter, and write one CSV "
+                    "row per point: u, x_mm, y_mm, z_mm, s_mm, curvature_1_mm, curvature_window_max_1_mm "
+                    "(Dk before normalisation), curvature_variation (the normalised Dk fed to the "
+                    "controller), feed_pct_controller (before the filter), feed_pct, feed_mm_min. "
+                    "Prints min/mean/max feed and the time at the advised feeds.")
+    add_shape_argument(p)
+    p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="CSV file to write (atomically)")
+    p.add_argument("--rules", metavar="FILE", default=None,
+                   help="rule table: a shipped name (see `fuzzyfeed rules show`) or a .toml file "
+                        "(default: paper, seed 002's table)")
+    p.add_argument("--feed-mm-min", type=float, default=DEFAULT_FEED_MM_MIN, metavar="F",
+                   help="maximum feed F in mm/min; feed %% refers to it (default: %(default)g)")
+    p.add_argument("--points", type=point_count, default=DEFAULT_POINTS, metavar="N",
+                   help="sample points, uniform in the parameter as in seed 002 (default: %(default)s; "
+                        "point-sequence shapes use their own points)")
+    p.add_argument("--plot", metavar="FIG.png", default=None,
+                   help="also draw feed and curvature against arc length and the path coloured by feed")
+    p.set_defaults(run=run)
+
+
+def check_feed_mm_min(value: float) -> float:
+    """The --feed-mm-min value, or a one-line MachineLimitsError."""
+    if not math.isfinite(value) or value <= 0:
+        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
+                                 "number > 0 mm/min")
+    return value
+
+
+def compute(args: argparse.Namespace):
+    """Shape, rules and samples in, :class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice` out (one call)."""
+    from fuzzyfeed.fuzzy.advisor import advise_details
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.io.shapes import load_shape, sample_shape
+
+    feed_mm_min = check_feed_mm_min(args.feed_mm_min)
+    table = load_rule_table(args.rules)
+    shape = load_shape(args.shape)
+    samples = sample_shape(shape, args.points)
+    return shape, advise_details(samples, table, feed_mm_min / 60.0)
+
+
+def advice_columns(advice) -> dict[str, np.ndarray]:
+    """The CSV columns of a fuzzy advice, units in the names."""
+    profile = advice.profile
+    cols = dict(profile.samples.columns())
+    cols["curvature_window_max_1_mm"] = advice.features.window_max_1_mm
+    cols["curvature_variation"] = advice.features.curvature_variation
+    cols["feed_pct_controller"] = advice.controller_pct
+    cols["feed_pct"] = profile.feed_pct
+    cols["feed_mm_min"] = profile.feed_mm_min
+    return cols
+
+
+def summary(shape_name: str, advice) -> str:
+    p = advice.profile
+    f = p.feed_mm_min
+    pct = p.feed_pct
+    t = p.travel_time_s()
+    t_const = p.samples.length / p.max_feed_mm_s
+    return "\n".join([
+        f"{shape_name}: {len(p.samples)} points, length {p.samples.length:.3f} mm, rules "
+        f"{advice.table.name!r}, F = {p.max_feed_mm_s * 60:g} mm/min",
+        f"feed mm/min  min {f.min():.1f}  mean {f.mean():.1f}  max {f.max():.1f}   "
+        f"(% of F: {pct.min():.2f} / {pct.mean():.2f} / {pct.max():.2f})",
+        f"time at the advised feeds {t:.4f} s  (at constant F: {t_const:.4f} s)",
+    ])
+
+
+def run(args: argparse.Namespace) -> int:
+    from fuzzyfeed.io.csv import write_columns
+
+    shape, advice = compute(args)
+    write_columns(args.output, advice_columns(advice))
+    if args.plot:
+        from fuzzyfeed.plot import plot_fuzzy_advice
+
+        plot_fuzzy_advice(advice, shape.name, args.plot)
+    print(summary(shape.name, advice))
+    print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
+    return 0
