@@ -383,13 +383,15 @@ class _Parser:
             body = body[1:]  # block delete is off, as in LinuxCNC by default
         if body in ("", "%"):
             return out
+        special = re.search(r"[#\[<]|^O", body)
+        if special:
+            self.fail(line, f"'{body[special.start():special.start() + 12]}' in {raw.strip()!r}: "
+                            "parameters, expressions and O-words are not supported")
         i = 0
         while i < len(body):
             m = _WORD.match(body, i)
             if m is None:
                 bad = body[i:i + 12]
-                if body[i] in "#[" or body[i:i + 1] == "O":
-                    self.fail(line, f"'{bad}': parameters, expressions and O-words are not supported")
                 self.fail(line, f"malformed word at '{bad}' in {raw.strip()!r}; "
                                 "expected a letter followed by a number")
             out.append((m.group(1), m.group(2)))

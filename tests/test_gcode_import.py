@@ -1,0 +1,206 @@
+"""G-code import: G0/G1 chains with G90/G91 and G20/G21, G5.2 blocks, several paths and the
+selector, three-point curvature on imported polylines, and one clear line for bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fuzzyfeed.cli import main
+from fuzzyfeed.errors import PathFormatError, ShapeFileError
+from fuzzyfeed.io.gcode import write_gcode, write_gcode_nurbs
+from fuzzyfeed.io.shapes import load_shape, load_shapes, sample_shape
+from fuzzyfeed.profile import FeedProfile
+from fuzzyfeed.sampling import sample_uniform_u
+
+
+def write(tmp_path, text, name="prog.ngc"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_exported_program_imports_back_to_the_written_points(tmp_path):
+    samples = sample_uniform_u(load_shape("infinity").curve, 2000)
+    profile = FeedProfile(samples, np.full(2000, 40.0), "constant", 50.0)
+    program = write_gcode(tmp_path / "inf.ngc", profile, line_numbers=True, decimals=7)
+    shape = load_shape(str(tmp_path / "inf.ngc"))
+    expected = np.vstack([program.start_mm, program.points_mm])
+    np.testing.assert_array_equal(shape.polyline, expected)
+    np.testing.assert_allclose(shape.polyline, samples.xyz, atol=0.5e-7 + 1e-12)
+    # the planners' samples: the vertices with the three-point curvature, close to the NURBS κ
+    imported = sample_shape(shape)
+    assert len(imported) == 2000
+    inner = slice(5, -5)
+    rel = np.abs(imported.curvature[inner] - samples.curvature[inner]) / samples.curvature.max()
+    assert np.max(rel) < 0.02
+    assert imported.length == pytest.approx(samples.length, rel=1e-4)
+
+
+def test_three_point_curvature_of_an_imported_circle(tmp_path):
+    t = np.linspace(0, 1.5 * np.pi, 300)
+    lines = ["G21 G90 G17", f"G0 X{10 * np.cos(t[0]):.10f} Y{10 * np.sin(t[0]):.10f}", "G1 F600"]
+    lines += [f"X{10 * np.cos(a):.10f} Y{10 * np.sin(a):.10f}" for a in t[1:]]  # modal G1
+    lines.append("M2")
+    shape = load_shape(str(write(tmp_path, "\n".join(lines) + "\n")))
+    assert shape.polyline.shape == (300, 2)
+    np.testing.assert_allclose(sample_shape(shape).curvature, 0.1, rtol=1e-4)
+
+
+def test_incremental_and_inch_units(tmp_path):
+    text = """%
+(test: inch, incremental)
+G20 G91 G17 G94
+G0 X1 Y1          ; rapid to (25.4, 25.4)
+G1 X1 F10         ; +1 in
+Y1
+X-0.5 Y0.5 Z-0.1
+G21               ; switch to mm, still incremental
+X10
+G90 X0 Y0
+M30
+%
+"""
+    shape = load_shape(str(write(tmp_path, text)))
+    expected = np.array([[25.4, 25.4, 0], [50.8, 25.4, 0], [50.8, 50.8, 0], [38.1, 63.5, -2.54],
+                         [48.1, 63.5, -2.54], [0, 0, -2.54]])
+    np.testing.assert_allclose(shape.polyline, expected, atol=1e-12)
+    assert shape.curve.degree == 1 and shape.curve.knots[1] == 0 and shape.curve.knots[-2] == 1
+
+
+def test_rapids_split_paths_and_selector(tmp_path):
+    text = """G21 G90
+G0 X0 Y0
+G1 X10 Y0 F100
+G1 X10 Y10
+G1 X0 Y10
+G0 Z5
+G0 X50 Y50
+G0 Z0
+G1 X60 Y50
+G1 X60 Y60
+G1 X70 Y65
+M2
+"""
+    path = write(tmp_path, text)
+    with pytest.raises(PathFormatError, match=r"prog\.ngc: 2 paths \(1 \(line 3\), 2 \(line 9\)\); pick one"):
+        load_shape(str(path))
+    shapes = load_shapes(str(path))
+    assert [s.name for s in shapes] == ["prog#1", "prog#2"]
+    second = load_shape(f"{path}#2")
+    np.testing.assert_array_equal(second.polyline[0], [50, 50, 0])
+    assert load_shape(f"{path}#path=1").polyline.shape == (4, 3)
+    with pytest.raises(PathFormatError, match="path 3 does not exist"):
+        load_shape(f"{path}#3")
+    with pytest.raises(PathFormatError, match="selector must be N or path=N"):
+        load_shape(f"{path}#layer=0")
+
+
+def test_g52_block_imports_as_exact_nurbs_and_mixed_chain_as_polyline(tmp_path):
+    curve = load_shape("trident2").curve
+    write_gcode_nurbs(tmp_path / "t2.ngc", curve, 600.0)
+    back = load_shape(str(tmp_path / "t2.ngc"))
+    assert back.polyline is None and back.curve.degree == 2
+    np.testing.assert_array_equal(back.curve.knots, curve.knots)
+    np.testing.assert_array_equal(back.curve.weights, curve.weights)
+    u = np.linspace(0, 1, 1001)
+    np.testing.assert_allclose(back.curve(u)[:, :curve.dim], curve(u), atol=1e-9)
+
+    mixed = """G21 G90
+G0 X0 Y0
+G1 X-1 Y0 F100
+G1 X0 Y0
+G5.2 L3
+X1 Y2 P1
+X2 Y0 P2
+X3 Y1 P1
+G5.3
+G1 X4 Y1
+M2
+"""
+    shape = load_shape(str(write(tmp_path, mixed, "mixed.ngc")))
+    assert shape.polyline is not None and "G5.2 block(s) sampled" in shape.notes
+    assert shape.polyline.shape[1] == 2
+    np.testing.assert_array_equal(shape.polyline[[0, 1, 2]], [[0, 0], [-1, 0], [0, 0]])
+    np.testing.assert_allclose(shape.polyline[-2:], [[3, 1], [4, 1]])
+    # the sampled block's points lie on LinuxCNC's uniform clamped NURBS (order 3, 4 points)
+    from fuzzyfeed.io.gcode import linuxcnc_knots
+    from fuzzyfeed.nurbs import Nurbs
+    ref = Nurbs(2, linuxcnc_knots(4, 3), [[0, 0], [1, 2], [2, 0], [3, 1]], [1, 1, 2, 1])
+    block = shape.polyline[3:-1]
+    assert len(block) == 2 * 32
+    np.testing.assert_allclose(block, ref(np.linspace(0, 1, 65)[1:]), atol=1e-12)
+
+
+def test_first_weight_from_g52_line_without_xy(tmp_path):
+    text = "G21 G90\nG0 X0 Y0\nG5.2 P2.5 L4 F100\nX1 Y1 P1\nX2 Y1 P1\nX3 Y0 P1\nG5.3\nM2\n"
+    curve = load_shape(str(write(tmp_path, text))).curve
+    assert curve.degree == 3
+    np.testing.assert_array_equal(curve.weights, [2.5, 1, 1, 1])
+
+
+def test_ignored_words_do_not_change_the_path(tmp_path):
+    text = """N10 G17 G21 G90 G40 G49 G54 G64 P0.01 G80 G94
+N20 T1 M6
+N30 S12000 M3 M8
+N40 G0 X0 Y0
+N50 G1 X1 Y0 F300 (cut)
+N60 G4 P0.5
+N70 G1 X2 Y1
+N80 G1 X3 Y1 ; done
+N90 M5 M9
+N100 M2
+G1 X99 Y99 (after program end: not read)
+"""
+    shape = load_shape(str(write(tmp_path, text)))
+    np.testing.assert_array_equal(shape.polyline, [[0, 0], [1, 0], [2, 1], [3, 1]])
+
+
+@pytest.mark.parametrize("text, message", [
+    ("G21\nG1 X1 Y1 F100\nG1 X1..2\n", r"prog\.ngc:3: malformed word at '\.2'"),
+    ("G21\nG1 X1 Y1 F100\nG1 X\n", r"prog\.ngc:3: malformed word at 'X'"),
+    ("G21\nG1 Xnan Y1 F100\n", r"prog\.ngc:2: malformed word at 'XNAN"),
+    ("G21\nG1 X1 Y1 F100\nG2 X2 Y2 I1 J0\n", r"prog\.ngc:3: I1: arc words are not supported"),
+    ("G21\nG1 X1 Y1 F100\nG3 X2 Y2 R1\n", r"prog\.ngc:3: R1: arc words"),
+    ("G21\nG2 X2 Y2\n", r"prog\.ngc:2: G2 \(circular arc\) is not supported"),
+    ("G21\nG18\nG1 X1 Z1 F10\n", r"prog\.ngc:2: G18 \(XZ plane\) is not supported"),
+    ("G21\nG92 X0\n", r"prog\.ngc:2: G92 \(coordinate offset\)"),
+    ("G21\nG1 X1 A90 F10\n", r"prog\.ngc:2: A90: axis A is not supported"),
+    ("G21\nG1 X#1 F10\n", r"prog\.ngc:2: '#1F10' in 'G1 X#1 F10': parameters, expressions and O-words"),
+    ("G21\nM98 P100\n", r"prog\.ngc:2: M98: unsupported M code"),
+    ("G21\nG83 X1 Y1 Z-1 R1 Q1\n", r"prog\.ngc:2: R1: arc words|G83: canned cycles"),
+    ("G21\nG1 X1 F10 (open comment\n", r"prog\.ngc:2: comment '\(' not closed"),
+    ("G0 X0 Y0\nG5.2 L3\nX1 Y1 P1\nX2 Y0 P1\n", r"prog\.ngc:4: G5\.2 block from line 2 is not closed"),
+    ("G0 X0 Y0\nG5.2 L4\nX1 Y1 P1\nG5.3\n", r"prog\.ngc:4: .*2 control points .* L = 4 needs at least 4"),
+    ("G0 X0 Y0\nG5.2 L3\nX1 Y1\nG5.3\n", r"prog\.ngc:3: G5\.2 control point weight P = 0"),
+    ("G0 X0 Y0\nG5.3\n", r"prog\.ngc:2: G5\.3 without an open G5\.2 block"),
+    ("G21 G90\nG0 X1 Y1\nG0 X5\nM2\n", r"prog\.ngc: no feed move"),
+    ("X1 Y1\n", r"prog\.ngc:1: axis words with no motion mode"),
+])
+def test_bad_gcode_one_clear_line(tmp_path, text, message):
+    path = write(tmp_path, text)
+    with pytest.raises(PathFormatError, match=message) as info:
+        load_shape(str(path))
+    assert "\n" not in str(info.value)
+
+
+def test_binary_and_missing_files(tmp_path):
+    binary = tmp_path / "blob.ngc"
+    binary.write_bytes(b"G1 X1\x00\x01\x02\xff" * 10)
+    with pytest.raises(PathFormatError, match=r"blob\.ngc: binary file; expected a G-code text file"):
+        load_shape(str(binary))
+    with pytest.raises(ShapeFileError, match="no such file"):
+        load_shape(str(tmp_path / "missing.ngc"))
+
+
+def test_cli_plot_takes_a_gcode_file_and_reports_errors(tmp_path, capsys):
+    samples = sample_uniform_u(load_shape("trident").curve, 300)
+    write_gcode(tmp_path / "t.ngc", FeedProfile(samples, np.full(300, 10.0), "c", 10.0))
+    out = tmp_path / "t.png"
+    assert main(["plot", str(tmp_path / "t.ngc"), "-o", str(out)]) == 0
+    assert out.stat().st_size > 0
+    bad = write(tmp_path, "G21\nG1 X1 Y1 F10\nG1 X1..2\n", "bad.ngc")
+    assert main(["plot", str(bad), "-o", str(tmp_path / "bad.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("fuzzyfeed: error: ") and "bad.ngc:3:" in err[0]
+    assert not (tmp_path / "bad.png").exists()
