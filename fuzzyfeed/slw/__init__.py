@@ -1,0 +1,11 @@
+"""The SLW scheduler (seed 000): deterministic, jerk-limited, sliding look-ahead feed scheduling.
+
+``schedule(curve, limits) -> Trajectory`` is the entry point; ``time_optimal_bound(samples,
+limits)`` the acceleration-limited reference every comparison uses. This package imports the core
+(nurbs, sampling, profile, limits, interpolate, errors) and never the fuzzy advisor.
+"""
+
+from fuzzyfeed.slw.bound import time_optimal_bound
+from fuzzyfeed.slw.trajectory import Trajectory, measure, schedule
+
+__all__ = ["Trajectory", "measure", "schedule", "time_optimal_bound"]

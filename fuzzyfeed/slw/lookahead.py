@@ -1,0 +1,302 @@
+"""The sliding look-ahead window (SLW) of seed 000: junction feeds, corrections and repairs.
+
+Blocks from the preprocessor are pushed into a window. In the window the junction feeds are set by
+a backward scan (each junction no faster than what still stops — or reaches the next junction's
+feed — within its block) and a forward scan (no faster than what is reachable from the previous
+junction), both with bisection on the cosine transition's distance: the type-4 corrections of
+seed 000 ("Feedrate correction for non-schedulable blocks", Heng & Erkorkmaz's bisection). The
+window assumes a stop at its far end; the first block is released only when its end feed is the
+same whether or not that stop is assumed, which needs at least a full stop from the command feed
+of look-ahead (eq. (22)) — so the released profile equals the one the whole path would give.
+
+Every block's profile is checked against the path before release: the feed against the pointwise
+limit at the reference points, and the axial accelerations a_t·T_j + v²·κN_j against A_j. A feed
+above the limit inside a block adds a junction there (the limit curve rose slower than the cosine
+profile); an axial acceleration above its limit lowers the block's tangential acceleration, or the
+feed of the junction it approaches when the centripetal part alone nearly uses the axis up.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fuzzyfeed.limits import MachineLimits
+from fuzzyfeed.slw.preprocess import Block, Reference
+from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed,
+                                   segment_state, stop_distance)
+
+#: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
+CHECK_RTOL = 1e-6
+#: Repairs tried per window before giving up on a block (then reported in the statistics).
+MAX_REPAIRS = 400
+#: Look-ahead length as a multiple of the full-stop distance from the command feed.
+WINDOW_STOPS = 1.5
+
+
+@dataclass
+class _Junction:
+    s: float
+    cap: float
+    v: float = 0.0
+
+
+@dataclass
+class _WBlock:
+    ref: Reference
+    acc: float
+    vmax: float
+    checked: tuple | None = None
+
+    @property
+    def s0(self) -> float:
+        return float(self.ref.s[0])
+
+    @property
+    def s1(self) -> float:
+        return float(self.ref.s[-1])
+
+    @property
+    def length(self) -> float:
+        return self.s1 - self.s0
+
+
+@dataclass(frozen=True)
+class ScheduledBlock:
+    """A released block: where it is, its junction feeds, its type (1-3) and its segments."""
+
+    s0: float
+    s1: float
+    v_start: float
+    v_end: float
+    kind: int
+    segments: tuple[Segment, ...]
+    acc_mm_s2: float
+    critical_end: bool
+
+    @property
+    def duration_s(self) -> float:
+        return sum(seg.duration_s for seg in self.segments)
+
+
+@dataclass
+class LookaheadStats:
+    """Counters of one scheduling run (for the summary and the tests)."""
+
+    blocks_in: int = 0
+    blocks_out: int = 0
+    junctions_added: int = 0
+    caps_lowered: int = 0
+    acc_lowered: int = 0
+    unresolved: int = 0
+    max_window_blocks: int = 0
+    max_window_mm: float = 0.0
+    critical_s: list[float] = field(default_factory=list)
+
+
+class SlidingWindow:
+    """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
+
+    def __init__(self, limits: MachineLimits):
+        self.limits = limits
+        self.jerk = limits.jerk_mm_s3
+        self.acc = limits.tangential_acc_mm_s2
+        self.axis_acc = np.asarray(limits.axis_acc_mm_s2)
+        self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk)
+        self.window_mm = WINDOW_STOPS * self.stop
+        self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
+        self.blocks: list[_WBlock] = []
+        self.stats = LookaheadStats()
+
+    # ------------------------------------------------------------------ window content
+    def _push(self, block: Block) -> None:
+        self.stats.blocks_in += 1
+        vmax = min(self.limits.feed_mm_s, block.peak_limit)
+        self.blocks.append(_WBlock(block.ref, self.acc, vmax))
+        self.juncs.append(_Junction(block.s1, block.cap1))
+        if block.cap1 > 0 or block.s1 < block.ref.s[-1]:
+            pass
+        self.stats.max_window_blocks = max(self.stats.max_window_blocks, len(self.blocks))
+        self.stats.max_window_mm = max(self.stats.max_window_mm, self.blocks[-1].s1 - self.blocks[0].s0)
+
+    def _ahead_mm(self) -> float:
+        """Look-ahead beyond the first block's end."""
+        if not self.blocks:
+            return 0.0
+        return self.blocks[-1].s1 - self.blocks[0].s1
+
+    # ------------------------------------------------------------------ junction feeds
+    def _backward(self, end_feed: float) -> list[float]:
+        n = len(self.blocks)
+        v = [0.0] * (n + 1)
+        v[n] = min(self.juncs[n].cap, end_feed)
+        for i in range(n - 1, -1, -1):
+            b = self.blocks[i]
+            v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc, self.jerk)
+        return v
+
+    def _plan(self, end_feed: float) -> None:
+        v = self._backward(end_feed)
+        v[0] = self.juncs[0].v  # committed
+        for i, b in enumerate(self.blocks):
+            v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+        for j, vj in zip(self.juncs, v):
+            j.v = vj
+
+    # ------------------------------------------------------------------ profile check & repair
+    def _segments(self, i: int):
+        b = self.blocks[i]
+        return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk)
+
+    def _check(self, i: int) -> bool:
+        """Check block i; repair it and return False if it broke a limit."""
+        b = self.blocks[i]
+        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length)
+        if b.checked == key:
+            return True
+        kind, segs = self._segments(i)
+        ts = self.limits.ts_s
+        parts = []
+        offset = b.s0
+        for k, seg in enumerate(segs):
+            n = int(min(max(math.ceil(seg.duration_s / (0.5 * ts)), 8), 20000))
+            tau = np.linspace(0.0, seg.duration_s, n + 1)
+            pos, vel, acc, _ = segment_state(seg, tau)
+            parts.append((pos + offset, vel, acc, np.full(tau.size, k)))
+            offset += seg.length_mm
+        if not parts:
+            b.checked = key
+            return True
+        s = np.concatenate([p[0] for p in parts])
+        v = np.concatenate([p[1] for p in parts])
+        a = np.concatenate([p[2] for p in parts])
+        seg_id = np.concatenate([p[3] for p in parts])
+        ref = b.ref
+        vlim = np.interp(s, ref.s, ref.vlim)
+        over_v = v - vlim * (1.0 + CHECK_RTOL) - 1e-12
+        tan = np.stack([np.interp(s, ref.s, ref.tangent[:, j]) for j in range(3)], axis=1)
+        kn = np.stack([np.interp(s, ref.s, ref.kn[:, j]) for j in range(3)], axis=1)
+        cen = (v * v)[:, None] * kn
+        total = a[:, None] * tan + cen
+        ratio = np.abs(total) / self.axis_acc[None, :]
+        worst_axis = np.argmax(ratio, axis=1)
+        r = ratio[np.arange(ratio.shape[0]), worst_axis]
+        if over_v.max() <= 0.0 and r.max() <= 1.0 + CHECK_RTOL:
+            b.checked = key
+            return True
+        if over_v.max() > 0.0:
+            k = int(np.argmax(over_v / np.maximum(vlim, 1e-12)))
+            self._split(i, s[k])
+            return False
+        k = int(np.argmax(r))
+        j = int(worst_axis[k])
+        cen_ratio = abs(cen[k, j]) / self.axis_acc[j]
+        tan_ratio = abs(a[k] * tan[k, j]) / self.axis_acc[j]
+        seg = segs[int(seg_id[k])]
+        if cen_ratio > 0.9 or tan_ratio < 0.05:
+            # the centripetal part nearly uses the axis up: slow the nearer junction of the
+            # transition (or add one here when it is mid-block)
+            near_start = seg.v0 > seg.v1  # decelerating: towards the block's end junction
+            target = i + 1 if near_start else i
+            if target == 0 or target == len(self.juncs) - 1 and self.juncs[target].cap == 0.0:
+                self._split(i, s[k], factor=0.98)
+                return False
+            jn = self.juncs[target]
+            jn.cap = min(jn.cap, jn.v) * 0.99
+            self.stats.caps_lowered += 1
+            self._invalidate()
+            return False
+        peak = max(abs(seg.v1 - seg.v0) * math.pi / (2 * seg.duration_s), 1e-9) if seg.duration_s else b.acc
+        need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
+        b.acc = max(min(b.acc, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
+        self.stats.acc_lowered += 1
+        self._invalidate()
+        return False
+
+    def _invalidate(self) -> None:
+        for b in self.blocks:
+            b.checked = None
+
+    def _split(self, i: int, s_at: float, factor: float = 1.0) -> None:
+        """Add a junction inside block i at the reference point nearest ``s_at``."""
+        b = self.blocks[i]
+        ref = b.ref
+        k = int(np.clip(np.searchsorted(ref.s, s_at), 1, len(ref) - 2)) if len(ref) > 2 else 1
+        if len(ref) <= 2:
+            # no interior reference point: insert one by linear interpolation of the data
+            raise RuntimeError("cannot split a block without interior reference points")
+        if abs(ref.s[k - 1] - s_at) < abs(ref.s[k] - s_at) and k - 1 >= 1:
+            k -= 1
+        left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
+        cap = float(ref.vlim[k]) * factor
+        bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, float(left.vlim.max())))
+        br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, float(right.vlim.max())))
+        self.blocks[i:i + 1] = [bl, br]
+        self.juncs.insert(i + 1, _Junction(float(ref.s[k]), cap))
+        self.stats.junctions_added += 1
+        self._invalidate()
+
+    def _settle(self, end_feed: float) -> None:
+        """Plan and repair until every block in the window passes its check."""
+        for _ in range(MAX_REPAIRS):
+            self._plan(end_feed)
+            ok = True
+            for i in range(len(self.blocks)):
+                if not self._check(i):
+                    ok = False
+                    break
+            if ok:
+                return
+        self.stats.unresolved += 1
+        self._plan(end_feed)
+
+    # ------------------------------------------------------------------ the window loop
+    def run(self, blocks: Iterable[Block]) -> Iterator[ScheduledBlock]:
+        """Yield scheduled blocks in path order while consuming ``blocks`` progressively."""
+        source = iter(blocks)
+        exhausted = False
+
+        def pull() -> bool:
+            nonlocal exhausted
+            if exhausted:
+                return False
+            try:
+                self._push(next(source))
+            except StopIteration:
+                exhausted = True
+                return False
+            return True
+
+        while True:
+            while not exhausted and (not self.blocks or self._ahead_mm() < self.window_mm):
+                pull()
+            if not self.blocks:
+                return
+            if exhausted:
+                self._settle(0.0)
+            else:
+                self._settle(0.0)
+                v_stop = self.juncs[1].v
+                free = self._backward(math.inf)
+                v0 = self.juncs[0].v
+                v_free = max_end_speed(v0, self.blocks[0].length, free[1], self.blocks[0].acc, self.jerk)
+                if v_free > v_stop * (1 + 1e-12) + 1e-12:
+                    if pull():
+                        continue
+                    self._settle(0.0)
+            yield self._release()
+
+    def _release(self) -> ScheduledBlock:
+        b = self.blocks[0]
+        kind, segs = self._segments(0)
+        j0, j1 = self.juncs[0], self.juncs[1]
+        out = ScheduledBlock(b.s0, b.s1, j0.v, j1.v, kind, tuple(segs), b.acc, critical_end=True)
+        self.blocks.pop(0)
+        self.juncs.pop(0)
+        self.stats.blocks_out += 1
+        if self.blocks:
+            self.stats.critical_s.append(j1.s)
+        return out
