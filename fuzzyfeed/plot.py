@@ -175,3 +175,48 @@ def plot_rule_surface(table, output: str | os.PathLike, points: int = 241) -> No
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
     save_figure(fig, output)
+
+
+def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike | None = None):
+    """SLW trajectory: feed against arc length with the feed limit (and the time-optimal bound),
+    and feed, tangential acceleration and jerk against time with their limits."""
+    from fuzzyfeed.limits import feed_limits
+    from fuzzyfeed.sampling import sample_by_arc_length
+
+    plt = _pyplot()
+    lim = traj.limits
+    fig, axes = plt.subplots(4, 1, figsize=(11, 11))
+    ax = axes[0]
+    samples = sample_by_arc_length(traj.curve, n=min(20000, max(2000, int(traj.s_mm[-1] / 0.05))))
+    ax.plot(samples.s, feed_limits(samples, lim) * 60, color="0.6", lw=1.0, label="feed limit")
+    if bound is not None:
+        ax.plot(bound.samples.s, bound.feed_mm_min, color="tab:green", lw=1.0, ls="--",
+                label="time-optimal bound (no jerk limit)")
+    ax.plot(traj.s_mm, traj.feed_mm_s * 60, color="tab:blue", lw=1.2, label="SLW feed")
+    crit = traj.critical_s_mm
+    if crit.size:
+        ax.plot(crit, np.interp(crit, traj.s_mm, traj.feed_mm_s) * 60, "v", color="tab:red", ms=5,
+                label=f"block junctions ({crit.size})")
+    ax.set_xlabel("arc length s (mm)")
+    ax.set_ylabel("feed (mm/min)")
+    ax.set_title(f"{title}: SLW schedule, cycle time {traj.cycle_time_s:.3f} s"
+                 + (f", bound {bound.travel_time_s():.3f} s" if bound is not None else ""))
+    ax.legend(loc="lower right", fontsize=8)
+    t = traj.t_s
+    for ax, y, limit, label in ((axes[1], traj.feed_mm_s * 60, lim.feed_mm_min, "feed (mm/min)"),
+                                (axes[2], traj.acc_mm_s2, lim.tangential_acc_mm_s2,
+                                 "tangential acc (mm/s²)"),
+                                (axes[3], traj.jerk_mm_s3, lim.jerk_mm_s3, "tangential jerk (mm/s³)")):
+        ax.plot(t, y, lw=1.0)
+        ax.axhline(limit, color="tab:red", lw=0.8, ls=":")
+        if ax is not axes[1]:
+            ax.axhline(-limit, color="tab:red", lw=0.8, ls=":")
+        ax.set_ylabel(label)
+        ax.set_xlabel("time (s)")
+        ax.grid(True, alpha=0.3)
+    axes[0].grid(True, alpha=0.3)
+    fig.tight_layout()
+    if output is None:
+        return fig
+    save_figure(fig, output)
+    return None

@@ -1,0 +1,102 @@
+"""``fuzzyfeed schedule SHAPE -o TRAJ.csv``: the SLW scheduler's timed trajectory (seed 000)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from fuzzyfeed.cli._common import add_shape_argument
+from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
+
+#: Arc-length step (mm) of the samples the time-optimal bound is computed on.
+BOUND_STEP_MM = 0.05
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "schedule", help="schedule a jerk-limited feed with the SLW look-ahead (seed 000)",
+        description="Preprocess SHAPE (feed limits, critical points, blocks), schedule the cosine "
+                    "jerk-limited feed with the sliding look-ahead window, interpolate at the servo "
+                    "period and write one CSV row per period: t_s, u, x_mm, y_mm, z_mm, s_mm, "
+                    "feed_mm_s, feed_mm_min, acc_mm_s2, jerk_mm_s3. Prints the cycle time, the "
+                    "critical points and blocks, the worst chord error, accelerations and jerk "
+                    "(measured from the positions) and the ratio to the acceleration-limited "
+                    "time-optimal bound.")
+    add_shape_argument(p)
+    p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write (atomically)")
+    add_limit_arguments(p)
+    p.add_argument("--plot", metavar="FIG.png", default=None,
+                   help="also draw feed, acceleration and jerk against time (and the feed against "
+                        "arc length with the limit and the bound)")
+    p.set_defaults(run=run)
+
+
+def _progress_bar(total_mm: float):
+    """A tqdm bar over arc length on a terminal, else a no-op."""
+    if not sys.stderr.isatty():
+        return None, lambda s: None
+    from tqdm import tqdm
+
+    bar = tqdm(total=round(total_mm, 3), unit="mm", desc="scheduling", leave=False,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm")
+    state = {"done": 0.0}
+
+    def update(s_mm: float) -> None:
+        bar.update(round(s_mm - state["done"], 3))
+        state["done"] = round(s_mm, 3)
+
+    return bar, update
+
+
+def compute(args: argparse.Namespace):
+    """Shape, trajectory, measurements and bound for parsed arguments."""
+    from fuzzyfeed.io.shapes import load_shape
+    from fuzzyfeed.sampling import sample_by_arc_length
+    from fuzzyfeed.slw import measure, schedule, time_optimal_bound
+
+    limits = limits_from_args(args)
+    shape = load_shape(args.shape)
+    bar, update = _progress_bar(shape.curve.length)
+    try:
+        traj = schedule(shape.curve, limits, progress=update)
+    finally:
+        if bar is not None:
+            bar.close()
+    step = min(BOUND_STEP_MM, shape.curve.length / 200)
+    bound_profile, bound_s = time_optimal_bound(sample_by_arc_length(shape.curve, step_mm=step), limits)
+    return shape, traj, measure(traj), bound_profile, bound_s
+
+
+def summary(shape_name: str, traj, m: dict, bound_s: float) -> str:
+    lim = traj.limits
+    lines = [
+        f"{shape_name}: length {traj.s_mm[-1]:.3f} mm, {traj.t_s.size} servo periods of {lim.ts_s:g} s",
+        f"cycle time        {traj.cycle_time_s:.4f} s  (time-optimal bound {bound_s:.4f} s, "
+        f"ratio {traj.cycle_time_s / bound_s:.4f})",
+        f"critical points   {traj.n_critical}   blocks {traj.n_blocks}",
+        f"max feed          {m['feed'] * lim.feed_mm_min:.1f} mm/min ({100 * m['feed']:.2f} % of command)",
+        f"max chord error   {1000 * m['chord'] * lim.chord_tol_mm:.4f} um ({100 * m['chord']:.2f} % of limit)",
+        f"max axis velocity {100 * m['axis_vel']:.2f} % of limit",
+        f"max axis acc      {100 * m['axis_acc']:.2f} % of limit (from positions)",
+        f"max tangential    acc {np.abs(traj.acc_mm_s2).max():.1f} mm/s^2, "
+        f"jerk {np.abs(traj.jerk_mm_s3).max():.1f} mm/s^3 ({100 * m['jerk']:.2f} % of limit)",
+        f"terminal error    {1000 * m['terminal_error_mm']:.3g} um",
+    ]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from fuzzyfeed.io.csv import write_columns
+
+    shape, traj, m, bound_profile, bound_s = compute(args)
+    write_columns(args.output, traj.columns())
+    print(summary(shape.name, traj, m, bound_s))
+    print(f"wrote {args.output}")
+    if args.plot:
+        from fuzzyfeed.plot import plot_schedule
+
+        plot_schedule(traj, bound_profile, title=shape.name, output=args.plot)
+        print(f"wrote {args.plot}")
+    return 0
