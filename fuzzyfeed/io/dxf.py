@@ -7,8 +7,8 @@ Every usable entity of the modelspace becomes one path (:func:`load_dxf_shapes`)
   construction tool (``Spline.construction_tool()``, the global interpolation AutoCAD uses).
   Closed/periodic splines whose knot vector is not clamped are refused with the handle named.
 - ``LWPOLYLINE`` and 2-D/3-D ``POLYLINE``: the vertices as a polyline (closed ones repeat the first
-  vertex at the end). Arc segments (bulge ≠ 0) are flattened by ezdxf into points within
-  :data:`BULGE_TOLERANCE_MM`. Polyface and mesh POLYLINEs are not paths and are skipped.
+  vertex at the end). Arc segments (bulge ≠ 0) are flattened into points on the exact
+  arc with a sagitta of at most :data:`BULGE_TOLERANCE_MM`. Polyface and mesh POLYLINEs are not paths and are skipped.
 
 Units: the header's ``$INSUNITS`` is honoured (0 unitless and 4 = mm are taken as mm; 1 inch,
 2 feet, 5 cm, 6 m are converted to mm; other codes are refused). Note that ``ezdxf.new()`` sets
@@ -53,7 +53,9 @@ def _read(path: Path):
     except (UnicodeDecodeError, ValueError) as exc:
         raise PathFormatError(f"{path}: not a readable DXF ({type(exc).__name__}: {exc})") from None
     except OSError as exc:
-        raise PathFormatError(f"{path}: cannot read ({exc.strerror or exc})") from None
+        if exc.errno is None:  # ezdxf's "is not a DXF file"
+            raise PathFormatError(f"{path}: not a readable DXF ({exc})") from None
+        raise PathFormatError(f"{path}: cannot read ({exc.strerror})") from None
 
 
 def _units_factor(doc, path: Path) -> tuple[float, str]:
@@ -99,33 +101,59 @@ def _spline_curve(entity, scale: float, where: str):
         raise PathFormatError(f"{where}: {exc}") from None
 
 
+def bulge_points(p0: np.ndarray, p1: np.ndarray, bulge: float, tolerance: float) -> np.ndarray:
+    """Points after ``p0`` up to and including ``p1`` along the arc of a polyline segment with
+    ``bulge`` = tan(θ/4) (θ the signed included angle, counter-clockwise positive), spaced so the
+    sagitta of each chord is at most ``tolerance``. 2-D (the polyline's OCS)."""
+    chord = p1 - p0
+    d = float(np.hypot(*chord))
+    if bulge == 0 or d == 0:
+        return p1[None, :]
+    normal = np.array([-chord[1], chord[0]]) / d                  # left of the chord
+    center = 0.5 * (p0 + p1) + normal * (d / 2) * (1 - bulge * bulge) / (2 * bulge)
+    radius = float(np.hypot(*(p0 - center)))
+    sweep = 4.0 * np.arctan(bulge)
+    step = 2.0 * np.arccos(max(-1.0, 1.0 - tolerance / radius)) if tolerance < radius else np.pi / 2
+    m = max(2, int(np.ceil(abs(sweep) / step)))
+    a = np.arctan2(*(p0 - center)[::-1]) + sweep * np.arange(1, m + 1) / m
+    pts = center + radius * np.column_stack([np.cos(a), np.sin(a)])
+    pts[-1] = p1
+    return pts
+
+
 def _polyline_points(entity, scale: float, where: str) -> np.ndarray:
     kind = entity.dxftype()
     if kind == "LWPOLYLINE":
-        has_arc = entity.has_arc
+        xyb = np.asarray([tuple(p) for p in entity.get_points("xyb")], dtype=float).reshape(-1, 3)
         closed = entity.closed
+        elevation = float(entity.dxf.elevation)
+        planar = True
     else:
-        has_arc = any(v.dxf.get("bulge", 0) for v in entity.vertices)
         closed = entity.is_closed
-    if has_arc:
-        from ezdxf import path as ezpath
-
-        pts = np.asarray([tuple(v) for v in ezpath.make_path(entity).flattening(BULGE_TOLERANCE_MM / scale)],
-                         dtype=float)
-    elif kind == "LWPOLYLINE":
-        xy = np.asarray([tuple(p) for p in entity.get_points("xy")], dtype=float).reshape(-1, 2)
-        ocs = entity.ocs()
-        z = float(entity.dxf.elevation)
-        pts = np.asarray([tuple(ocs.to_wcs((x, y, z))) for x, y in xy], dtype=float).reshape(-1, 3)
+        planar = entity.is_2d_polyline
+        xyz = np.asarray([tuple(v.dxf.location) for v in entity.vertices], dtype=float).reshape(-1, 3)
+        bulges = np.asarray([float(v.dxf.get("bulge", 0) or 0) for v in entity.vertices])
+        xyb = np.column_stack([xyz[:, :2], bulges])
+        elevation = float(xyz[0, 2]) if planar and len(xyz) else 0.0
+    if not np.isfinite(xyb).all():
+        i = int(np.argwhere(~np.isfinite(xyb))[0, 0])
+        vertex = (xyb[i, :2].tolist() + [elevation]) if planar else xyz[i].tolist()
+        raise PathFormatError(f"{where}: vertex {i} = {vertex}; coordinates must be finite")
+    if not planar:  # 3-D polyline: straight segments in WCS
+        pts = xyz
         if closed and len(pts) > 1 and not np.array_equal(pts[0], pts[-1]):
             pts = np.vstack([pts, pts[:1]])
     else:
-        pts = np.asarray([tuple(p) for p in entity.points()], dtype=float).reshape(-1, 3)
-        if entity.is_2d_polyline:
-            ocs = entity.ocs()
-            pts = np.asarray([tuple(ocs.to_wcs(p)) for p in pts], dtype=float).reshape(-1, 3)
-        if closed and len(pts) > 1 and not np.array_equal(pts[0], pts[-1]):
-            pts = np.vstack([pts, pts[:1]])
+        xy, bulge = xyb[:, :2], xyb[:, 2]
+        if closed and len(xy) > 1 and not np.array_equal(xy[0], xy[-1]):
+            xy = np.vstack([xy, xy[:1]])
+            bulge = np.append(bulge, 0.0)
+        out = [xy[:1]]
+        for i in range(len(xy) - 1):
+            out.append(bulge_points(xy[i], xy[i + 1], bulge[i], BULGE_TOLERANCE_MM / scale))
+        xy = np.vstack(out)
+        ocs = entity.ocs()
+        pts = np.asarray([tuple(ocs.to_wcs((x, y, elevation))) for x, y in xy], dtype=float).reshape(-1, 3)
     if not np.isfinite(pts).all():
         i = int(np.argwhere(~np.isfinite(pts))[0, 0])
         raise PathFormatError(f"{where}: vertex {i} = {pts[i].tolist()}; coordinates must be finite")
