@@ -1,0 +1,135 @@
+"""CSV: exact round trip through pandas (float64 bit for bit), atomic refusal of NaN, and point-list
+CSV import as paths."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from fuzzyfeed.errors import ExportError, PathFormatError
+from fuzzyfeed.io.csv import write_columns
+from fuzzyfeed.io.shapes import load_shape, sample_shape
+from fuzzyfeed.profile import FeedProfile
+from fuzzyfeed.sampling import sample_uniform_u
+
+pd = pytest.importorskip("pandas")
+
+PROFILE_COLUMNS = ["u", "x_mm", "y_mm", "z_mm", "s_mm", "curvature_1_mm", "feed_pct", "feed_mm_min"]
+
+
+def read_csv_exact(path, **kwargs):
+    """pandas ≥ 3 parses floats correctly rounded by default (and deprecates float_precision);
+    pandas 2 needs float_precision="round_trip" for that."""
+    if int(pd.__version__.split(".")[0]) < 3:
+        kwargs["float_precision"] = "round_trip"
+    return pd.read_csv(path, **kwargs)
+
+
+def bits(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64).view(np.uint64)
+
+
+def profile_columns(name: str = "butterfly", n: int = 2000) -> dict:
+    samples = sample_uniform_u(load_shape(name).curve, n)
+    feed = 5.0 + 95.0 / (1.0 + samples.curvature)
+    profile = FeedProfile(samples, feed, "test", 100.0)
+    return {**samples.columns(), "feed_pct": profile.feed_pct, "feed_mm_min": profile.feed_mm_min}
+
+
+def test_profile_csv_round_trip_bit_for_bit_with_pandas(tmp_path):
+    columns = profile_columns()
+    path = tmp_path / "profile.csv"
+    write_columns(path, columns)
+    frame = read_csv_exact(path)
+    assert list(frame.columns) == PROFILE_COLUMNS
+    for name, values in columns.items():
+        assert frame[name].dtype == np.float64
+        np.testing.assert_array_equal(bits(frame[name].to_numpy()), bits(values), err_msg=name)
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=50, deadline=None)
+@given(arrays(np.float64, st.integers(1, 40), elements=finite))
+def test_property_any_finite_float64_round_trips(tmp_path_factory, values):
+    path = tmp_path_factory.mktemp("csv") / "v.csv"
+    write_columns(path, {"a": values, "b": values[::-1].copy()})
+    frame = read_csv_exact(path, dtype=np.float64)
+    np.testing.assert_array_equal(bits(frame["a"].to_numpy()), bits(values))  # -0.0 kept too
+    np.testing.assert_array_equal(bits(frame["b"].to_numpy()), bits(values[::-1]))
+
+
+def test_nan_refused_with_row_and_no_partial_file(tmp_path):
+    columns = profile_columns("trident", 100)
+    columns["feed_mm_min"] = columns["feed_mm_min"].copy()
+    columns["feed_mm_min"][37] = np.nan
+    target = tmp_path / "out.csv"
+    with pytest.raises(ExportError, match=r"column feed_mm_min row 37 = nan"):
+        write_columns(target, columns)
+    assert not list(tmp_path.iterdir())
+    target.write_text("previous\n")
+    with pytest.raises(ExportError):
+        write_columns(target, columns)
+    assert target.read_text() == "previous\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+
+
+# ------------------------------------------------------------------------------ point lists
+def test_fuzzyfeed_csv_loads_back_as_the_same_points(tmp_path):
+    columns = profile_columns("wm", 500)
+    write_columns(tmp_path / "wm.csv", columns)
+    shape = load_shape(str(tmp_path / "wm.csv"))
+    xyz = np.column_stack([columns["x_mm"], columns["y_mm"], columns["z_mm"]])
+    np.testing.assert_array_equal(bits(shape.polyline), bits(xyz))
+    samples = sample_shape(shape)
+    assert len(samples) == 500 and np.all(np.isfinite(samples.curvature))
+    # the degree-1 NURBS through the points has chord-length knots and passes through them
+    knots = shape.curve.knots
+    np.testing.assert_allclose(shape.curve(knots[1:-1]), xyz, atol=1e-9)
+
+
+@pytest.mark.parametrize("header, rows, expected", [
+    ("x,y", ["0,0", "1,0", "1,1"], [[0, 0], [1, 0], [1, 1]]),
+    (" X , Y , Z ,note", ["0,0,1,a", "1,0,1,b", "", "2,3,0.5,c"], [[0, 0, 1], [1, 0, 1], [2, 3, 0.5]]),
+    ("id,y_mm,x_mm", ["1,5,0.1", "2,6,0.2"], [[0.1, 5], [0.2, 6]]),
+])
+def test_point_csv_column_names(tmp_path, header, rows, expected):
+    path = tmp_path / "pts.csv"
+    path.write_text("\n".join([header] + rows) + "\n")
+    shape = load_shape(str(path))
+    got = shape.polyline if shape.polyline is not None else shape.curve.control_points
+    np.testing.assert_array_equal(got, expected)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("x_mm,y_mm\n0,0\n1,nan\n2,2\n", r"pts\.csv:3: column y_mm = nan; coordinates must be finite"),
+    ("x,y\n0,0\n1,inf\n", r"pts\.csv:3: column y = inf; coordinates must be finite"),
+    ("x,y\n0,0\n1,abc\n", r"pts\.csv:3: column y = 'abc' is not a number"),
+    ("x,y\n0,0\n1\n", r"pts\.csv:3: column y = '' is not a number"),
+    ("a,b\n0,0\n", r"pts\.csv:1: header \['a', 'b'\] has no x_mm,y_mm or x,y columns"),
+    ("x,y\n0,0\n", r"pts\.csv: 1 point row\(s\); a path needs at least 2"),
+    ("x,y\n0,0\n1,1\n1,1\n", r"pts\.csv:4: point \[1\.0, 1\.0\] repeats the previous row"),
+    ("", r"pts\.csv: empty file"),
+])
+def test_bad_point_csv_one_clear_line(tmp_path, text, message):
+    path = tmp_path / "pts.csv"
+    path.write_text(text)
+    with pytest.raises(PathFormatError, match=message) as info:
+        load_shape(str(path))
+    assert "\n" not in str(info.value)
+
+
+def test_binary_csv_and_selector(tmp_path):
+    path = tmp_path / "blob.csv"
+    path.write_bytes(b"x,y\n\x00\x01\x02")
+    with pytest.raises(PathFormatError, match=r"blob\.csv: binary file; expected a CSV text file"):
+        load_shape(str(path))
+    ok = tmp_path / "ok.csv"
+    ok.write_text("x,y\n0,0\n1,1\n2,0\n")
+    assert load_shape(f"{ok}#1").polyline.shape == (3, 2)
+    with pytest.raises(PathFormatError, match="path 2 does not exist"):
+        load_shape(f"{ok}#2")
