@@ -30,4 +30,10 @@ def point_count(text: str) -> int:
 
 def add_shape_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("shape", metavar="SHAPE",
-                        help="a shipped shape's name (see `fuzzyfeed shapes`) or a path to a shape file")
+                        help="a shipped shape's name (see `fuzzyfeed shapes`) or a file: shape "
+                             "(.toml/.json), DXF (.dxf: SPLINE, LWPOLYLINE, POLYLINE), G-code "
+                             "(.ngc/.nc/.gcode/.gc/.tap/.cnc: G0/G1 chains, G5.2 blocks) or a CSV "
+                             "point list (.csv: x_mm,y_mm[,z_mm] or x,y[,z]). A file with several "
+                             "paths needs FILE#SELECTOR: DXF FILE#HANDLE, FILE#layer=NAME or "
+                             "FILE#path=N; G-code FILE#N (one path per chain of feed moves between "
+                             "G0 rapids)")
