@@ -5,11 +5,14 @@ scikit-fuzzy samples every membership function on a universe grid. The input gri
 exact (scikit-fuzzy interpolates linearly between grid values); the output grid is
 ``output_points`` evenly spaced values plus the output terms' vertices. scikit-fuzzy adds the clip
 crossings itself, so its remaining error is the crossings of two clipped terms between grid values.
-Inputs are clipped to the universes first (as the engine does). scikit-fuzzy is imported inside
+Inputs are clipped to the universes first (as the engine does). Feed terms that no rule uses are
+left out (they change nothing, and scikit-fuzzy 0.5's array mode fails on them). scikit-fuzzy is imported inside
 the functions.
 """
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
@@ -22,10 +25,12 @@ def _universe(var: Variable, points: int) -> np.ndarray:
     return np.union1d(np.linspace(lo, hi, points), np.clip(extra, lo, hi))
 
 
-def _add_terms(fvar, var: Variable) -> None:
+def _add_terms(fvar, var: Variable, used: set[str] | None = None) -> None:
     import skfuzzy as fuzz
 
     for term in var.terms:
+        if used is not None and term.label not in used:
+            continue
         if len(term.points) == 3:
             fvar[term.label] = fuzz.trimf(fvar.universe, list(term.points))
         else:
@@ -39,8 +44,10 @@ def build_control_system(table: RuleTable, input_points: int = 1001, output_poin
     kappa = ctrl.Antecedent(_universe(table.curvature, input_points), KAPPA)
     dk = ctrl.Antecedent(_universe(table.curvature_variation, input_points), DK)
     feed = ctrl.Consequent(_universe(table.feed, output_points), FEED, defuzzify_method="centroid")
-    for fvar, var in ((kappa, table.curvature), (dk, table.curvature_variation), (feed, table.feed)):
-        _add_terms(fvar, var)
+    _add_terms(kappa, table.curvature)
+    _add_terms(dk, table.curvature_variation)
+    # feed terms no rule uses change nothing, and scikit-fuzzy 0.5's array mode fails on them
+    _add_terms(feed, table.feed, used={f for _, _, f in table.rules})
     rules = [ctrl.Rule(kappa[k] & dk[d], feed[f], label=f"R{n + 1}")
              for n, (k, d, f) in enumerate(table.rules)]
     return ctrl.ControlSystem(rules)
@@ -55,17 +62,20 @@ def skfuzzy_feed_pct(table: RuleTable, kappa: np.ndarray, dk: np.ndarray, *, arr
     system = system or build_control_system(table, input_points, output_points)
     kappa = np.clip(np.asarray(kappa, dtype=float), *table.curvature.universe)
     dk = np.clip(np.asarray(dk, dtype=float), *table.curvature_variation.universe)
-    if array:
+    with warnings.catch_warnings():
+        # scikit-fuzzy 0.5 calls np.maximum(a, b, out) positionally (deprecated in numpy 2)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        if array:
+            sim = ctrl.ControlSystemSimulation(system, cache=False)
+            sim.input[KAPPA] = kappa
+            sim.input[DK] = dk
+            sim.compute()
+            return np.asarray(sim.output[FEED], dtype=float).reshape(kappa.shape)
         sim = ctrl.ControlSystemSimulation(system, cache=False)
-        sim.input[KAPPA] = kappa
-        sim.input[DK] = dk
-        sim.compute()
-        return np.asarray(sim.output[FEED], dtype=float).reshape(kappa.shape)
-    sim = ctrl.ControlSystemSimulation(system, cache=False)
-    out = np.empty(kappa.size)
-    for i, (x, y) in enumerate(zip(kappa.ravel(), dk.ravel())):
-        sim.input[KAPPA] = float(x)
-        sim.input[DK] = float(y)
-        sim.compute()
-        out[i] = sim.output[FEED]
-    return out.reshape(kappa.shape)
+        out = np.empty(kappa.size)
+        for i, (x, y) in enumerate(zip(kappa.ravel(), dk.ravel())):
+            sim.input[KAPPA] = float(x)
+            sim.input[DK] = float(y)
+            sim.compute()
+            out[i] = sim.output[FEED]
+        return out.reshape(kappa.shape)
