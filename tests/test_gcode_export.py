@@ -266,3 +266,70 @@ def test_g52_refused_for_degree_one_and_non_planar():
         check_g52_curve(bent)
     with pytest.raises(ExportError, match="feed_mm_min"):
         write_gcode_nurbs("unused.ngc", load_shape("infinity").curve, 0.0)
+
+
+# ------------------------------------------------------------------- G5.2, one block per span
+@pytest.mark.parametrize("name", shape_names())
+def test_bezier_segments_equal_the_curve_on_each_span(name):
+    from fuzzyfeed.io.gcode import bezier_segments
+
+    curve = load_shape(name).curve
+    pieces = bezier_segments(curve)
+    breaks = np.unique(curve.knots)
+    assert len(pieces) == breaks.size - 1
+    for piece, a, b in zip(pieces, breaks[:-1], breaks[1:]):
+        assert piece.n_control_points == curve.degree + 1 and piece.domain == (a, b)
+        u = np.linspace(a, b, 201)
+        np.testing.assert_allclose(piece(u), curve(u), rtol=0, atol=1e-9)
+        check_g52_curve(piece)  # uniform clamped: writable as G5.2
+
+
+def test_bezier_segments_of_repeated_knots_and_a_rational_circle():
+    from conftest import circle_nurbs
+    from fuzzyfeed.io.gcode import bezier_segments
+
+    circle = circle_nurbs(7.0, (1.0, -2.0))
+    pieces = bezier_segments(circle)
+    assert len(pieces) == 4
+    for piece in pieces:
+        u = np.linspace(*piece.domain, 101)
+        np.testing.assert_allclose(np.linalg.norm(piece(u) - [1, -2], axis=1), 7.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", shape_names())
+def test_g52_spans_program_accepted_by_rs274_for_every_shape(name, tmp_path):
+    curve = load_shape(name).curve
+    profile = curvature_profile(name, n=2000)
+    path = tmp_path / f"{name}_spans.ngc"
+    lines = write_gcode_nurbs(path, curve, profile, split="spans", line_numbers=True)
+    canon = run_rs274(path, tmp_path)
+    nurbs = [line for line in canon if "NURBS_FEED(" in line]
+    spans = np.unique(curve.knots).size - 1
+    assert len(nurbs) == spans
+    assert all(f"NURBS_FEED({curve.degree + 1}," in line for line in nurbs)
+    _, _, _, rates = canon_moves(canon)
+    f_words = [float(x) for x in re.findall(r"\bF(\d\S*)", "\n".join(lines))]
+    assert f_words and all(f > 0 for f in f_words)
+    assert set(f_words) <= set(rates)
+    # per-span F = the slowest advised segment feed over the span, so the program never runs faster
+    seg = 0.5 * (profile.feed_mm_min[:-1] + profile.feed_mm_min[1:])
+    assert min(f_words) == pytest.approx(seg.min(), abs=0.05)
+    # the imported program (one chain of G5.2 blocks, sampled) lies on the curve
+    back = load_shape(str(path))
+    pts = back.polyline[:, :2]
+    u = np.linspace(*curve.domain, 400001)
+    dense = curve(u)[:, :2]
+    from scipy.spatial import cKDTree
+    dist, _ = cKDTree(dense).query(pts)
+    step = np.max(np.linalg.norm(np.diff(dense, axis=0), axis=1))
+    assert dist.max() < 1e-4 + step
+
+
+def test_g52_spans_refuses_profile_without_curve_parameters(tmp_path):
+    samples = samples_from_points(np.array([[0, 0], [1, 1], [2, 0], [3, 1]], dtype=float))
+    profile = FeedProfile(samples, np.full(4, 10.0), "c", 10.0)
+    with pytest.raises(ExportError, match="samples must be parameters of this curve"):
+        write_gcode_nurbs(tmp_path / "x.ngc", load_shape("wm").curve, profile, split="spans")
+    with pytest.raises(ExportError, match="split = 'bezier'"):
+        write_gcode_nurbs(tmp_path / "x.ngc", load_shape("wm").curve, 100.0, split="bezier")
+    assert not list(tmp_path.iterdir())

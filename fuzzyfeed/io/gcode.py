@@ -24,10 +24,14 @@ Export (:func:`write_gcode`)
 G5.2 (:func:`write_gcode_nurbs`)
     LinuxCNC's G5.2 takes the current position as the first control point, weights as P, the
     order as L (default 3, L is used only when > 3) and builds the knot vector itself: uniform and
-    clamped (``nurbs_G5_knot_vector_creator``: k zeros, 1 … n−k+1, k times n−k+2). A curve whose
-    knots are not uniform (after scaling the domain) cannot be written exactly and is refused,
-    naming the first knot that breaks the rule; so is a degree-1 curve (order 2 < 3) and a curve
-    that is not planar at one Z (G5.2 is XY only).
+    clamped (``nurbs_G5_knot_vector_creator``: k zeros, 1 … n−k+1, k times n−k+2). With
+    ``split="whole"`` the curve is one block; a curve whose knots are not uniform (after scaling
+    the domain) cannot be written that way and is refused, naming the first knot that breaks the
+    rule. With ``split="spans"`` the curve is cut by knot insertion into rational Bézier pieces,
+    one block per knot span — their knot vectors are uniform clamped, so any knot vector is
+    written exactly, and each block carries the slowest advised feed over its span. Refused in
+    both modes: a degree-1 curve (order 2 < 3) and a curve that is not planar at one Z (G5.2 is
+    XY only). Control points are rounded to ``decimals``, weights to ``weight_decimals``.
 
 Import (:func:`load_gcode_shapes`)
     G0/G1 (modal), G90/G91, G20/G21 and G5.2 … G5.3 blocks. Feed moves (G1, G5.2) form a chain;
@@ -260,45 +264,133 @@ def check_g52_curve(curve: Nurbs, rtol: float = 1e-9) -> None:
                           "be written as G5.2; export it as G1 moves")
     if curve.dim == 3:
         z = curve.control_points[:, 2]
-        if np.ptp(z) > 0:
-            i = int(np.argmax(np.abs(z - z[0]) > 0))
+        tol = 1e-9 * max(1.0, float(np.abs(z).max()))
+        if np.ptp(z) > tol:
+            i = int(np.argmax(np.abs(z - z[0]) > tol))
             raise ExportError(f"control_points[{i}] z = {z[i]!r} differs from z = {z[0]!r}: G5.2 is "
                               "planar (XY); export a 3-D curve as G1 moves")
 
 
-def nurbs_gcode_program(curve: Nurbs, feed_mm_min: float, *, decimals: int = DEFAULT_DECIMALS,
-                        feed_decimals: int = DEFAULT_FEED_DECIMALS, weight_decimals: int = 6,
+def _insert_knot(p: int, knots: np.ndarray, pw: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
+    """Insert ``u`` once into a curve of degree ``p`` with homogeneous control points ``pw``
+    (Boehm's knot insertion, The NURBS Book A5.1 with r = 1)."""
+    k = int(np.searchsorted(knots, u, side="right")) - 1        # knots[k] <= u < knots[k+1]
+    q = np.empty((pw.shape[0] + 1, pw.shape[1]))
+    q[:k - p + 1] = pw[:k - p + 1]
+    for i in range(k - p + 1, k + 1):
+        alpha = (u - knots[i]) / (knots[i + p] - knots[i])
+        q[i] = alpha * pw[i] + (1.0 - alpha) * pw[i - 1]
+    q[k + 1:] = pw[k:]
+    return np.insert(knots, k + 1, u), q
+
+
+def bezier_segments(curve: Nurbs) -> list[Nurbs]:
+    """The curve split at every interior knot into rational Bézier pieces (degree p, p + 1
+    control points, knots a^(p+1) b^(p+1)): each interior knot is inserted until its multiplicity
+    is p (knot refinement, The NURBS Book §5.3). Each piece equals the curve on its span, and its
+    knot vector is the uniform clamped one LinuxCNC's G5.2 builds."""
+    p = curve.degree
+    knots = np.asarray(curve.knots, dtype=float)
+    w = np.asarray(curve.weights, dtype=float)
+    pw = np.column_stack([curve.control_points * w[:, None], w])
+    lo, hi = curve.domain
+    interior, counts = np.unique(knots[(knots > lo) & (knots < hi)], return_counts=True)
+    for u, m in zip(interior, counts):
+        for _ in range(p - int(m)):
+            knots, pw = _insert_knot(p, knots, pw, float(u))
+    breaks = np.concatenate([[lo], interior, [hi]])
+    pieces = []
+    for j in range(breaks.size - 1):
+        block = pw[j * p: j * p + p + 1]
+        pieces.append(Nurbs(p, [breaks[j]] * (p + 1) + [breaks[j + 1]] * (p + 1),
+                            block[:, :-1] / block[:, -1:], block[:, -1]))
+    return pieces
+
+
+def _span_feeds_mm_min(curve: Nurbs, pieces: list[Nurbs], profile: FeedProfile) -> np.ndarray:
+    """Per piece: the slowest segment feed (mm/min) of the profile's samples over its span."""
+    samples = profile.samples
+    lo, hi = curve.domain
+    u = np.asarray(samples.u, dtype=float)
+    if samples.curve is None or u[0] < lo - 1e-12 or u[-1] > hi + 1e-12 or np.any(np.diff(u) < 0):
+        raise ExportError("profile: its samples must be parameters of this curve (a NURBS "
+                          "sampling such as sample_uniform_u); a point-sequence profile has none")
+    seg = segment_feeds_mm_s(profile.feed_mm_s) * 60.0
+    out = []
+    for piece in pieces:
+        a, b = piece.domain
+        inside = (u[1:] > a) & (u[:-1] < b)
+        out.append(seg[inside].min() if inside.any() else seg[np.searchsorted(u, a) - 1])
+    return np.array(out)
+
+
+def nurbs_gcode_program(curve: Nurbs, feed: float | FeedProfile, *, split: str = "whole",
+                        decimals: int = DEFAULT_DECIMALS, feed_decimals: int = DEFAULT_FEED_DECIMALS,
+                        weight_decimals: int = 6, feed_step_mm_min: float | None = None,
                         line_numbers: bool = False, title: str | None = None) -> list[str]:
-    """Lines of a program that runs ``curve`` as one LinuxCNC ``G5.2`` block at ``feed_mm_min``."""
-    check_g52_curve(curve)
+    """Lines of a program that runs ``curve`` as LinuxCNC ``G5.2`` blocks.
+
+    ``split="whole"``: one block, only for uniform clamped knots (else :class:`ExportError`); F is
+    ``feed`` (mm/min) or, for a :class:`FeedProfile`, its slowest segment feed.
+    ``split="spans"``: one block per knot span (rational Bézier pieces, see
+    :func:`bezier_segments`), so any knot vector can be written exactly; with a profile each
+    block gets the slowest segment feed over its span (F written only when it changes).
+    """
+    if split not in ("whole", "spans"):
+        raise ExportError(f"split = {split!r}; use 'whole' or 'spans'")
+    if split == "whole":
+        check_g52_curve(curve)
+        pieces = [curve]
+    else:
+        if curve.degree < 2:
+            check_g52_curve(curve)  # refuses with the reason
+        pieces = bezier_segments(curve)
+        for piece in pieces:
+            check_g52_curve(piece)
     decimals = _check_decimals(decimals)
     feed_decimals = _check_decimals(feed_decimals, "feed_decimals", low=0)
-    if not (isinstance(feed_mm_min, (int, float, np.floating)) and math.isfinite(feed_mm_min)
-            and feed_mm_min > 0):
-        raise ExportError(f"feed_mm_min = {feed_mm_min!r}; must be a finite number > 0")
-    f_text = f"{max(round(float(feed_mm_min), feed_decimals), 10.0 ** -feed_decimals):.{feed_decimals}f}"
-    pts, w = curve.control_points, curve.weights
+    if isinstance(feed, FeedProfile):
+        if split == "whole":
+            feeds = np.array([np.min(segment_feeds_mm_s(feed.feed_mm_s)) * 60.0])
+        else:
+            feeds = _span_feeds_mm_min(curve, pieces, feed)
+    else:
+        if not (isinstance(feed, (int, float, np.floating)) and math.isfinite(feed) and feed > 0):
+            raise ExportError(f"feed_mm_min = {feed!r}; must be a finite number > 0")
+        feeds = np.full(len(pieces), float(feed))
+    feeds = quantise_feed_mm_min(feeds, feed_step_mm_min, feed_decimals)
     out = _Lines(line_numbers)
-    out.add(_comment(f"fuzzyfeed {__version__}: {title or 'NURBS'} as one G5.2 block, degree "
+    what = ("one G5.2 block" if split == "whole" else f"{len(pieces)} G5.2 blocks, one per knot span")
+    out.add(_comment(f"fuzzyfeed {__version__}: {title or 'NURBS'} as {what}, degree "
                      f"{curve.degree}, {curve.n_control_points} control points"), numbered=False)
     out.add("G17 G21 G90 G94")
+    pts = curve.control_points
     start = f"G0 X{_fmt(pts[0, 0], decimals)} Y{_fmt(pts[0, 1], decimals)}"
     if curve.dim == 3:
         start += f" Z{_fmt(pts[0, 2], decimals)}"
     out.add(start)
-    out.add(f"G5.2 P{_fmt(w[0], weight_decimals)} L{curve.degree + 1} F{f_text}")
-    for p, wi in zip(pts[1:], w[1:]):
-        out.add(f"X{_fmt(p[0], decimals)} Y{_fmt(p[1], decimals)} P{_fmt(wi, weight_decimals)}")
-    out.add("G5.3")
+    last_f = None
+    for piece, f in zip(pieces, feeds):
+        w_text = [_fmt(wi, weight_decimals) for wi in piece.weights]
+        if any(float(t) <= 0 for t in w_text):
+            raise ExportError(f"a weight rounds to {min(w_text, key=float)} at {weight_decimals} "
+                              "decimals; G5.2 needs every P > 0 (raise weight_decimals)")
+        f_text = f"{f:.{feed_decimals}f}"
+        words = f"G5.2 P{w_text[0]} L{piece.degree + 1}"
+        if f_text != last_f:
+            words += f" F{f_text}"
+            last_f = f_text
+        out.add(words)
+        for q, wt in zip(piece.control_points[1:], w_text[1:]):
+            out.add(f"X{_fmt(q[0], decimals)} Y{_fmt(q[1], decimals)} P{wt}")
+        out.add("G5.3")
     out.add("M2")
     return out.lines
 
 
-def write_gcode_nurbs(path: str | os.PathLike, curve: Nurbs, feed: float | FeedProfile, **kwargs) -> list[str]:
-    """Write ``curve`` as one G5.2 block, atomically. ``feed`` is a feed in mm/min or a
-    :class:`FeedProfile`, whose slowest segment feed is used (one F for the whole block)."""
-    if isinstance(feed, FeedProfile):
-        feed = float(np.min(segment_feeds_mm_s(feed.feed_mm_s))) * 60.0
+def write_gcode_nurbs(path: str | os.PathLike, curve: Nurbs, feed: float | FeedProfile,
+                      **kwargs) -> list[str]:
+    """Write ``curve`` as G5.2 block(s) (see :func:`nurbs_gcode_program`), atomically."""
     lines = nurbs_gcode_program(curve, feed, **kwargs)
     with atomic_write(path, "w", newline="\n") as handle:
         handle.write("\n".join(lines) + "\n")
