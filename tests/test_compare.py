@@ -1,0 +1,107 @@
+"""Cross-check and comparison: the simulator reproduces the SLW trajectory; fuzzy vs SLW; CLI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fuzzyfeed.cli import main
+from fuzzyfeed.compare import METHODS, compare
+from fuzzyfeed.fuzzy.advisor import advise
+from fuzzyfeed.io.shapes import load_shape, sample_shape
+from fuzzyfeed.limits import MachineLimits
+from fuzzyfeed.simulate import TimeLaw, simulate
+from fuzzyfeed.slw import schedule
+from fuzzyfeed.slw.trajectory import measure
+
+
+@pytest.fixture(scope="module")
+def infinity_comparison():
+    samples = sample_shape(load_shape("infinity"), 2000)
+    return compare(samples, MachineLimits(), name="infinity")
+
+
+@pytest.mark.parametrize("name", ["infinity", "wm"])
+def test_simulator_reproduces_slw_trajectory(name):
+    curve = load_shape(name).curve
+    limits = MachineLimits()
+    traj = schedule(curve, limits)
+    law = TimeLaw(ts_s=limits.ts_s, s_mm=traj.s_mm, feed_mm_s=traj.feed_mm_s, acc_mm_s2=traj.acc_mm_s2,
+                  jerk_mm_s3=traj.jerk_mm_s3, duration_s=traj.cycle_time_s)
+    sim = simulate(curve, law, limits, "slw")
+    assert sim.metrics.cycle_time_s == pytest.approx(traj.cycle_time_s, rel=1e-12)
+    np.testing.assert_allclose(sim.xyz, traj.xyz, rtol=0, atol=1e-9)
+    own = measure(traj)
+    m = sim.metrics
+    assert m.feed_max_mm_s / limits.feed_mm_s == pytest.approx(own["feed"], rel=1e-6)
+    axis_vel = max(v / lim for v, lim in zip(m.axis_vel_max_mm_s, limits.axis_vel_mm_s))
+    assert axis_vel == pytest.approx(own["axis_vel"], rel=1e-6)
+    axis_acc = max(a / lim for a, lim in zip(m.axis_acc_max_mm_s2, limits.axis_acc_mm_s2))
+    assert axis_acc == pytest.approx(own["axis_acc"], rel=1e-6)
+    assert m.tan_jerk_max_mm_s3 / limits.jerk_mm_s3 == pytest.approx(own["jerk"], rel=1e-6)
+    assert m.tan_acc_max_mm_s2 / limits.tangential_acc_mm_s2 == pytest.approx(own["tangential_acc"], rel=1e-6)
+
+
+def test_comparison_methods_and_invariants(infinity_comparison):
+    c = infinity_comparison
+    assert tuple(c.simulations) == METHODS
+    fuzzy = advise(c.samples, None, max_feed_mm_s=c.limits.feed_mm_s)
+    np.testing.assert_array_equal(c.profiles["fuzzy"].feed_mm_s, fuzzy.feed_mm_s)
+    safe, slw = c.profiles["fuzzy-safe"].feed_mm_s, c.profiles["slw"].feed_mm_s
+    assert np.all(safe <= fuzzy.feed_mm_s) and np.all(safe <= slw)
+    times = {m: s.metrics.cycle_time_s for m, s in c.simulations.items()}
+    # the SLW schedule obeys every limit and is within 10 % of the bound on infinity
+    slw_metrics = c.simulations["slw"].metrics
+    assert all(count == 0 for count, _ in slw_metrics.violations.values())
+    assert 1.0 <= slw_metrics.ratio_to_bound <= 1.10
+    assert c.simulations["bound"].metrics.ratio_to_bound == pytest.approx(1.0)
+    assert times["fuzzy-safe"] >= times["fuzzy"] - 1e-9  # clamping never speeds the advice up
+    # the constant feed breaks the axis acceleration limit in the tight loops of infinity
+    const = c.simulations["constant"].metrics
+    assert max(const.violations[f"axis_acc_{a}"][1] for a in "xy") > 1.0
+
+
+def test_cross_check_accounts_for_the_difference(infinity_comparison):
+    check = infinity_comparison.cross_check
+    assert 0.0 <= check.over_fraction <= 1.0 and 0.0 <= check.under_fraction <= 1.0
+    assert check.over_fraction + check.under_fraction <= 1.0 + 1e-12
+    assert check.under_min_ratio < 1.0 < check.over_max_ratio
+    assert check.time_lost_s > 0 and check.time_gained_s >= 0
+    # the paper's rules are cautious on infinity: the advice is slower than the schedule
+    assert check.cycle_time_delta_s > 0
+    assert len(check.lines()) == 3
+
+
+def test_cli_compare_writes_report_and_figure(tmp_path, capsys):
+    out, fig = tmp_path / "report.csv", tmp_path / "fig.png"
+    assert main(["compare", "trident", "--points", "800", "-o", str(out), "--plot", str(fig)]) == 0
+    printed = capsys.readouterr().out
+    for method in METHODS:
+        assert method in printed
+    df = pd.read_csv(out)
+    assert df["method"].tolist() == list(METHODS)
+    assert {"cycle_time_s", "chord_err_max_um", "feed_fluct_max_pct", "tan_acc_max_mm_s2",
+            "tan_jerk_max_mm_s3", "axis_vel_max_x_mm_s", "axis_acc_max_y_mm_s2",
+            "violations_jerk", "worst_ratio_chord_error", "ratio_to_bound"} <= set(df.columns)
+    assert fig.read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--feed-mm-min", "0"], "--feed-mm-min: '0' must be a finite number > 0"),
+    (["--feed-mm-min", "-5"], "must be a finite number > 0"),
+    (["--rules", "{bad_rules}"], "bad.toml"),
+    (["--jerk-mm-s3", "nan"], "must be a finite number > 0"),
+])
+def test_cli_compare_bad_input(tmp_path, capsys, args, message):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("this is = not [ a rule table\n")
+    out = tmp_path / "report.csv"
+    args = [a.format(bad_rules=bad) for a in args]
+    with pytest.raises(SystemExit) as info:
+        code = main(["compare", "infinity", "-o", str(out), *args])
+        raise SystemExit(code)
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not out.exists()
