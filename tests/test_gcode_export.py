@@ -253,7 +253,7 @@ def test_g52_program_accepted_by_rs274(name, tmp_path):
 
 @pytest.mark.parametrize("name", NON_UNIFORM_SHAPES)
 def test_g52_refused_for_non_uniform_knots(name, tmp_path):
-    with pytest.raises(ExportError, match=r"knots\[\d+\] = .*uniform clamped.*G1 moves"):
+    with pytest.raises(ExportError, match=r"knots\[\d+\] = [\d.]+, uniform clamped needs [\d.]+: .*split='spans'"):
         write_gcode_nurbs(tmp_path / "x.ngc", load_shape(name).curve, 1000.0)
     assert not list(tmp_path.iterdir())
 
@@ -333,3 +333,51 @@ def test_g52_spans_refuses_profile_without_curve_parameters(tmp_path):
     with pytest.raises(ExportError, match="split = 'bezier'"):
         write_gcode_nurbs(tmp_path / "x.ngc", load_shape("wm").curve, 100.0, split="bezier")
     assert not list(tmp_path.iterdir())
+
+
+# ------------------------------------------------------------------------- CLI flag helper
+def _flag_parser():
+    import argparse
+
+    from fuzzyfeed.cli._gcode import add_gcode_arguments
+
+    parser = argparse.ArgumentParser(prog="t")
+    parser.add_argument("-o", "--output")
+    add_gcode_arguments(parser)
+    return parser
+
+
+def test_gcode_flags_prepare_checked_programs_before_writing(tmp_path):
+    from fuzzyfeed.cli._gcode import prepare_gcode
+
+    profile = curvature_profile("wm", n=800)
+    g1, g52 = tmp_path / "a.ngc", tmp_path / "b.ngc"
+    args = _flag_parser().parse_args(["-o", str(tmp_path / "a.csv"), "--gcode", str(g1),
+                                      "--gcode-g52", str(g52), "--feed-step-mm-min", "100",
+                                      "--line-numbers", "--gcode-decimals", "5"])
+    prepared = prepare_gcode(args, profile, load_shape("wm"))
+    assert not list(tmp_path.iterdir())          # nothing written yet
+    assert prepared.write() == [str(g1), str(g52)]
+    run_rs274(g1, tmp_path)
+    run_rs274(g52, tmp_path)
+    assert "N10 G17 G21 G90 G94" in g1.read_text() and "G5.2" in g52.read_text()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--feed-step-mm-min", "10"], "--feed-step-mm-min is a G-code option"),
+    (["--gcode", "x.ngc", "--g52-whole"], "--g52-whole needs --gcode-g52"),
+    (["-o", "same.ngc", "--gcode", "same.ngc"], "output files must differ"),
+    (["--gcode-g52", "x.ngc", "--g52-whole"], r"knots\[3\] = 0.15"),
+])
+def test_gcode_flag_errors(argv, message, tmp_path):
+    from fuzzyfeed.cli._gcode import prepare_gcode
+
+    args = _flag_parser().parse_args(argv)
+    with pytest.raises(ExportError, match=message):
+        prepare_gcode(args, curvature_profile("wm", n=100), load_shape("wm"))
+
+
+def test_gcode_decimals_flag_is_checked_by_argparse(capsys):
+    with pytest.raises(SystemExit):
+        _flag_parser().parse_args(["--gcode", "x.ngc", "--gcode-decimals", "2"])
+    assert "use 3 to 9 decimals" in capsys.readouterr().err

@@ -259,15 +259,16 @@ def check_g52_curve(curve: Nurbs, rtol: float = 1e-9) -> None:
     bad = np.abs(np.asarray(curve.knots) - expected) > rtol * (hi - lo)
     if bad.any():
         i = int(np.argmax(bad))
-        raise ExportError(f"knots[{i}] = {curve.knots[i]!r}, uniform clamped needs {expected[i]!r}: "
-                          "LinuxCNC G5.2 builds a uniform clamped knot vector, so this curve cannot "
-                          "be written as G5.2; export it as G1 moves")
+        raise ExportError(f"knots[{i}] = {float(curve.knots[i])!r}, uniform clamped needs "
+                          f"{float(expected[i])!r}: LinuxCNC G5.2 builds a uniform clamped knot "
+                          "vector, so this curve cannot be one G5.2 block; write one block per knot "
+                          "span (split='spans') or G1 moves")
     if curve.dim == 3:
         z = curve.control_points[:, 2]
         tol = 1e-9 * max(1.0, float(np.abs(z).max()))
         if np.ptp(z) > tol:
             i = int(np.argmax(np.abs(z - z[0]) > tol))
-            raise ExportError(f"control_points[{i}] z = {z[i]!r} differs from z = {z[0]!r}: G5.2 is "
+            raise ExportError(f"control_points[{i}] z = {float(z[i])!r} differs from z = {float(z[0])!r}: G5.2 is "
                               "planar (XY); export a 3-D curve as G1 moves")
 
 
