@@ -3,7 +3,8 @@ variation Dκ.
 
 Dκᵢ = max(κᵢ, …, κᵢ₊WS₋₁) (seed 002 eq. 10): a forward window, truncated at the end of the path, so
 the controller sees the sharp region ahead. Dκ is clipped at ``clip`` (the paper's 3) and min–max
-normalised to [0, 1] over the path; a constant Dκ (a straight line, a circle) normalises to 0.
+normalised to [0, 1] over the path; a constant Dκ (a straight line, a circle — up to rounding, see
+``CONSTANT_RTOL``) normalises to 0.
 """
 
 from __future__ import annotations
@@ -52,11 +53,17 @@ def forward_window_max(values: np.ndarray, window_points: int) -> np.ndarray:
     return m
 
 
+#: Dκ whose spread (max − min) is at most this fraction of its max counts as constant: rounding in
+#: the curvature of a circle must not be blown up to [0, 1] by the normalisation.
+CONSTANT_RTOL = 1e-9
+
+
 def normalise(dk: np.ndarray, clip: float) -> np.ndarray:
-    """Clip at ``clip`` then min–max normalise to [0, 1]; a constant array gives 0."""
+    """Clip at ``clip`` then min–max normalise to [0, 1]; a constant array (spread at most
+    ``CONSTANT_RTOL`` of its max, e.g. a circle's κ up to rounding) gives 0."""
     c = np.minimum(dk, clip)
     lo, hi = float(c.min()), float(c.max())
-    if hi <= lo:
+    if hi - lo <= CONSTANT_RTOL * abs(hi):
         return np.zeros_like(c)
     return (c - lo) / (hi - lo)
 
