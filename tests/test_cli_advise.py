@@ -1,0 +1,105 @@
+"""CLI: ``fuzzyfeed advise`` writes the advised feed per point, prints a summary, and fails with one
+line (exit 2, no output file) on bad input."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from fuzzyfeed.cli import main
+from fuzzyfeed.fuzzy.advisor import advise_details
+from fuzzyfeed.fuzzy.rules import rules_dir
+from fuzzyfeed.io.shapes import load_shape, sample_shape
+
+COLUMNS = ["u", "x_mm", "y_mm", "z_mm", "s_mm", "curvature_1_mm", "curvature_variation",
+           "feed_pct", "feed_mm_min"]
+
+
+def read_csv(path):
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    header = rows[0]
+    data = np.array(rows[1:], dtype=float)
+    return {name: data[:, i] for i, name in enumerate(header)}
+
+
+def test_advise_writes_csv_and_summary(tmp_path, capsys):
+    out = tmp_path / "inf.csv"
+    assert main(["advise", "infinity", "-o", str(out), "--feed-mm-min", "3000", "--points", "800"]) == 0
+    cols = read_csv(out)
+    assert set(COLUMNS) <= set(cols) and len(cols["u"]) == 800
+    # exactly what the library computes (full precision round trip)
+    advice = advise_details(sample_shape(load_shape("infinity"), 800), None, 3000 / 60)
+    np.testing.assert_array_equal(cols["feed_mm_min"], advice.profile.feed_mm_min)
+    np.testing.assert_array_equal(cols["curvature_variation"], advice.features.curvature_variation)
+    np.testing.assert_array_equal(cols["feed_pct"], advice.profile.feed_pct)
+    assert cols["feed_mm_min"].min() >= 0.05 * 3000 and cols["feed_mm_min"].max() <= 3000
+    text = capsys.readouterr().out
+    assert "infinity: 800 points" in text and "F = 3000 mm/min" in text
+    assert f"min {cols['feed_mm_min'].min():.1f}" in text
+    assert f"time at the advised feeds {advice.profile.travel_time_s():.4f} s" in text
+
+
+def test_advise_with_rules_file_and_plot(tmp_path, capsys):
+    rules = tmp_path / "slow.toml"
+    rules.write_text((rules_dir() / "paper.toml").read_text().replace(
+        "feed_floor_pct = 5.0", "feed_floor_pct = 40.0"))
+    out, fig = tmp_path / "t.csv", tmp_path / "t.png"
+    assert main(["advise", "trident", "-o", str(out), "--rules", str(rules), "--plot", str(fig)]) == 0
+    assert read_csv(out)["feed_pct"].min() == 40.0
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "rules 'paper'" in capsys.readouterr().out
+
+
+def _degenerate_shape(tmp_path):
+    # C'(0) = 0: curvature is infinite at the first sample
+    path = tmp_path / "cusp.toml"
+    path.write_text("degree = 2\nknotvector = [0, 0, 0, 1, 1, 1]\n"
+                    "control_points = [[0, 0], [0, 0], [10, 0]]\n")
+    return path
+
+
+def _bad_rules(tmp_path):
+    path = tmp_path / "bad_rules.toml"
+    path.write_text((rules_dir() / "paper.toml").read_text().replace('"VHF",  "VHF",  "VVLF"',
+                                                                     '"VHF",  "FAST", "VVLF"'))
+    return path
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--feed-mm-min", "-5"], "--feed-mm-min = -5; the maximum feed must be a finite number > 0 mm/min"),
+    (["--feed-mm-min", "0"], "--feed-mm-min = 0; the maximum feed must be a finite number > 0 mm/min"),
+    (["--feed-mm-min", "nan"], "--feed-mm-min = nan; the maximum feed must be"),
+    (["--rules", "{bad_rules}"], "bad_rules.toml:{vs_line}: row VS, column H (cell 4): unknown feed label 'FAST'"),
+    (["--rules", "nosuch"], "rule table 'nosuch': no such shipped table or file"),
+    (["SHAPE={cusp}"], "curvature[0] = inf; curvature must be finite"),
+])
+def test_bad_input_one_line_exit_2(tmp_path, capsys, monkeypatch, extra, message):
+    monkeypatch.chdir(tmp_path)
+    names = {"bad_rules": str(_bad_rules(tmp_path)), "cusp": str(_degenerate_shape(tmp_path))}
+    shape = "infinity"
+    args = []
+    for a in extra:
+        a = a.format(**names)
+        if a.startswith("SHAPE="):
+            shape = a[len("SHAPE="):]
+        else:
+            args.append(a)
+    out = tmp_path / "out.csv"
+    assert main(["advise", shape, "-o", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    vs_line = 1 + [ln.startswith("VS      =") for ln in
+                   (rules_dir() / "paper.toml").read_text().splitlines()].index(True)
+    message = message.replace("{vs_line}", str(vs_line))
+    assert err.startswith("fuzzyfeed: error: ") and message in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists() and not list(tmp_path.glob(".*.part"))
+
+
+def test_help_shows_the_default_feed(capsys):
+    with pytest.raises(SystemExit):
+        main(["advise", "--help"])
+    out = capsys.readouterr().out
+    assert "default: 6000" in out and "--rules" in out and "feed_mm_min" in out
