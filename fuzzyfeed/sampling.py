@@ -27,7 +27,7 @@ def _readonly(arr: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class PathSamples:
-    """Sampled path: one row per point, arrays of equal length N ≥ 2 (units: mm, 1/mm).
+    """Sampled path: one row per point, arrays of equal length N ≥ 1 (units: mm, 1/mm).
 
     ``u`` parameter (for point sequences: chord length normalised to [0, 1]); ``xyz`` (N, 3)
     positions (z = 0 for planar paths); ``s`` arc length from the start; ``tangent`` (N, 3) unit
@@ -48,8 +48,8 @@ class PathSamples:
 
     def __post_init__(self) -> None:
         n = np.shape(self.u)[0] if np.ndim(self.u) == 1 else -1
-        if n < 2:
-            raise InputError(f"samples: {max(n, 0)} points; a path needs at least 2")
+        if n < 1:
+            raise InputError("samples: no points; give at least one parameter")
         for name in ("u", "xyz", "s", "tangent", "curvature", "d1", "d2"):
             arr = _readonly(getattr(self, name))
             if arr.shape[0] != n:
