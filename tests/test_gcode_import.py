@@ -160,15 +160,19 @@ G1 X99 Y99 (after program end: not read)
     ("G21\nG1 X1 Y1 F100\nG1 X1..2\n", r"prog\.ngc:3: malformed word at '\.2'"),
     ("G21\nG1 X1 Y1 F100\nG1 X\n", r"prog\.ngc:3: malformed word at 'X'"),
     ("G21\nG1 Xnan Y1 F100\n", r"prog\.ngc:2: malformed word at 'XNAN"),
-    ("G21\nG1 X1 Y1 F100\nG2 X2 Y2 I1 J0\n", r"prog\.ngc:3: I1: arc words are not supported"),
-    ("G21\nG1 X1 Y1 F100\nG3 X2 Y2 R1\n", r"prog\.ngc:3: R1: arc words"),
-    ("G21\nG2 X2 Y2\n", r"prog\.ngc:2: G2 \(circular arc\) is not supported"),
+    ("G21\nG1 X1 Y1 F100\nG2 X3 Y1 I0.5 J0\n", r"prog\.ngc:3: G2: radius to the end 1\.5 mm differs from radius to the start 0\.5 mm"),
+    ("G21\nG1 X1 Y1 F100\nG3 X5 Y2 R1\n", r"prog\.ngc:3: G3 R1: radius 1 mm is shorter than half"),
+    ("G21\nG2 X2 Y2\n", r"prog\.ngc:2: G2 needs I/J \(centre\) or R \(radius\)"),
+    ("G21\nG2 X2 Y2 R1 I1\n", r"prog\.ngc:2: G2 with both R and I/J"),
+    ("G21\nG1 X2 Y2 I1 F10\n", r"prog\.ngc:2: I with G1: arc words belong to G2/G3"),
+    ("G21\nG17 G2 X2 Y0 K1 I1\n", r"prog\.ngc:2: K1: arcs are read in the XY plane"),
+    ("G21\nG5 X2 Y0 I1 J1 P1 Q1\n", r"prog\.ngc:2: G5 \(cubic spline\) is not supported"),
     ("G21\nG18\nG1 X1 Z1 F10\n", r"prog\.ngc:2: G18 \(XZ plane\) is not supported"),
     ("G21\nG92 X0\n", r"prog\.ngc:2: G92 \(coordinate offset\)"),
     ("G21\nG1 X1 A90 F10\n", r"prog\.ngc:2: A90: axis A is not supported"),
     ("G21\nG1 X#1 F10\n", r"prog\.ngc:2: '#1F10' in 'G1 X#1 F10': parameters, expressions and O-words"),
     ("G21\nM98 P100\n", r"prog\.ngc:2: M98: unsupported M code"),
-    ("G21\nG83 X1 Y1 Z-1 R1 Q1\n", r"prog\.ngc:2: R1: arc words|G83: canned cycles"),
+    ("G21\nG83 X1 Y1 Z-1 R1 Q1\n", r"prog\.ngc:2: G83: canned cycles are not supported"),
     ("G21\nG1 X1 F10 (open comment\n", r"prog\.ngc:2: comment '\(' not closed"),
     ("G0 X0 Y0\nG5.2 L3\nX1 Y1 P1\nX2 Y0 P1\n", r"prog\.ngc:4: G5\.2 block from line 2 is not closed"),
     ("G0 X0 Y0\nG5.2 L4\nX1 Y1 P1\nG5.3\n", r"prog\.ngc:4: .*2 control points .* L = 4 needs at least 4"),
@@ -176,6 +180,7 @@ G1 X99 Y99 (after program end: not read)
     ("G0 X0 Y0\nG5.3\n", r"prog\.ngc:2: G5\.3 without an open G5\.2 block"),
     ("G21 G90\nG0 X1 Y1\nG0 X5\nM2\n", r"prog\.ngc: no feed move"),
     ("X1 Y1\n", r"prog\.ngc:1: axis words with no motion mode"),
+    ("G21\nG1 X1 P2 P3\n", r"prog\.ngc:2: P given twice"),
 ])
 def test_bad_gcode_one_clear_line(tmp_path, text, message):
     path = write(tmp_path, text)
@@ -204,3 +209,79 @@ def test_cli_plot_takes_a_gcode_file_and_reports_errors(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("fuzzyfeed: error: ") and "bad.ngc:3:" in err[0]
     assert not (tmp_path / "bad.png").exists()
+
+
+def test_arcs_ij_r_helical_and_full_circle_on_the_exact_arc(tmp_path):
+    from fuzzyfeed.io.gcode import ARC_TOLERANCE_MM
+
+    text = """G21 G90 G17
+G0 X10 Y0 Z0
+G3 X0 Y10 I-10 J0 F500      ; quarter turn CCW about the origin
+G2 X-10 Y0 Z-1 R-10         ; CW with R < 0: the long way (270 degrees), helical down to Z-1
+G3 X10 Y0 R10               ; half turn CCW (R > 0 takes the short way: exactly 180 degrees)
+G2 I-10 J0                  ; full circle CW about the origin (no axis words)
+M2
+"""
+    shape = load_shape(str(write(tmp_path, text)))
+    pts = shape.polyline
+    assert "arcs flattened" in shape.notes
+    # every arc here lies on the circle of radius 10 about the origin
+    np.testing.assert_allclose(np.linalg.norm(pts[:, :2], axis=1), 10.0, atol=1e-9)
+    np.testing.assert_allclose(pts[-1], [10, 0, -1], atol=1e-12)
+    # arc 1 stays in the first quadrant; chords within the tolerance of the arc, not needlessly fine
+    end1 = int(np.argmax(np.all(np.isclose(pts[:, :2], [0, 10], atol=1e-12), axis=1)))
+    first = pts[: end1 + 1]
+    assert np.all(first[:, :2] >= -1e-12)
+    sag = 10.0 - np.linalg.norm(0.5 * (first[1:, :2] + first[:-1, :2]), axis=1)
+    assert 0.5 * ARC_TOLERANCE_MM < sag.max() <= ARC_TOLERANCE_MM
+    # arc 2 goes clockwise from (0, 10) through (10, 0) and (0, -10) to (-10, 0), Z falling to -1
+    end2 = end1 + 1 + int(np.argmax(np.all(np.isclose(pts[end1 + 1:, :2], [-10, 0], atol=1e-12), axis=1)))
+    second = pts[end1: end2 + 1]
+    assert second[:, 0].max() > 9.99 and second[:, 1].min() < -9.99
+    np.testing.assert_allclose(second[[0, -1], 2], [0, -1])
+    assert np.all(np.diff(second[:, 2]) < 0)
+    angle = np.unwrap(np.arctan2(second[:, 1], second[:, 0]))
+    assert angle[-1] - angle[0] == pytest.approx(-1.5 * np.pi)
+    # the rest (half turn + full circle) is 540 degrees CCW then CW: total turning of the path
+    kappa = sample_shape(shape).curvature
+    assert np.median(kappa) == pytest.approx(0.1, rel=1e-3)
+
+
+def test_arcs_read_as_linuxcnc_reads_them(tmp_path):
+    """Centre, direction and turns of G2/G3 (I/J, R > 0, R < 0, P, helical) as rs274 reports
+    them in ARC_FEED: every imported point lies on rs274's circle and sweeps its angle."""
+    from test_gcode_export import rs274_binary
+
+    import re
+    import subprocess
+
+    rs274 = rs274_binary()
+    rng = np.random.default_rng(7)
+    for case in range(14):
+        start = rng.uniform(-50, 50, 2)
+        radius = rng.uniform(0.5, 30)
+        a0, a1 = rng.uniform(0, 2 * np.pi, 2)
+        center = start - radius * np.array([np.cos(a0), np.sin(a0)])
+        end = center + radius * np.array([np.cos(a1), np.sin(a1)])
+        code = "G2" if case % 2 else "G3"
+        if case % 3 == 0:
+            words = f"R{(radius if case % 4 else -radius):.10f}"
+        else:
+            words = f"I{center[0] - start[0]:.10f} J{center[1] - start[1]:.10f}" + (" P2" if case % 5 == 1 else "")
+        z = " Z-2.5" if case % 4 == 1 else ""
+        text = (f"G21 G90 G17\nG0 X{start[0]:.10f} Y{start[1]:.10f} Z0\n"
+                f"{code} X{end[0]:.10f} Y{end[1]:.10f}{z} {words} F300\nM2\n")
+        path = write(tmp_path, text, f"arc{case}.ngc")
+        out = tmp_path / f"arc{case}.canon"
+        done = subprocess.run([rs274, "-g", str(path), str(out)], capture_output=True, text=True,
+                              stdin=subprocess.DEVNULL, timeout=60)
+        assert done.returncode == 0, done.stdout + done.stderr
+        arc = re.search(r"ARC_FEED\(([^)]*)\)", out.read_text()).group(1).split(",")
+        cx, cy, rotation = float(arc[2]), float(arc[3]), int(arc[4])
+        pts = load_shape(str(path)).polyline
+        r = np.linalg.norm(pts[:, :2] - [cx, cy], axis=1)
+        np.testing.assert_allclose(r, r[0], atol=1.5e-4, err_msg=text)  # rs274 prints the centre to 4 decimals
+        sweep = np.unwrap(np.arctan2(pts[:, 1] - cy, pts[:, 0] - cx))
+        total = sweep[-1] - sweep[0]
+        assert np.sign(total) == np.sign(rotation), text
+        assert abs(total) > 2 * np.pi * (abs(rotation) - 1) and abs(total) <= 2 * np.pi * abs(rotation) + 1e-9, text

@@ -34,9 +34,11 @@ G5.2 (:func:`write_gcode_nurbs`)
     XY only). Control points are rounded to ``decimals``, weights to ``weight_decimals``.
 
 Import (:func:`load_gcode_shapes`)
-    G0/G1 (modal), G90/G91, G20/G21 and G5.2 … G5.3 blocks. Feed moves (G1, G5.2) form a chain;
-    a G0 that moves ends it, so a file gives one path per chain. A chain of G1 moves becomes a
-    polyline shape (curvature by the three-point estimate of seed 002, eq. 4–9); a chain that is
+    G0/G1/G2/G3 (modal), G90/G91, G90.1/G91.1, G20/G21 and G5.2 … G5.3 blocks. Feed moves (G1,
+    G2/G3, G5.2) form a chain; a G0 that moves ends it, so a file gives one path per chain. A chain
+    of G1 moves becomes a polyline shape (curvature by the three-point estimate of seed 002,
+    eq. 4–9); G2/G3 arcs (XY plane, I/J or R, helical Z, P turns) are flattened into points on
+    the exact arc within :data:`ARC_TOLERANCE_MM` of it; a chain that is
     one G5.2 block becomes that NURBS exactly (degree L−1, LinuxCNC's knot vector on [0, 1]); a
     chain mixing both samples each G5.2 block at :data:`NURBS_IMPORT_POINTS_PER_SPAN` points per
     knot span into the polyline. Zero-length moves are skipped. The machine starts at X0 Y0 Z0,
@@ -44,10 +46,11 @@ Import (:func:`load_gcode_shapes`)
 
     Policy for other words: codes that do not change the XYZ path (spindle, coolant, tool change,
     dwell, path-control mode, cancel codes, F, S, T, N, comments) are accepted and ignored. Any
-    word that would change the geometry and is not implemented (arcs G2/G3, G5/G5.1, other
-    planes, G92 and work offsets other than G54, canned cycles, A/B/C/U/V/W axes, parameters and
-    expressions, O-word subroutines) is **rejected** with ``file:line``, the word and the reason:
-    a path silently read wrong is worse than no path.
+    word that would change the geometry and is not implemented (G5/G5.1 splines, arcs outside
+    the XY plane, G18/G19, G92 and work offsets other than G54, canned cycles, cutter
+    compensation, A/B/C/U/V/W axes, parameters and expressions, O-word subroutines, unknown M
+    codes) is **rejected** with ``file:line``, the word and the reason: a path silently read wrong
+    is worse than no path.
 """
 
 from __future__ import annotations
@@ -405,7 +408,7 @@ _IGNORED_G = {"4", "40", "49", "54", "61", "61.1", "64", "80", "94", "97", "98",
 _IGNORED_M = {"0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "30", "48", "49", "50", "51", "52",
               "53", "60"}
 _REJECTED_G = {
-    "2": "circular arc", "3": "circular arc", "5": "cubic spline", "5.1": "quadratic spline",
+    "5": "cubic spline", "5.1": "quadratic spline",
     "18": "XZ plane", "19": "YZ plane", "17.1": "UV plane", "18.1": "WU plane", "19.1": "VW plane",
     "92": "coordinate offset", "92.1": "coordinate offset", "92.2": "coordinate offset",
     "92.3": "coordinate offset", "93": "inverse-time feed", "95": "feed per revolution",
@@ -415,6 +418,12 @@ _REJECTED_G = {
     "53": "machine coordinates", "52": "local offset", "7": "lathe diameter mode",
 }
 _ENDS = {"2", "30"}
+_MOTIONS = ("0", "1", "2", "3", "5.2", "5.3")
+#: Largest distance between a G2/G3 arc and the chords it is read as (mm).
+ARC_TOLERANCE_MM = 1e-4
+#: Largest difference between the start and end radius of a G2/G3 arc (mm); LinuxCNC's own
+#: check is of the same order.
+ARC_RADIUS_TOLERANCE_MM = 0.002
 
 
 @dataclass
@@ -447,6 +456,7 @@ class _Parser:
         self.nurbs_line = 0
         self.saw_z = False
         self.ended = False
+        self.ij_absolute = False  # G91.1: I, J relative to the start (LinuxCNC's default)
 
     def fail(self, line: int, message: str) -> None:
         raise PathFormatError(f"{self.path}:{line}: {message}")
@@ -532,9 +542,11 @@ class _Parser:
                 axes[letter] = float(value)
             elif letter in "ABCUVW":
                 self.fail(line, f"{letter}{value}: axis {letter} is not supported (X, Y, Z only)")
-            elif letter in "IJKR":
-                self.fail(line, f"{letter}{value}: arc words are not supported")
-            elif letter in "PLQ":
+            elif letter == "K":
+                self.fail(line, f"K{value}: arcs are read in the XY plane (G17) only; K is not supported")
+            elif letter in "IJRPLQ":
+                if letter in params:
+                    self.fail(line, f"{letter} given twice")
                 params[letter] = float(value)
             elif letter in "FSTNHD":
                 pass  # feed, spindle, tool, line number, offsets index: no effect on the path
@@ -549,7 +561,9 @@ class _Parser:
                 self.scale = MM_PER_INCH if code == "20" else 1.0
             elif code in ("90", "91"):
                 self.absolute = code == "90"
-            elif code in ("0", "1", "5.2", "5.3", "17") or code in _IGNORED_G:
+            elif code in ("90.1", "91.1"):
+                self.ij_absolute = code == "90.1"
+            elif code in _MOTIONS or code == "17" or code in _IGNORED_G:
                 continue
             elif code in ("55", "56", "57", "58", "59", "59.1", "59.2", "59.3"):
                 self.fail(line, f"G{code}: work offsets other than G54 are not supported")
@@ -557,7 +571,7 @@ class _Parser:
                 self.fail(line, f"G{code}: canned cycles are not supported")
             else:
                 self.fail(line, f"G{code}: unsupported G code")
-        motion = [c for c in g_codes if c in ("0", "1", "5.2", "5.3")]
+        motion = [c for c in g_codes if c in _MOTIONS]
         if len(motion) > 1:
             self.fail(line, f"two motion codes G{motion[0]} and G{motion[1]} on one line")
         if self.nurbs_pts is not None:
@@ -570,12 +584,13 @@ class _Parser:
         if self.motion == "5.2" and motion:
             self.open_nurbs(line, axes, params)
             return
-        if not axes:
+        full_circle = self.motion in ("2", "3") and ("I" in params or "J" in params)
+        if not axes and not full_circle:
             return
         if "Z" in axes:
             self.saw_z = True
         if self.motion is None:
-            self.fail(line, "axis words with no motion mode (G0 or G1) in force")
+            self.fail(line, "axis words with no motion mode (G0, G1, G2, G3) in force")
         new = self.target(axes)
         if self.motion == "0":
             if not np.array_equal(new, self.pos):
@@ -583,6 +598,72 @@ class _Parser:
             self.pos = new
         elif self.motion == "1":
             self.feed_point(line, new)
+        elif self.motion in ("2", "3"):
+            self.arc(line, new, params, clockwise=self.motion == "2")
+        if self.motion in ("0", "1") and any(k in params for k in "IJR"):
+            self.fail(line, f"{'/'.join(k for k in 'IJR' if k in params)} with G{self.motion}: arc "
+                            "words belong to G2/G3")
+
+    def arc(self, line: int, end: np.ndarray, params: dict, clockwise: bool) -> None:
+        """A G2/G3 arc in the XY plane (helical in Z), flattened into points on the exact arc with
+        a sagitta of at most ARC_TOLERANCE_MM (LinuxCNC's arc rules: IJ incremental under G91.1,
+        absolute under G90.1; R > 0 for at most half a turn, R < 0 for more; P full turns)."""
+        start = self.pos
+        name = "G2" if clockwise else "G3"
+        has_ij = "I" in params or "J" in params
+        if has_ij and "R" in params:
+            self.fail(line, f"{name} with both R and I/J")
+        if has_ij:
+            ij = np.array([params.get("I", 0.0), params.get("J", 0.0)]) * self.scale
+            center = ij if self.ij_absolute else start[:2] + ij
+        elif "R" in params:
+            r = params["R"] * self.scale
+            chord = end[:2] - start[:2]
+            d = float(np.hypot(*chord))
+            if d == 0:
+                self.fail(line, f"{name} R{params['R']:g}: a full circle needs I/J, not R")
+            if abs(r) < d / 2 - 1e-6 * max(1.0, d):
+                self.fail(line, f"{name} R{params['R']:g}: radius {abs(r):g} mm is shorter than half "
+                                f"the chord ({d / 2:g} mm)")
+            h = np.sqrt(max(r * r - d * d / 4, 0.0))
+            right = np.array([chord[1], -chord[0]]) / d
+            side = 1.0 if clockwise == (r > 0) else -1.0
+            center = 0.5 * (start[:2] + end[:2]) + side * h * right
+        else:
+            self.fail(line, f"{name} needs I/J (centre) or R (radius)")
+        r0 = float(np.hypot(*(start[:2] - center)))
+        r1 = float(np.hypot(*(end[:2] - center)))
+        if r0 == 0 or abs(r1 - r0) > ARC_RADIUS_TOLERANCE_MM + 1e-6 * r0:
+            self.fail(line, f"{name}: radius to the end {r1:.6g} mm differs from radius to the start "
+                            f"{r0:.6g} mm by more than {ARC_RADIUS_TOLERANCE_MM} mm")
+        a0 = np.arctan2(start[1] - center[1], start[0] - center[0])
+        a1 = np.arctan2(end[1] - center[1], end[0] - center[0])
+        turns = params.get("P", 1.0)
+        if turns < 1 or turns != int(turns):
+            self.fail(line, f"{name} P{turns:g}: the number of turns must be an integer >= 1")
+        if clockwise:
+            sweep = -((a0 - a1) % (2 * np.pi))
+            sweep = sweep if sweep != 0 else -2 * np.pi
+            sweep -= 2 * np.pi * (turns - 1)
+        else:
+            sweep = (a1 - a0) % (2 * np.pi)
+            sweep = sweep if sweep != 0 else 2 * np.pi
+            sweep += 2 * np.pi * (turns - 1)
+        r_max = max(r0, r1)
+        step = 2.0 * np.arccos(1.0 - ARC_TOLERANCE_MM / r_max) if ARC_TOLERANCE_MM < r_max else np.pi / 2
+        m = max(2, int(np.ceil(abs(sweep) / step)))
+        f = np.arange(1, m + 1) / m
+        a = a0 + sweep * f
+        radius = r0 + (r1 - r0) * f
+        pts = np.column_stack([center[0] + radius * np.cos(a), center[1] + radius * np.sin(a),
+                               start[2] + (end[2] - start[2]) * f])
+        pts[-1] = end
+        self.start_chain(line)
+        for p in pts:
+            if not np.array_equal(p, self.chain.points[-1]):
+                self.chain.points.append(p)
+        self.chain.kinds.add("arc")
+        self.pos = end.copy()
 
     def open_nurbs(self, line: int, axes: dict, params: dict) -> None:
         if "Z" in axes:
@@ -674,7 +755,8 @@ def _chain_shape(chain: _Chain, path: Path, index: int, total: int):
         return Shape(name=name, curve=curve, source=source, path=path,
                      notes="one G5.2 block, LinuxCNC's uniform clamped knot vector on [0, 1]")
     points = list(chain.points)
-    notes = "G1 polyline"
+    notes = "G1 polyline" + (" with G2/G3 arcs flattened within "
+                             f"{ARC_TOLERANCE_MM} mm" if "arc" in chain.kinds else "")
     if chain.nurbs:
         # replace each NURBS end point by samples of the block (start point is already there)
         expanded = []
