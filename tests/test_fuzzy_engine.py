@@ -290,7 +290,7 @@ def test_mismatched_lengths(paper):
 def test_no_rule_fires_gives_the_floor(paper):
     e = compile_table(paper)
     empty = np.array([], dtype=np.int64)
-    silent = replace(e, rule_k=empty, rule_d=empty, rule_o=empty)
+    silent = replace(e, rule_k=empty, rule_d=empty, rule_o=empty, grid_o=np.full_like(e.grid_o, -1))
     np.testing.assert_array_equal(silent.feed_pct([0.1, 0.5], [0.2, 0.9]), [paper.feed_floor_pct] * 2)
 
 

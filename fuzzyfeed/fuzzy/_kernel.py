@@ -29,13 +29,14 @@ def _mu(x, a, b, c, d):
 
 
 @numba.njit(cache=True)
-def mamdani_centroid(kappa, dk, k_terms, d_terms, k_lo, k_hi, d_lo, d_hi,
-                     rule_k, rule_d, rule_o, n_out,
+def mamdani_centroid(kappa, dk, k_terms, d_terms, k_lo, k_hi, d_lo, d_hi, grid_o, n_out,
                      x_int, act_ptr, act_term, act_m0, act_m1, no_fire, out):
-    """Exact centroid for every point; ``out[i]`` = no_fire where no rule fires."""
+    """Exact centroid for every point; ``out[i]`` = no_fire where no rule fires.
+
+    ``grid_o[i, j]`` is the output term of rule (κ term i, Dκ term j), or −1 for no rule.
+    """
     nk = k_terms.shape[0]
     nd = d_terms.shape[0]
-    nr = rule_k.shape[0]
     n_int = x_int.shape[0] - 1
     mk = np.empty(nk)
     md = np.empty(nd)
@@ -56,11 +57,17 @@ def mamdani_centroid(kappa, dk, k_terms, d_terms, k_lo, k_hi, d_lo, d_hi,
             md[t] = _mu(y, d_terms[t, 0], d_terms[t, 1], d_terms[t, 2], d_terms[t, 3])
         for o in range(n_out):
             h[o] = 0.0
-        for r in range(nr):
-            w = min(mk[rule_k[r]], md[rule_d[r]])
-            o = rule_o[r]
-            if w > h[o]:
-                h[o] = w
+        for a in range(nk):             # only the few rules whose both memberships are > 0
+            if mk[a] <= 0.0:
+                continue
+            for b in range(nd):
+                if md[b] <= 0.0:
+                    continue
+                o = grid_o[a, b]
+                if o >= 0:
+                    w = min(mk[a], md[b])
+                    if w > h[o]:
+                        h[o] = w
         area = 0.0
         moment = 0.0
         for q in range(n_int):

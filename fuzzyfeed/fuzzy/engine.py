@@ -91,6 +91,7 @@ class FuzzyEngine:
     rule_k: np.ndarray         # (n_rules,) int64 index of the κ term
     rule_d: np.ndarray
     rule_o: np.ndarray
+    grid_o: np.ndarray         # (n_k, n_d) output term of each rule, -1 = no rule
     x_int: np.ndarray          # sorted distinct output vertices: interval boundaries
     act_ptr: np.ndarray        # CSR: terms non-zero inside interval q are act_term[act_ptr[q]:act_ptr[q+1]]
     act_term: np.ndarray
@@ -115,8 +116,7 @@ class FuzzyEngine:
         for start in range(0, kappa.size, CHUNK_POINTS):
             sl = slice(start, start + CHUNK_POINTS)
             mamdani_centroid(kappa[sl], dk[sl], self.k_terms, self.d_terms, float(k_lo), float(k_hi),
-                             float(d_lo), float(d_hi), self.rule_k, self.rule_d, self.rule_o,
-                             self.o_terms.shape[0], self.x_int, self.act_ptr, self.act_term,
+                             float(d_lo), float(d_hi), self.grid_o, self.o_terms.shape[0], self.x_int, self.act_ptr, self.act_term,
                              self.act_m0, self.act_m1, float(self.table.feed_floor_pct), out[sl])
         return out
 
@@ -163,7 +163,8 @@ def compile_table(table: RuleTable) -> FuzzyEngine:
         ptr.append(len(terms))
     as_int = lambda v: np.array(v, dtype=np.int64)  # noqa: E731
     return FuzzyEngine(table=table, k_terms=_terms_array(k), d_terms=_terms_array(d), o_terms=o_terms,
-                       rule_k=as_int(rk), rule_d=as_int(rd), rule_o=as_int(ro), x_int=x_int,
+                       rule_k=as_int(rk), rule_d=as_int(rd), rule_o=as_int(ro),
+                       grid_o=as_int(ro).reshape(len(k.terms), len(d.terms)), x_int=x_int,
                        act_ptr=as_int(ptr), act_term=as_int(terms), act_m0=np.array(m0s, dtype=float),
                        act_m1=np.array(m1s, dtype=float))
 
