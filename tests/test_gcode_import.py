@@ -285,3 +285,27 @@ def test_arcs_read_as_linuxcnc_reads_them(tmp_path):
         total = sweep[-1] - sweep[0]
         assert np.sign(total) == np.sign(rotation), text
         assert abs(total) > 2 * np.pi * (abs(rotation) - 1) and abs(total) <= 2 * np.pi * abs(rotation) + 1e-9, text
+
+
+def test_incremental_inch_program_read_as_rs274_reads_it(tmp_path):
+    """The G90/G91, G20/G21 program above through LinuxCNC: its STRAIGHT_* targets (in the units
+    of the last USE_LENGTH_UNITS) equal the imported polyline."""
+    import re
+    import subprocess
+
+    from test_gcode_export import rs274_binary
+
+    text = "G20 G91 G17 G94\nG0 X1 Y1\nG1 X1 F10\nY1\nX-0.5 Y0.5 Z-0.1\nG21\nX10\nG90 X0 Y0\nG91 Y-3.25\nM30\n"
+    path = write(tmp_path, text)
+    out = tmp_path / "prog.canon"
+    done = subprocess.run([rs274_binary(), "-g", str(path), str(out)], capture_output=True,
+                          text=True, stdin=subprocess.DEVNULL, timeout=60)
+    assert done.returncode == 0, done.stdout + done.stderr
+    scale, targets = 1.0, []
+    for line in out.read_text().splitlines():
+        if "USE_LENGTH_UNITS" in line:
+            scale = 25.4 if "INCHES" in line else 1.0
+        m = re.search(r"STRAIGHT_(FEED|TRAVERSE)\(([^)]*)\)", line)
+        if m:
+            targets.append([float(v) * scale for v in m.group(2).split(",")[:3]])
+    np.testing.assert_allclose(load_shape(str(path)).polyline, targets, atol=0.5e-4 * 25.4)
