@@ -381,3 +381,15 @@ def test_gcode_decimals_flag_is_checked_by_argparse(capsys):
     with pytest.raises(SystemExit):
         _flag_parser().parse_args(["--gcode", "x.ngc", "--gcode-decimals", "2"])
     assert "use 3 to 9 decimals" in capsys.readouterr().err
+
+
+def test_path_with_nan_is_refused_and_no_file_written(tmp_path):
+    samples = sample_uniform_u(load_shape("trident").curve, 50)
+    xyz = samples.xyz.copy()
+    xyz[17, 1] = np.nan
+    broken = type(samples)(u=samples.u, xyz=xyz, s=samples.s, tangent=samples.tangent,
+                           curvature=samples.curvature, d1=samples.d1, d2=samples.d2, dim=3)
+    profile = FeedProfile(broken, np.full(50, 10.0), "c", 10.0)
+    with pytest.raises(ExportError, match=r"samples\.xyz\[17\] = \[.*nan.*\]; refusing to write a non-finite point"):
+        write_gcode(tmp_path / "nan.ngc", profile)
+    assert not list(tmp_path.iterdir())
