@@ -463,7 +463,8 @@ class _Parser:
 
     # one program line -> words
     def words(self, raw: str, line: int) -> list[tuple[str, str]]:
-        out = []
+        if "(" not in raw and ")" not in raw and ";" not in raw:
+            return self.tokens(raw.replace(" ", "").replace("\t", "").upper(), raw, line)
         depth = 0
         clean = []
         for ch in raw:
@@ -481,7 +482,10 @@ class _Parser:
                 clean.append(ch)
         if depth:
             self.fail(line, "comment '(' not closed on this line")
-        body = "".join(clean).replace(" ", "").replace("\t", "").upper()
+        return self.tokens("".join(clean).replace(" ", "").replace("\t", "").upper(), raw, line)
+
+    def tokens(self, body: str, raw: str, line: int) -> list[tuple[str, str]]:
+        out = []
         if body.startswith("/"):
             body = body[1:]  # block delete is off, as in LinuxCNC by default
         if body in ("", "%"):
@@ -737,7 +741,7 @@ def parse_gcode(text: str, path: str | os.PathLike = "<gcode>") -> list[_Chain]:
         parser.handle(parser.words(raw, number), number)
     parser.finish(len(lines))
     for chain in parser.chains:
-        chain.dim = 3 if parser.saw_z or any(np.any(p[2] != 0) for p in chain.points) else 2
+        chain.dim = 3 if parser.saw_z or np.any(np.array(chain.points)[:, 2] != 0) else 2
     return [c for c in parser.chains if len(c.points) >= 2]
 
 
