@@ -316,6 +316,8 @@ def test_g52_spans_program_accepted_by_rs274_for_every_shape(name, tmp_path):
     assert min(f_words) == pytest.approx(seg.min(), abs=0.05)
     # the imported program (one chain of G5.2 blocks, sampled) lies on the curve
     back = load_shape(str(path))
+    from fuzzyfeed.io.gcode import NURBS_IMPORT_POINTS_PER_SPAN
+    assert len(back.polyline) == 1 + spans * NURBS_IMPORT_POINTS_PER_SPAN   # every block sampled
     pts = back.polyline[:, :2]
     u = np.linspace(*curve.domain, 400001)
     dense = curve(u)[:, :2]

@@ -762,21 +762,21 @@ def _chain_shape(chain: _Chain, path: Path, index: int, total: int):
     notes = "G1 polyline" + (" with G2/G3 arcs flattened within "
                              f"{ARC_TOLERANCE_MM} mm" if "arc" in chain.kinds else "")
     if chain.nurbs:
-        # replace each NURBS end point by samples of the block (start point is already there)
-        expanded = []
+        # the move points[i-1] -> points[i] is either a straight/arc piece or a G5.2 block,
+        # which is replaced by its samples (they end at points[i])
         starts = {start: curve for curve, start in chain.nurbs}
-        i = 0
-        while i < len(points):
-            expanded.append(points[i])
-            if i in starts:
-                curve = starts[i]
-                spans = max(1, curve.span_breaks.size - 1)
-                u = np.linspace(*curve.domain, spans * NURBS_IMPORT_POINTS_PER_SPAN + 1)[1:]
-                c = curve(u)
-                expanded.extend(np.column_stack([c[:, :2], np.full(len(u), points[i][2])]))
-                i += 2  # skip the block's end point (the last sample is it)
+        expanded = [points[0]]
+        for i in range(1, len(points)):
+            curve = starts.get(i - 1)
+            if curve is None:
+                expanded.append(points[i])
                 continue
-            i += 1
+            spans = max(1, curve.span_breaks.size - 1)
+            u = np.linspace(*curve.domain, spans * NURBS_IMPORT_POINTS_PER_SPAN + 1)[1:]
+            c = curve(u)
+            block = np.column_stack([c[:, :2], np.full(len(u), points[i - 1][2])])
+            block[-1] = points[i]
+            expanded.extend(block)
         points = expanded
         notes = (f"G1 moves and {len(chain.nurbs)} G5.2 block(s) sampled at "
                  f"{NURBS_IMPORT_POINTS_PER_SPAN} points per knot span")
