@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzyfeed.errors import InputError, PathFormatError
+from fuzzyfeed.errors import PathFormatError
 
 _COLUMN_SETS = (("x_mm", "y_mm", "z_mm"), ("x", "y", "z"))
 
@@ -153,8 +153,5 @@ def load_points_csv(path: str | os.PathLike, selector: str | None = None):
     if selector is not None:
         pick_by_index(path, selector, ["1"])
     pts = read_points_csv(path)
-    try:
-        return polyline_shape(pts, name=path.stem, source=f"{path} (CSV point list)", path=path,
-                              notes=f"{len(pts)} points from CSV")
-    except InputError as exc:  # pragma: no cover - checked above
-        raise PathFormatError(f"{path}: {exc}") from None
+    return polyline_shape(pts, name=path.stem, source=f"{path} (CSV point list)", path=path,
+                          notes=f"{len(pts)} points from CSV")
