@@ -72,3 +72,15 @@ def test_surface_png(tmp_path, capsys):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main(["rules", "surface", "-o", str(tmp_path / "no" / "s.png")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_show_fcl(capsys):
+    import re
+
+    assert main(["rules", "show", "--format", "fcl"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("RULE ") == 30 and "METHOD : COG;" in out and "ACCU : MAX;" in out
+    assert "RULE 5 : IF curvature IS ZO AND curvature_variation IS VH THEN feed IS VVLF;" in out
+    assert "TERM VVLF := (0.0, 1.0) (10.0, 0.0);" in out
+    assert "TERM VB := (0.2, 0.0) (0.5, 1.0) (1.0, 1.0);" in out
+    assert re.search(r"DEFAULT := 5\.0;", out)

@@ -20,9 +20,10 @@ def register(sub) -> None:
                          description="Print a rule table. --format csv/tsv prints only the grid for "
                                      "a spreadsheet; --format toml prints the file itself (with its "
                                      "comments), e.g. to start your own table: "
-                                     "`fuzzyfeed rules show --format toml > mine.toml`.")
+                                     "`fuzzyfeed rules show --format toml > mine.toml`; --format fcl "
+                                     "exports IEC 61131-7 FCL (MIN/MIN/MAX, COG).")
     show.add_argument("table", nargs="?", default=None, metavar="TABLE")
-    show.add_argument("--format", choices=("text", "csv", "tsv", "toml"), default="text",
+    show.add_argument("--format", choices=("text", "csv", "tsv", "toml", "fcl"), default="text",
                       help="output format (default: %(default)s)")
     show.set_defaults(run=run_show)
 
@@ -80,7 +81,11 @@ def run_show(args: argparse.Namespace) -> int:
         print(path.read_text(encoding="utf-8"), end="")
         return 0
     table = load_rule_table(args.table)
-    if args.format in ("csv", "tsv"):
+    if args.format == "fcl":
+        from fuzzyfeed.fuzzy.rules import table_to_fcl
+
+        print(table_to_fcl(table), end="")
+    elif args.format in ("csv", "tsv"):
         print(grid_text(table, sep="," if args.format == "csv" else "\t"), end="")
     else:
         print(_describe(table))

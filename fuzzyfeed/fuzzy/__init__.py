@@ -1,0 +1,33 @@
+"""The fuzzy feedrate advisor of seed 002 (Lin, Lin & Wang 2021).
+
+- :mod:`~fuzzyfeed.fuzzy.rules` — rule tables (TOML files in ``rules/``): load, validate, edit.
+- :mod:`~fuzzyfeed.fuzzy.features` — κ and the windowed, clipped, normalised Dκ (eq. 10).
+- :mod:`~fuzzyfeed.fuzzy.engine` — exact vectorised Mamdani engine and per-rule firing strengths.
+- :mod:`~fuzzyfeed.fuzzy.advisor` — features → engine → average filter → :class:`FeedProfile`.
+- :mod:`~fuzzyfeed.fuzzy.skfuzzy_ref` — the same controller in scikit-fuzzy (cross-check).
+
+Importing this package loads neither numba's kernel nor scikit-fuzzy; both load on first use.
+"""
+
+from __future__ import annotations
+
+from fuzzyfeed.fuzzy.advisor import FuzzyAdvice, advise, advise_details, average_filter
+from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
+from fuzzyfeed.fuzzy.features import Features, features
+from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable, load_rule_table, parse_rule_table
+
+__all__ = [
+    "Features",
+    "FuzzyAdvice",
+    "FuzzyEngine",
+    "RuleTable",
+    "Term",
+    "Variable",
+    "advise",
+    "advise_details",
+    "average_filter",
+    "compile_table",
+    "features",
+    "load_rule_table",
+    "parse_rule_table",
+]
