@@ -3,8 +3,8 @@ clear error (file:line, value, rule) for every kind of bad table."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzyfeed.errors import RuleTableError
-from fuzzyfeed.fuzzy.rules import (RuleTable, Term, Variable, grid_text, load_rule_table,
+from fuzzyfeed.fuzzy.rules import (Term, Variable, grid_text, load_rule_table,
                                    parse_rule_table, resolve_rules_path, rules_dir, set_cell,
                                    set_cell_text, table_names, table_to_toml, uncovered)
 
@@ -93,7 +93,6 @@ def test_set_cell_keeps_comments_and_changes_one_cell(tmp_path):
     # columns stay aligned: every grid line has its cells at the same offsets
     grid_lines = [ln for ln in new.split("\n[rules]")[1].splitlines() if "= [" in ln]
     assert len(grid_lines) == 7
-    import re
     starts = {tuple(m.start() for m in re.finditer(r'"', ln))[::2] for ln in grid_lines}
     assert len(starts) == 1
     assert load_rule_table(path).grid[1][2] == "HF"
@@ -205,7 +204,7 @@ def test_bad_rule_files(tmp_path, old, new, where, message):
     msg = str(info.value)
     assert "\n" not in msg
     assert msg.startswith(f"{path}:{line_of(text, where)}: "), msg
-    assert __import__("re").search(message, msg), msg
+    assert re.search(message, msg), msg
 
 
 def test_invalid_toml_and_missing_section(tmp_path):

@@ -141,7 +141,7 @@ def _lookup(var: Variable, label: str, where: str) -> int:
 # validation (shared by the in-memory constructor and the file loader)
 
 def _field_locator(name: str) -> Locator:
-    def where(section: str, key: str | None = None, line_hint: int | None = None) -> str:
+    def where(section: str, key: str | None = None) -> str:
         return f"rule table {name!r}: {section}" + (f".{key}" if key else "")
     return where
 
