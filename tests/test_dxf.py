@@ -166,7 +166,43 @@ def test_nan_vertex_and_bad_spline_are_one_line_errors(tmp_path):
                                               r"vertex 1 = \[nan, 0\.0, 0\.0\]; coordinates must be finite"):
         load_shape(str(tmp_path / "nan.dxf"))
     doc, msp = new_doc()
-    msp.add_open_spline([(0, 0), (1, 1), (2, 0), (3, 1)], degree=3, knots=[0, 1, 2, 3, 4, 5, 6, 7])
-    doc.saveas(tmp_path / "periodic.dxf")
-    with pytest.raises(PathFormatError, match=r"periodic\.dxf: SPLINE \w+ \(layer 0\): .*knot"):
-        load_shape(str(tmp_path / "periodic.dxf"))
+    msp.add_open_spline([(0, 0), (1, 1), (2, 0), (3, 1)], degree=3, knots=[0, 0, 0, 0, 2, 1, 1, 1])
+    doc.saveas(tmp_path / "bad.dxf")
+    with pytest.raises(PathFormatError, match=r"bad\.dxf: SPLINE \w+ \(layer 0\): knots\[5\] = 1 < knots\[4\] = 2"):
+        load_shape(str(tmp_path / "bad.dxf"))
+
+
+def test_closed_periodic_spline_is_clamped_to_the_same_curve(tmp_path):
+    """A closed spline with an unclamped (uniform periodic) knot vector, as CAD programs write
+    them: loads as the same curve on [u_p, u_n] (reference: scipy's B-spline on the raw knots)."""
+    from ezdxf.math import closed_uniform_bspline
+    from scipy.interpolate import BSpline
+
+    square = [(0, 0, 0), (10, 0, 0), (10, 10, 0), (0, 10, 0)]
+    periodic = closed_uniform_bspline(square, order=4)
+    knots = np.array(periodic.knots())
+    cps = np.array([tuple(p) for p in periodic.control_points])
+    doc, msp = new_doc()
+    spline = msp.add_open_spline(cps.tolist(), degree=3, knots=knots.tolist())
+    spline.closed = True
+    doc.saveas(tmp_path / "closed.dxf")
+    shape = load_shape(str(tmp_path / "closed.dxf"))
+    assert "clamped" in shape.notes
+    n, p = len(cps), 3
+    assert shape.curve.domain == (knots[p], knots[n])
+    u = np.linspace(knots[p], knots[n], 2001)
+    ref = BSpline(knots, cps[:, :2], p)(u)
+    np.testing.assert_allclose(shape.curve(u), ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(shape.curve(u[:1]), shape.curve(u[-1:]), atol=1e-12)  # closed
+    # rational, non-uniform unclamped knots
+    rng = np.random.default_rng(3)
+    knots = np.sort(rng.uniform(0, 5, 6 + 2 + 1))
+    cps = rng.uniform(-20, 20, (6, 2))
+    w = rng.uniform(0.5, 3.0, 6)
+    doc, msp = new_doc()
+    msp.add_rational_spline([tuple(c) + (0.0,) for c in cps], w.tolist(), degree=2, knots=knots.tolist())
+    doc.saveas(tmp_path / "rational.dxf")
+    curve = load_shape(str(tmp_path / "rational.dxf")).curve
+    u = np.linspace(knots[2], knots[6], 1001)
+    ref = BSpline(knots, cps * w[:, None], 2)(u) / BSpline(knots, w, 2)(u)[:, None]
+    np.testing.assert_allclose(curve(u), ref, rtol=0, atol=1e-9)

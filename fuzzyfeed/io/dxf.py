@@ -5,7 +5,8 @@ Every usable entity of the modelspace becomes one path (:func:`load_dxf_shapes`)
 - ``SPLINE`` with control points: degree, knots, control points and weights as stored (a
   non-rational spline has weights 1). A spline with fit points only is converted by ezdxf's own
   construction tool (``Spline.construction_tool()``, the global interpolation AutoCAD uses).
-  Closed/periodic splines whose knot vector is not clamped are refused with the handle named.
+  A knot vector that is not clamped (closed/periodic splines) is clamped to its valid range
+  [u_p, u_n] by knot insertion (The NURBS Book §5.3): the same curve, with clamped ends.
 - ``LWPOLYLINE`` and 2-D/3-D ``POLYLINE``: the vertices as a polyline (closed ones repeat the first
   vertex at the end). Arc segments (bulge ≠ 0) are flattened into points on the exact
   arc with a sagitta of at most :data:`BULGE_TOLERANCE_MM`. Polyface and mesh POLYLINEs are not paths and are skipped.
@@ -30,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.errors import NurbsError, PathFormatError
+from fuzzyfeed.io.gcode import insert_knot
 
 #: $INSUNITS code → factor to mm (0 = unitless, read as mm).
 INSUNITS_TO_MM = {0: 1.0, 1: 25.4, 2: 304.8, 4: 1.0, 5: 10.0, 6: 1000.0}
@@ -93,6 +95,11 @@ def _spline_curve(entity, scale: float, where: str):
         i = int(np.argwhere(~np.isfinite(points))[0, 0])
         raise PathFormatError(f"{where}: control point {i} = {points[i].tolist()}; must be finite")
     points = points * scale
+    weights = np.ones(len(points)) if weights is None or weights.size == 0 else weights
+    if (degree >= 1 and knots.size == len(points) + degree + 1 and np.all(np.diff(knots) >= 0)
+            and np.all(weights > 0) and (np.ptp(knots[:degree + 1]) > 0 or np.ptp(knots[-degree - 1:]) > 0)):
+        knots, points, weights = clamp_knots(degree, knots, points, weights)
+        how += ", unclamped knots clamped to [u_p, u_n]"
     if np.all(points[:, 2] == 0):
         points = points[:, :2]
     try:
@@ -119,6 +126,29 @@ def bulge_points(p0: np.ndarray, p1: np.ndarray, bulge: float, tolerance: float)
     pts = center + radius * np.column_stack([np.cos(a), np.sin(a)])
     pts[-1] = p1
     return pts
+
+
+def _clamp_start(p: int, knots: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a = float(knots[p])
+    while np.count_nonzero(knots == a) < p:
+        knots, pw = insert_knot(p, knots, pw, a)
+    j = int(np.argmax(knots == a))                   # first knot equal to a
+    if j == 0:                                        # already p + 1 equal knots at the start
+        return knots, pw
+    m = int(np.count_nonzero(knots == a))
+    start_cp = j + m - p - 1                          # C(a) = this control point
+    return np.concatenate([[a] * (p + 1), knots[j + m:]]), pw[start_cp:]
+
+
+def clamp_knots(p: int, knots: np.ndarray, points: np.ndarray, weights: np.ndarray):
+    """The same curve on [u_p, u_n] with a clamped knot vector: insert u_p (and u_n) until each
+    has multiplicity p, then drop the knots and control points outside the range (The NURBS Book
+    §5.3, knot insertion; the curve is unchanged)."""
+    pw = np.column_stack([points * weights[:, None], weights])
+    knots, pw = _clamp_start(p, np.asarray(knots, dtype=float), pw)
+    rk, rpw = _clamp_start(p, -knots[::-1], pw[::-1])
+    knots, pw = -rk[::-1], rpw[::-1]
+    return knots, pw[:, :-1] / pw[:, -1:], pw[:, -1]
 
 
 def _polyline_points(entity, scale: float, where: str) -> np.ndarray:

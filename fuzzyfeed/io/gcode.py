@@ -275,7 +275,7 @@ def check_g52_curve(curve: Nurbs, rtol: float = 1e-9) -> None:
                               "planar (XY); export a 3-D curve as G1 moves")
 
 
-def _insert_knot(p: int, knots: np.ndarray, pw: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
+def insert_knot(p: int, knots: np.ndarray, pw: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
     """Insert ``u`` once into a curve of degree ``p`` with homogeneous control points ``pw``
     (Boehm's knot insertion, The NURBS Book A5.1 with r = 1)."""
     k = int(np.searchsorted(knots, u, side="right")) - 1        # knots[k] <= u < knots[k+1]
@@ -301,7 +301,7 @@ def bezier_segments(curve: Nurbs) -> list[Nurbs]:
     interior, counts = np.unique(knots[(knots > lo) & (knots < hi)], return_counts=True)
     for u, m in zip(interior, counts):
         for _ in range(p - int(m)):
-            knots, pw = _insert_knot(p, knots, pw, float(u))
+            knots, pw = insert_knot(p, knots, pw, float(u))
     breaks = np.concatenate([[lo], interior, [hi]])
     pieces = []
     for j in range(breaks.size - 1):
