@@ -103,3 +103,13 @@ def test_help_shows_the_default_feed(capsys):
         main(["advise", "--help"])
     out = capsys.readouterr().out
     assert "default: 6000" in out and "--rules" in out and "feed_mm_min" in out
+
+
+def test_rule_strength_columns(tmp_path):
+    out = tmp_path / "w.csv"
+    assert main(["advise", "trident", "-o", str(out), "--points", "300", "--rule-strengths"]) == 0
+    cols = read_csv(out)
+    names = [c for c in cols if c.startswith("w_")]
+    assert len(names) == 30 and names[0] == "w_ZO_ZO" and "w_VB_VH" in names
+    w = np.stack([cols[c] for c in names], axis=1)
+    assert ((w >= 0) & (w <= 1)).all() and (w.max(axis=1) > 0).all()

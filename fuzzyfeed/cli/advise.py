@@ -34,6 +34,9 @@ def register(sub) -> None:
     p.add_argument("--points", type=point_count, default=DEFAULT_POINTS, metavar="N",
                    help="sample points, uniform in the parameter as in seed 002 (default: %(default)s; "
                         "point-sequence shapes use their own points)")
+    p.add_argument("--rule-strengths", action="store_true",
+                   help="add one column per rule with its firing strength, named "
+                        "w_<curvature term>_<curvature_variation term> (e.g. w_VS_M)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed and curvature against arc length and the path coloured by feed")
     p.set_defaults(run=run)
@@ -60,8 +63,8 @@ def compute(args: argparse.Namespace):
     return shape, advise_details(samples, table, feed_mm_min / 60.0)
 
 
-def advice_columns(advice) -> dict[str, np.ndarray]:
-    """The CSV columns of a fuzzy advice, units in the names."""
+def advice_columns(advice, rule_strengths: bool = False) -> dict[str, np.ndarray]:
+    """The CSV columns of a fuzzy advice, units in the names (plus w_K_D per rule if asked)."""
     profile = advice.profile
     cols = dict(profile.samples.columns())
     cols["curvature_window_max_1_mm"] = advice.features.window_max_1_mm
@@ -69,6 +72,10 @@ def advice_columns(advice) -> dict[str, np.ndarray]:
     cols["feed_pct_controller"] = advice.controller_pct
     cols["feed_pct"] = profile.feed_pct
     cols["feed_mm_min"] = profile.feed_mm_min
+    if rule_strengths:
+        _, w = advice.rule_strengths()
+        for n, (k, d, _) in enumerate(advice.table.rules):
+            cols[f"w_{k}_{d}"] = w[:, n]
     return cols
 
 
@@ -91,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.csv import write_columns
 
     shape, advice = compute(args)
-    write_columns(args.output, advice_columns(advice))
+    write_columns(args.output, advice_columns(advice, args.rule_strengths))
     if args.plot:
         from fuzzyfeed.plot import plot_fuzzy_advice
 

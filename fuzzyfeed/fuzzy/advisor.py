@@ -43,6 +43,12 @@ class FuzzyAdvice:
     feed_pct: np.ndarray           # after filter, floor and cap (= profile.feed_pct)
     table: RuleTable
 
+    def rule_strengths(self) -> tuple[list[str], np.ndarray]:
+        """Rule names and the firing strength of every rule at every point, (N, n_rules)."""
+        engine = compile_table(self.table)
+        return engine.rule_names, engine.firing_strengths(self.features.curvature_1_mm,
+                                                          self.features.curvature_variation)
+
 
 def _check_feed(max_feed_mm_s: float) -> float:
     try:
