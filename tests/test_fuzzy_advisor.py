@@ -196,3 +196,23 @@ def test_average_filter_removes_the_oscillation(shipped, paper, name):
     if name == "butterfly":
         assert (np.diff(ext_raw) < half).sum() >= 10
         assert _extrema(smooth, 1.0).size < 0.7 * _extrema(raw, 1.0).size
+
+
+def _samples_with_curvature(k: np.ndarray) -> PathSamples:
+    n = k.size
+    xyz = np.zeros((n, 3))
+    xyz[:, 0] = np.arange(n, dtype=float)
+    return PathSamples(u=np.linspace(0, 1, n), xyz=xyz, s=np.arange(n, dtype=float),
+                       tangent=np.tile([1.0, 0, 0], (n, 1)), curvature=k, d1=xyz, d2=xyz)
+
+
+@settings(max_examples=150, deadline=None)
+@given(arrays(float, st.integers(2, 300), elements=st.floats(0, 1e4, allow_nan=False)),
+       st.floats(0.1, 1e4), st.integers(1, 60), st.integers(1, 40), st.floats(0.1, 100))
+def test_feed_always_within_floor_and_max(paper, k, max_feed, ws, m, floor):
+    table = replace(paper, window_points=ws, filter_points=m, feed_floor_pct=floor)
+    advice = advise_details(_samples_with_curvature(k), table, max_feed)
+    pct = advice.feed_pct
+    assert np.isfinite(pct).all() and (pct >= floor).all() and (pct <= 100).all()
+    assert (advice.profile.feed_mm_s > 0).all() and (advice.profile.feed_mm_s <= max_feed * (1 + 1e-12)).all()
+    assert ((advice.features.curvature_variation >= 0) & (advice.features.curvature_variation <= 1)).all()
