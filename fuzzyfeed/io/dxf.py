@@ -40,6 +40,10 @@ BULGE_TOLERANCE_MM = 1e-4
 USABLE_TYPES = ("SPLINE", "LWPOLYLINE", "POLYLINE")
 
 
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())
+
+
 def _read(path: Path):
     import ezdxf
 
@@ -51,12 +55,12 @@ def _read(path: Path):
     try:
         return ezdxf.readfile(str(path))
     except (ezdxf.DXFStructureError, ezdxf.DXFError) as exc:
-        raise PathFormatError(f"{path}: not a readable DXF ({exc})") from None
+        raise PathFormatError(f"{path}: not a readable DXF ({_one_line(exc)})") from None
     except (UnicodeDecodeError, ValueError) as exc:
-        raise PathFormatError(f"{path}: not a readable DXF ({type(exc).__name__}: {exc})") from None
+        raise PathFormatError(f"{path}: not a readable DXF ({type(exc).__name__}: {_one_line(exc)})") from None
     except OSError as exc:
         if exc.errno is None:  # ezdxf's "is not a DXF file"
-            raise PathFormatError(f"{path}: not a readable DXF ({exc})") from None
+            raise PathFormatError(f"{path}: not a readable DXF ({_one_line(exc)})") from None
         raise PathFormatError(f"{path}: cannot read ({exc.strerror})") from None
 
 
@@ -83,7 +87,7 @@ def _spline_curve(entity, scale: float, where: str):
             tool = entity.construction_tool()
         except Exception as exc:  # ezdxf raises several types for degenerate fit data
             raise PathFormatError(f"{where}: fit points could not be interpolated by ezdxf "
-                                  f"({type(exc).__name__}: {exc})") from None
+                                  f"({type(exc).__name__}: {_one_line(exc)})") from None
         degree = int(tool.degree)
         knots = np.asarray(tool.knots(), dtype=float)
         points = np.asarray([tuple(p) for p in tool.control_points], dtype=float)
