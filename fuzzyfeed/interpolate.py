@@ -148,8 +148,9 @@ def feed_fluctuation(curve: Nurbs, u: np.ndarray, s_mm: np.ndarray) -> np.ndarra
     """Per-tick feed fluctuation |ΔP_k| / ΔL_k − 1 in absolute value (Yeh & Hsu 2002).
 
     ΔP_k = C(u_k) − C(u_{k−1}) is the chord the machine actually moves in tick k, ΔL_k the commanded
-    step s_k − s_{k−1}. Ticks excluded (NaN): a commanded step of 0, the final tick (the
-    terminal-error compensation step) and ticks after a sequential method reached the end early.
+    step s_k − s_{k−1}. Ticks excluded (NaN): a commanded step of 0, the tick that arrives at the
+    path's end (the terminal-error compensation step; a sequential method may arrive a few ticks
+    early) and every tick after it.
     Returns an array of length K (one value per tick); multiply by 100 for percent.
     """
     u = np.asarray(u, dtype=float)
@@ -161,7 +162,7 @@ def feed_fluctuation(curve: Nurbs, u: np.ndarray, s_mm: np.ndarray) -> np.ndarra
     out = np.full(commanded.size, np.nan)
     ok = commanded > 1e-12 * max(float(s[-1]), 1.0)
     hi = curve.domain[1]
-    ok &= u[:-1] < hi
+    ok &= u[1:] < hi  # the tick arriving at the end is the terminal compensation
     ok[-1] = False
     out[ok] = np.abs(chords[ok] / commanded[ok] - 1.0)
     return out
