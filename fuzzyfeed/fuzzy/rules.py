@@ -21,6 +21,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import RuleTableError
 
 #: Section names of the three fuzzy variables, in the order inputs, output.
@@ -263,46 +264,21 @@ def uncovered(var: Variable) -> tuple[float, float] | None:
 
 def rules_dir() -> Path:
     """Folder of the shipped rule tables: inside the installed package, or the repository's rules/."""
-    here = Path(__file__).resolve().parent.parent
-    for candidate in (here / "_data" / "rules", here.parent / "rules"):
-        if candidate.is_dir():
-            return candidate
-    raise RuleTableError(f"shipped rule tables not found (looked in {here / '_data' / 'rules'} and "
-                         f"{here.parent / 'rules'}); reinstall fuzzyfeed")
+    return shipped_dir("rules", RuleTableError)
 
 
 def table_names() -> list[str]:
     """Names of the shipped rule tables, sorted."""
-    return sorted(p.stem for p in rules_dir().glob("*.toml"))
+    return shipped_names("rules", RuleTableError)
 
 
 def resolve_rules_path(spec: str | Path | None) -> Path:
     """A --rules argument (None = the default table, a shipped name, or a path) as an existing file."""
-    if spec is None:
-        spec = DEFAULT_TABLE
-    candidate = Path(spec)
-    if candidate.is_file():
-        return candidate
-    if candidate.suffix == "" and len(candidate.parts) == 1:
-        shipped = rules_dir() / f"{spec}.toml"
-        if shipped.is_file():
-            return shipped
-        raise RuleTableError(f"rule table {str(spec)!r}: no such shipped table or file; shipped "
-                             f"tables are: {', '.join(table_names())}")
-    if candidate.exists():
-        raise RuleTableError(f"{candidate}: not a regular file")
-    raise RuleTableError(f"{candidate}: no such file")
+    return resolve_file(DEFAULT_TABLE if spec is None else spec, "rules", "rule table", RuleTableError)
 
 
 def _read_text(path: Path) -> str:
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise RuleTableError(f"{path}: cannot read ({exc.strerror})") from None
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise RuleTableError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    return read_text(path, "rule table", RuleTableError)
 
 
 _HEADER = re.compile(r"^\s*\[\s*([A-Za-z0-9_.\-\"' ]+?)\s*\]\s*(#.*)?$")

@@ -22,27 +22,16 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzyfeed._files import read_text as read_file_text
 from fuzzyfeed.errors import PathFormatError
 
 _COLUMN_SETS = (("x_mm", "y_mm", "z_mm"), ("x", "y", "z"))
 
 
 def read_text(path: str | os.PathLike, kind: str) -> str:
-    """The file's text; a binary, unreadable or non-UTF-8 file is a one-line error."""
-    path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise PathFormatError(f"{path}: cannot read ({exc.strerror})") from None
-    if b"\x00" in raw[:8192]:
-        raise PathFormatError(f"{path}: binary file; expected a {kind} text file")
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        if kind == "G-code":  # comments in old controllers' files are often Latin-1
-            return raw.decode("latin-1")
-        raise PathFormatError(f"{path}: not UTF-8 text (byte {exc.start}); expected a {kind} "
-                              "text file") from None
+    """The text of a path file (CSV or G-code); see :func:`fuzzyfeed._files.read_text`. G-code may
+    be Latin-1 (comments in old controllers' files often are)."""
+    return read_file_text(path, kind, PathFormatError, latin1=kind == "G-code")
 
 
 def chord_knots(points: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import NurbsError, ShapeFileError
 from fuzzyfeed.io.gcode import GCODE_SUFFIXES
 from fuzzyfeed.nurbs import Nurbs
@@ -43,17 +44,12 @@ class Shape:
 
 def shapes_dir() -> Path:
     """Folder of the shipped shapes: inside the installed package, or the repository's shapes/."""
-    here = Path(__file__).resolve().parent.parent
-    for candidate in (here / "_data" / "shapes", here.parent / "shapes"):
-        if candidate.is_dir():
-            return candidate
-    raise ShapeFileError(f"shipped shapes not found (looked in {here / '_data' / 'shapes'} and "
-                         f"{here.parent / 'shapes'}); reinstall fuzzyfeed")
+    return shipped_dir("shapes", ShapeFileError)
 
 
 def shape_names() -> list[str]:
     """Names of the shipped shapes, sorted."""
-    return sorted(p.stem for p in shapes_dir().glob("*.toml"))
+    return shipped_names("shapes", ShapeFileError)
 
 
 def sample_shape(shape: Shape, points: int = DEFAULT_POINTS) -> PathSamples:
@@ -66,18 +62,7 @@ def sample_shape(shape: Shape, points: int = DEFAULT_POINTS) -> PathSamples:
 
 def resolve_shape_path(spec: str | Path) -> Path:
     """Turn a SHAPE argument (shipped name or path) into an existing file path."""
-    candidate = Path(spec)
-    if candidate.is_file():
-        return candidate
-    if candidate.suffix == "" and len(candidate.parts) == 1:
-        shipped = shapes_dir() / f"{spec}.toml"
-        if shipped.is_file():
-            return shipped
-        raise ShapeFileError(f"shape {str(spec)!r}: no such shipped shape or file; "
-                             f"shipped shapes are: {', '.join(shape_names())}")
-    if candidate.exists():
-        raise ShapeFileError(f"{candidate}: not a regular file")
-    raise ShapeFileError(f"{candidate}: no such file")
+    return resolve_file(spec, "shapes", "shape", ShapeFileError)
 
 
 def split_selector(spec: str | Path) -> tuple[str | Path, str | None]:
@@ -117,16 +102,7 @@ def load_shapes(spec: str | Path) -> list[Shape]:
 
 
 def _read_text(path: Path) -> str:
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise ShapeFileError(f"{path}: cannot read ({exc.strerror})") from None
-    if b"\x00" in raw[:8192]:
-        raise ShapeFileError(f"{path}: binary file; expected a text shape file")
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ShapeFileError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    return read_text(path, "shape", ShapeFileError)
 
 
 def _load_toml(path: Path) -> Shape:
