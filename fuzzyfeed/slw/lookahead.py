@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.slw.preprocess import Block, Reference
+from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.slw.preprocess import Block, Reference, evaluate_reference
 from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed,
                                    segment_state, stop_distance)
 
@@ -50,6 +51,7 @@ class _WBlock:
     acc: float
     vmax: float
     checked: tuple | None = None
+    cruise_low: bool = False
 
     @property
     def s0(self) -> float:
@@ -100,7 +102,8 @@ class LookaheadStats:
 class SlidingWindow:
     """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
 
-    def __init__(self, limits: MachineLimits):
+    def __init__(self, limits: MachineLimits, curve: Nurbs | None = None):
+        self.curve = curve
         self.limits = limits
         self.jerk = limits.jerk_mm_s3
         self.acc = limits.tangential_acc_mm_s2
@@ -149,12 +152,13 @@ class SlidingWindow:
     # ------------------------------------------------------------------ profile check & repair
     def _segments(self, i: int):
         b = self.blocks[i]
-        return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk)
+        return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
+                              b.cruise_low)
 
     def _check(self, i: int) -> bool:
         """Check block i; repair it and return False if it broke a limit."""
         b = self.blocks[i]
-        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length)
+        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length, b.cruise_low)
         if b.checked == key:
             return True
         kind, segs = self._segments(i)
@@ -188,8 +192,21 @@ class SlidingWindow:
             b.checked = key
             return True
         if over_v.max() > 0.0:
+            if kind in (2, 3) and not b.cruise_low and min(self.juncs[i].v, self.juncs[i + 1].v) > 0:
+                b.cruise_low = True  # the limit keeps falling (rising): cruise at the lower end
+                return False
             k = int(np.argmax(over_v / np.maximum(vlim, 1e-12)))
-            self._split(i, s[k])
+            bad = over_v > 0.0
+            a_idx = k
+            while a_idx > 0 and bad[a_idx - 1]:
+                a_idx -= 1
+            b_idx = k
+            while b_idx < bad.size - 1 and bad[b_idx + 1]:
+                b_idx += 1
+            # a junction where the profile first crosses the limit, capped at the lowest limit of
+            # the crossing: a ramp is then followed in few, large steps
+            cap = float(vlim[a_idx:b_idx + 1].min())
+            self._split(i, s[a_idx], cap=cap)
             return False
         k = int(np.argmax(r))
         j = int(worst_axis[k])
@@ -220,18 +237,24 @@ class SlidingWindow:
         for b in self.blocks:
             b.checked = None
 
-    def _split(self, i: int, s_at: float, factor: float = 1.0) -> None:
-        """Add a junction inside block i at the reference point nearest ``s_at``."""
+    def _split(self, i: int, s_at: float, factor: float = 1.0, cap: float | None = None) -> None:
+        """Add a junction inside block i at ``s_at`` (its feed limit, times ``factor``, as cap)."""
         b = self.blocks[i]
         ref = b.ref
-        k = int(np.clip(np.searchsorted(ref.s, s_at), 1, len(ref) - 2)) if len(ref) > 2 else 1
-        if len(ref) <= 2:
-            # no interior reference point: insert one by linear interpolation of the data
-            raise RuntimeError("cannot split a block without interior reference points")
-        if abs(ref.s[k - 1] - s_at) < abs(ref.s[k] - s_at) and k - 1 >= 1:
-            k -= 1
+        span = ref.s[-1] - ref.s[0]
+        s_at = float(np.clip(s_at, ref.s[0] + 1e-6 * span, ref.s[-1] - 1e-6 * span))
+        k = int(np.searchsorted(ref.s, s_at))
+        if self.curve is not None and ref.s[k] != s_at and abs(ref.s[k] - s_at) > 1e-3 * span:
+            new = evaluate_reference(self.curve, self.limits, np.array([s_at]))
+            ref = Reference.concat([ref.slice(0, k - 1), new, ref.slice(k, len(ref) - 1)])
+        elif ref.s[k] != s_at:  # split at the nearest interior reference point
+            if len(ref) <= 2:
+                raise RuntimeError("cannot split a block without interior reference points")
+            k = int(np.clip(k, 1, len(ref) - 2))
+            if k - 1 >= 1 and abs(ref.s[k - 1] - s_at) < abs(ref.s[k] - s_at):
+                k -= 1
         left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
-        cap = float(ref.vlim[k]) * factor
+        cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
         bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, float(left.vlim.max())))
         br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, float(right.vlim.max())))
         self.blocks[i:i + 1] = [bl, br]

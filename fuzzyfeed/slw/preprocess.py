@@ -28,6 +28,10 @@ FINE_POINTS = 11
 FINE_LEVELS = 3
 #: Coarse reference points handled per chunk of the streaming preprocessor.
 CHUNK_POINTS = 1024
+#: Halvings of the step where the tangent turns more than the sampled curvature explains.
+RESOLVE_LEVELS = 8
+#: Extra reference points per knot span, uniform in the parameter (features at the spans' scale).
+SPAN_POINTS = 8
 #: Bounds on the number of coarse reference points over the whole path.
 MIN_POINTS, MAX_POINTS = 200, 400_000
 
@@ -94,8 +98,36 @@ def reference_step(curve: Nurbs, limits: MachineLimits) -> float:
     return float(np.clip(limits.feed_mm_s * limits.ts_s, total / MAX_POINTS, total / MIN_POINTS))
 
 
-def evaluate_reference(curve: Nurbs, limits: MachineLimits, s: np.ndarray) -> Reference:
-    """Reference data at arc lengths ``s`` (sorted)."""
+def evaluate_reference(curve: Nurbs, limits: MachineLimits, s: np.ndarray,
+                       resolve: bool = False) -> Reference:
+    """Reference data at arc lengths ``s`` (sorted).
+
+    With ``resolve``, intervals where the tangent turns by more than the sampled curvature
+    explains (a feature narrower than the step: a near-cusp, a tight spike) are subdivided until
+    the turn is resolved (at most RESOLVE_LEVELS halvings of the step).
+    """
+    s = np.asarray(s, dtype=float)
+    ref = _evaluate(curve, limits, s)
+    if not resolve or s.size < 2:
+        return ref
+    for _ in range(RESOLVE_LEVELS):
+        t = ref.tangent
+        cosang = np.clip(np.einsum("ij,ij->i", t[:-1], t[1:]), -1.0, 1.0)
+        turn = np.arccos(cosang)
+        ds = np.diff(ref.s)
+        kappa = np.linalg.norm(np.where(np.isfinite(ref.kn), ref.kn, 0.0), axis=1)
+        explained = 1.5 * ds * np.maximum(kappa[:-1], kappa[1:]) + 0.02
+        bad = (turn > explained) & (ds > 1e-9 * max(float(ref.s[-1]), 1.0))
+        if not bad.any():
+            break
+        lo, hi = ref.s[:-1][bad], ref.s[1:][bad]
+        frac = np.array([0.25, 0.5, 0.75])
+        extra = (lo[:, None] + (hi - lo)[:, None] * frac[None, :]).ravel()
+        ref = Reference.concat([ref, _evaluate(curve, limits, extra)]).sorted_unique()
+    return ref
+
+
+def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray) -> Reference:
     u = np.asarray(curve.param_at_length(s), dtype=float)
     smp = samples_at(curve, u, s=np.asarray(s, dtype=float))
     tangent = np.nan_to_num(np.asarray(smp.tangent), nan=0.0)
@@ -122,6 +154,45 @@ def _refine(curve: Nurbs, limits: MachineLimits, lo: np.ndarray, hi: np.ndarray)
     return extras, best
 
 
+def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent breaks at span joins (C0 knots, zero-length spans) and the feed allowed through them.
+
+    Passing a corner of unit-tangent jump ΔT at feed v turns the motion within one servo period:
+    the axial acceleration measured from positions is v·|ΔT_j|/Ts (≤ A_j) and the corner lies
+    (v·Ts/2)·sin(θ/2) from the chord (≤ δ). The cap is the smaller of the two, with 10 % margin; a
+    reversal or a stationary point gives 0 (a stop). Smooth joins give caps far above the feed.
+    Returns arc lengths and caps of the joins whose cap is below the command feed.
+    """
+    breaks = curve.span_breaks[1:-1]
+    if breaks.size == 0:
+        return np.empty(0), np.empty(0)
+    total = curve.length
+    s_b = np.atleast_1d(curve.arc_length(breaks))
+    h = 1e-7 * total
+    keep = (s_b > h) & (s_b < total - h)
+    s_b = s_b[keep]
+    if s_b.size == 0:
+        return np.empty(0), np.empty(0)
+    side = np.concatenate([s_b - h, s_b + h])
+    d1 = curve.evaluate(np.atleast_1d(curve.param_at_length(side)), order=1)[1]
+    d1 = np.hstack([d1, np.zeros((d1.shape[0], 3 - d1.shape[1]))])
+    norm = np.linalg.norm(d1, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = d1 / norm[:, None]
+    t_in, t_out = t[: s_b.size], t[s_b.size:]
+    jump = np.abs(t_out - t_in)
+    acc = np.asarray(limits.axis_acc_mm_s2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cap_acc = np.min(np.where(jump > 0, acc[None, :] * limits.ts_s / jump, np.inf), axis=1)
+        half = np.linalg.norm(t_out - t_in, axis=1) / 2.0  # sin(θ/2)
+        cap_chord = np.where(half > 0, 2.0 * limits.chord_tol_mm / (limits.ts_s * half), np.inf)
+    cap = 0.9 * np.minimum(cap_acc, cap_chord)
+    cap = np.where(np.isfinite(t).all(axis=1)[: s_b.size] & np.isfinite(t).all(axis=1)[s_b.size:],
+                   cap, 0.0)
+    sel = cap < limits.feed_mm_s
+    return s_b[sel], cap[sel]
+
+
 def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = None) -> Iterator[Block]:
     """Blocks between critical points, in path order, produced chunk by chunk (seed 000)."""
     total = curve.length
@@ -130,13 +201,34 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     step = reference_step(curve, limits) if step_mm is None else float(step_mm)
     n = max(int(np.ceil(total / step - 1e-9)), 2)
     grid = np.linspace(0.0, total, n + 1)
+    breaks = curve.span_breaks
+    u_span = (breaks[:-1, None] + np.diff(breaks)[:, None]
+              * np.linspace(0.0, 1.0, SPAN_POINTS + 1)[None, :-1]).ravel()
+    grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span))]))
+    grid = grid[(grid >= 0.0) & (grid <= total)]
+    grid[0], grid[-1] = 0.0, total
     command = limits.feed_mm_s
     pending: list[Reference] = []   # reference points since the last critical point
     cap0 = 0.0                      # start at rest
     s_start = 0.0
     prev_tail: Reference | None = None  # last two coarse points of the previous chunk
+    corner_s, corner_cap = corners(curve, limits)
     for c0 in range(0, grid.size, CHUNK_POINTS):
-        chunk = evaluate_reference(curve, limits, grid[c0:c0 + CHUNK_POINTS])
+        chunk = evaluate_reference(curve, limits, grid[c0:min(c0 + CHUNK_POINTS + 1, grid.size)],
+                                   resolve=True)
+        if c0 + CHUNK_POINTS + 1 <= grid.size:  # the next chunk starts with the shared point
+            chunk = chunk.slice(0, int(np.searchsorted(chunk.s, grid[c0 + CHUNK_POINTS])) - 1)
+        last_chunk = c0 + CHUNK_POINTS >= grid.size
+        hi_s = grid[min(c0 + CHUNK_POINTS, grid.size - 1)]
+        in_chunk = (corner_s >= grid[c0]) & ((corner_s < hi_s) | last_chunk)
+        if in_chunk.any():
+            cref = evaluate_reference(curve, limits, corner_s[in_chunk])
+            cref = Reference(cref.s, cref.u, np.minimum(cref.vlim, corner_cap[in_chunk]),
+                             cref.tangent, cref.kn)
+            chunk = Reference.concat([chunk, cref]).sorted_unique()
+            forced = dict(zip(corner_s[in_chunk].tolist(), np.minimum(cref.vlim, corner_cap[in_chunk]).tolist()))
+        else:
+            forced = {}
         if prev_tail is not None:
             ctx = Reference.concat([prev_tail, chunk])
             offset = len(prev_tail)
@@ -160,16 +252,20 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
         pending.append(Reference.concat(merged))
         # cut blocks at every located minimum that is now final (all of them are: their
         # neighbours are known)
-        if located.size:
+        cuts = np.unique(np.concatenate([located, np.array(list(forced), dtype=float)]))
+        if cuts.size:
             allref = Reference.concat(pending).sorted_unique()
-            for s_c in np.sort(located):
+            for s_c in cuts:
                 i = int(np.searchsorted(allref.s, s_c))
                 i = min(i, len(allref) - 1)
                 if s_c <= s_start or s_c >= total:
                     continue
+                if allref.s[i] <= s_start:
+                    continue
+                cap1 = float(min(allref.vlim[i], forced.get(float(s_c), np.inf)))
                 head = allref.slice(0, i)
-                yield Block(s_start, float(allref.s[i]), cap0, float(allref.vlim[i]), head)
-                cap0 = float(allref.vlim[i])
+                yield Block(s_start, float(allref.s[i]), cap0, cap1, head)
+                cap0 = cap1
                 s_start = float(allref.s[i])
                 allref = allref.slice(i, len(allref) - 1)
             pending = [allref]

@@ -18,6 +18,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+#: Below this fraction of the block's peak feed, a short block uses approach 2 (a peak) instead of
+#: approach 1 (a cruise at the higher end feed), which would crawl — or stand still between two stops.
+SLOW_CRUISE = 1e-3
 #: Bisection steps for junction corrections: the bracket shrinks by 2**-60, below rounding.
 BISECTION_STEPS = 60
 
@@ -61,6 +64,41 @@ def max_end_speed(v_s: float, length: float, cap: float, acc: float, jerk: float
     return _bisect_speed(v_s, length, cap, acc, jerk)
 
 
+def min_end_speed(v_s: float, length: float, acc: float, jerk: float) -> float:
+    """Lowest end speed reachable from v_s within ``length`` (a deceleration can go no lower)."""
+    if transition_distance(v_s, 0.0, acc, jerk) <= length:
+        return 0.0
+    lo, hi = 0.0, v_s  # D(v_s, v) decreases towards v = v_s where it is 0
+    for _ in range(BISECTION_STEPS):
+        mid = 0.5 * (lo + hi)
+        if transition_distance(v_s, mid, acc, jerk) <= length:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= 1e-13 * max(hi, 1.0):
+            break
+    return hi
+
+
+def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, jerk: float) -> float:
+    """Highest v_p ≤ cap with D(v_s, v_p) + D(v_p, v_e) ≤ length (Table 1, approach 2)."""
+    lo = max(v_s, v_e)
+    def dist(v: float) -> float:
+        return transition_distance(v_s, v, acc, jerk) + transition_distance(v, v_e, acc, jerk)
+    if cap <= lo or dist(cap) <= length:
+        return max(cap, lo)
+    hi = cap
+    for _ in range(BISECTION_STEPS):
+        mid = 0.5 * (lo + hi)
+        if dist(mid) <= length:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-13 * max(hi, 1.0):
+            break
+    return lo
+
+
 def max_start_speed(v_e: float, length: float, cap: float, acc: float, jerk: float) -> float:
     """Highest start speed ≤ cap from which v_e is reachable within ``length`` (type-4 start
     correction; the distance of a transition is symmetric in its two speeds)."""
@@ -81,16 +119,25 @@ class Segment:
 
 
 def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: float,
-                   jerk: float) -> tuple[int, list[Segment]]:
+                   jerk: float, cruise_low: bool = False) -> tuple[int, list[Segment]]:
     """Block type (1-3) and its segments covering exactly ``length`` mm (seed 000, Table 1).
+
+    ``cruise_low`` puts the cruise of a type-2/3 block at its lower-speed end instead (transition
+    first when decelerating, last when accelerating): the look-ahead uses it where the feed limit
+    keeps falling (rising) through the block and approach 1's cruise at the higher end would
+    cross it.
 
     Raises ValueError for a type-4 block (v_e not reachable from v_s within ``length``): the
     look-ahead corrects junction speeds so that this does not happen.
     """
     v_max = max(v_max, v_s, v_e)
+    if v_max <= 0.0:
+        raise ValueError(f"block of {length} mm with a peak feed of 0 cannot be travelled")
     d_se = transition_distance(v_s, v_e, acc, jerk)
     if d_se > length * (1.0 + 1e-9) + 1e-12:
         raise ValueError(f"type-4 block: {v_s} -> {v_e} mm/s needs {d_se} mm, block is {length} mm")
+    if d_se > length:  # rounding: shorten the transition to the block
+        return (2 if v_e > v_s else 3), [Segment(v_s, v_e, 2.0 * length / (v_s + v_e))]
     d_up = transition_distance(v_s, v_max, acc, jerk)
     d_down = transition_distance(v_max, v_e, acc, jerk)
     segs: list[Segment] = []
@@ -105,6 +152,28 @@ def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: flo
             segs.append(Segment(v_max, v_e, transition_time(v_max, v_e, acc, jerk)))
         return kind, segs
     cruise = max(length - d_se, 0.0)
+    if max(v_s, v_e) <= SLOW_CRUISE * v_max and cruise > 0.0:
+        # approach 1 would crawl (or stand still) at the higher end speed: approach 2 instead,
+        # a peak v_p between the two transitions (Table 1, figure (d))
+        v_p = peak_speed(v_s, v_e, length, v_max, acc, jerk)
+        up = transition_distance(v_s, v_p, acc, jerk)
+        down = transition_distance(v_p, v_e, acc, jerk)
+        if v_p > v_s:
+            segs.append(Segment(v_s, v_p, transition_time(v_s, v_p, acc, jerk)))
+        rest = length - up - down
+        if rest > 0.0 and v_p > 0.0:
+            segs.append(Segment(v_p, v_p, rest / v_p))
+        if v_p > v_e:
+            segs.append(Segment(v_p, v_e, transition_time(v_p, v_e, acc, jerk)))
+        return 2 if v_e > v_s else 3, segs
+    if cruise_low and cruise > 0.0 and min(v_s, v_e) > 0.0:
+        low = min(v_s, v_e)
+        if v_s > v_e:
+            segs.append(Segment(v_s, v_e, transition_time(v_s, v_e, acc, jerk)))
+        segs.append(Segment(low, low, cruise / low))
+        if v_e > v_s:
+            segs.append(Segment(v_s, v_e, transition_time(v_s, v_e, acc, jerk)))
+        return (2 if v_e > v_s else 3), segs
     if v_s < v_e:  # type 2: accelerate, then cruise at the higher (end) speed
         segs.append(Segment(v_s, v_e, transition_time(v_s, v_e, acc, jerk)))
         if cruise > 0.0:

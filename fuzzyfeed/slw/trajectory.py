@@ -24,6 +24,10 @@ from fuzzyfeed.slw.preprocess import iter_blocks
 from fuzzyfeed.slw.profile import segment_state
 
 
+#: Most servo periods a trajectory may have (≈ 14 h at 1 ms).
+MAX_TICKS = 5e7
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Servo-period samples of a scheduled path (K + 1 rows; units mm, s).
@@ -82,6 +86,10 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
     starts_t = np.concatenate([[0.0], np.cumsum(durations)])
     starts_s = np.concatenate([[0.0], np.cumsum([seg.length_mm for seg in segs])])
     t_end = float(starts_t[-1])
+    if not np.isfinite(t_end) or t_end / ts > MAX_TICKS:
+        raise InputError(f"the schedule needs {t_end:.4g} s = {t_end / ts:.4g} servo periods (more than "
+                         f"{MAX_TICKS:.0e}); the path has a near-stationary point or the limits are "
+                         "too small for its length")
     k_last = max(int(np.ceil(t_end / ts - 1e-9)), 1)
     t = np.arange(k_last + 1) * ts
     s = np.empty(t.size)
@@ -116,7 +124,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     total = curve.length
     if total <= 0.0 or not np.isfinite(total):
         raise InputError(f"path length {total!r} mm; a path to schedule must have a positive length")
-    window = SlidingWindow(limits)
+    window = SlidingWindow(limits, curve)
     blocks = []
     for block in window.run(iter_blocks(curve, limits)):
         blocks.append(block)
