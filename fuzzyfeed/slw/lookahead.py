@@ -234,8 +234,9 @@ class SlidingWindow:
         return False
 
     def _invalidate(self) -> None:
-        for b in self.blocks:
-            b.checked = None
+        """Nothing to do: a block's check is keyed by everything its profile depends on (junction
+        feeds, acceleration, cruise cap, length, cruise placement), so only changed blocks are
+        checked again."""
 
     def _split(self, i: int, s_at: float, factor: float = 1.0, cap: float | None = None) -> None:
         """Add a junction inside block i at ``s_at`` (its feed limit, times ``factor``, as cap)."""
