@@ -1,0 +1,76 @@
+"""Cosine transitions and block types of the SLW scheduler (seed 000, eq. (16)-(22), Table 1)."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed,
+                                   min_end_speed, segment_state, stop_distance, transition_distance,
+                                   transition_time)
+
+A, J = 1000.0, 10_000.0
+
+
+def test_transition_time_closed_form():
+    # jerk-limited: pi*sqrt(dv/2J); acceleration-limited: pi*dv/2A
+    assert transition_time(0, 100, A, J) == pytest.approx(math.pi * math.sqrt(100 / 20000))
+    assert transition_time(0, 100, 100, 1e9) == pytest.approx(math.pi * 100 / 200)
+    assert transition_time(50, 50, A, J) == 0.0
+    assert stop_distance(100, A, J) == pytest.approx(100 * math.pi * math.sqrt(100 / 20000) / 2)
+
+
+@given(st.floats(0, 300), st.floats(0, 300), st.floats(50, 5000), st.floats(500, 1e5))
+def test_segment_respects_acc_and_jerk_and_distance(v0, v1, acc, jerk):
+    seg = Segment(v0, v1, transition_time(v0, v1, acc, jerk))
+    if seg.duration_s == 0:
+        return
+    tau = np.linspace(0, seg.duration_s, 2001)
+    s, v, a, j = segment_state(seg, tau)
+    assert np.abs(a).max() <= acc * (1 + 1e-9)
+    assert np.abs(j).max() <= jerk * (1 + 1e-9)
+    assert v[0] == pytest.approx(v0) and v[-1] == pytest.approx(v1)
+    assert s[-1] == pytest.approx(transition_distance(v0, v1, acc, jerk), rel=1e-9, abs=1e-12)
+    # independent check: derivatives by finite differences
+    assert np.allclose(np.gradient(s, tau), v, atol=1e-6 * max(v0, v1, 1))
+
+
+@given(st.floats(0, 200), st.floats(0.01, 50), st.floats(0, 200))
+def test_bisection_corrections_are_tight(v, length, cap):
+    up = max_end_speed(v, length, cap, A, J)
+    assert up <= max(cap, v) + 1e-12
+    if up > v:
+        assert transition_distance(v, up, A, J) <= length * (1 + 1e-9)
+        if up < cap:  # tight: a bit faster is not reachable
+            assert transition_distance(v, up * 1.001 + 1e-9, A, J) > length
+    start = max_start_speed(v, length, cap, A, J)
+    if start > v:
+        assert transition_distance(start, v, A, J) <= length * (1 + 1e-9)
+    low = min_end_speed(v, length, A, J)
+    assert transition_distance(v, low, A, J) <= length * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("length, v_s, v_e, kind", [
+    (100.0, 0.0, 0.0, 1), (100.0, 20.0, 60.0, 1), (7.0, 20.0, 60.0, 2), (7.0, 60.0, 20.0, 3),
+])
+def test_block_types_cover_the_length(length, v_s, v_e, kind):
+    got, segs = block_segments(length, v_s, v_e, 100.0, A, J)
+    assert got == kind
+    assert sum(s.length_mm for s in segs) == pytest.approx(length, rel=1e-12)
+    assert segs[0].v0 == v_s and segs[-1].v1 == v_e
+    for a, b in zip(segs, segs[1:]):
+        assert a.v1 == b.v0
+    if kind == 2:  # approach 1: the cruise is at the higher (end) feed
+        assert segs[-1].v0 == segs[-1].v1 == v_e
+    if kind == 3:
+        assert segs[0].v0 == segs[0].v1 == v_s
+
+
+def test_type4_is_refused_and_rest_to_rest_short_block_uses_a_peak():
+    with pytest.raises(ValueError, match="type-4"):
+        block_segments(0.01, 100.0, 0.0, 100.0, A, J)
+    kind, segs = block_segments(0.5, 0.0, 0.0, 100.0, A, J)
+    assert sum(s.length_mm for s in segs) == pytest.approx(0.5)
+    assert max(s.v1 for s in segs) > 0
