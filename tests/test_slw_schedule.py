@@ -41,6 +41,13 @@ def test_shipped_shapes_are_feasible(trajectories, name):
     assert_feasible(trajectories[name])
 
 
+@pytest.mark.parametrize("name", shape_names())
+def test_approach_2_is_feasible_and_not_slower(trajectories, name):
+    traj = schedule(load_shape(name).curve, approach=2)
+    assert_feasible(traj)
+    assert traj.cycle_time_s <= trajectories[name].cycle_time_s + 1e-9
+
+
 def test_infinity_within_ten_percent_of_the_bound(trajectories):
     traj = trajectories["infinity"]
     _, bound = time_optimal_bound(sample_by_arc_length(traj.curve, step_mm=0.05), MachineLimits())

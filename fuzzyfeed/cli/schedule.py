@@ -27,6 +27,10 @@ def register(sub) -> None:
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write (atomically)")
     add_limit_arguments(p)
+    p.add_argument("--approach", type=int, choices=(1, 2), default=1,
+                   help="short blocks (seed 000 Table 1, types 2-3): 1 cruises at the higher end feed "
+                        "(the paper's default, smoother), 2 rises to a peak between the transitions "
+                        "(faster on sharp shapes) (default: %(default)s)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed, acceleration and jerk against time (and the feed against "
                         "arc length with the limit and the bound)")
@@ -60,7 +64,7 @@ def compute(args: argparse.Namespace):
     shape = load_shape(args.shape)
     bar, update = _progress_bar(shape.curve.length)
     try:
-        traj = schedule(shape.curve, limits, progress=update)
+        traj = schedule(shape.curve, limits, progress=update, approach=args.approach)
     finally:
         if bar is not None:
             bar.close()

@@ -102,7 +102,10 @@ class LookaheadStats:
 class SlidingWindow:
     """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
 
-    def __init__(self, limits: MachineLimits, curve: Nurbs | None = None):
+    def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 1):
+        if approach not in (1, 2):
+            raise ValueError(f"approach = {approach!r}; seed 000 Table 1 has approaches 1 and 2")
+        self.approach = approach
         self.curve = curve
         self.limits = limits
         self.jerk = limits.jerk_mm_s3
@@ -153,7 +156,7 @@ class SlidingWindow:
     def _segments(self, i: int):
         b = self.blocks[i]
         return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
-                              b.cruise_low)
+                              b.cruise_low, self.approach)
 
     def _check(self, i: int) -> bool:
         """Check block i; repair it and return False if it broke a limit."""

@@ -119,9 +119,11 @@ class Segment:
 
 
 def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: float,
-                   jerk: float, cruise_low: bool = False) -> tuple[int, list[Segment]]:
+                   jerk: float, cruise_low: bool = False, approach: int = 1) -> tuple[int, list[Segment]]:
     """Block type (1-3) and its segments covering exactly ``length`` mm (seed 000, Table 1).
 
+    ``approach`` 2 replaces approach 1 for types 2-3 by Table 1's figure (d): a peak feed between
+    the two transitions instead of a cruise at the higher end feed (shorter, less smooth).
     ``cruise_low`` puts the cruise of a type-2/3 block at its lower-speed end instead (transition
     first when decelerating, last when accelerating): the look-ahead uses it where the feed limit
     keeps falling (rising) through the block and approach 1's cruise at the higher end would
@@ -152,7 +154,7 @@ def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: flo
             segs.append(Segment(v_max, v_e, transition_time(v_max, v_e, acc, jerk)))
         return kind, segs
     cruise = max(length - d_se, 0.0)
-    if max(v_s, v_e) <= SLOW_CRUISE * v_max and cruise > 0.0:
+    if (approach == 2 or max(v_s, v_e) <= SLOW_CRUISE * v_max) and cruise > 0.0 and not cruise_low:
         # approach 1 would crawl (or stand still) at the higher end speed: approach 2 instead,
         # a peak v_p between the two transitions (Table 1, figure (d))
         v_p = peak_speed(v_s, v_e, length, v_max, acc, jerk)

@@ -113,8 +113,11 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
 
 
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
-             progress: Callable[[float], None] | None = None) -> Trajectory:
+             progress: Callable[[float], None] | None = None, approach: int = 1) -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
+
+    ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 1 (default, the
+    paper's choice) cruises at the higher end feed; 2 rises to a peak between the transitions.
 
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block.
     """
@@ -124,7 +127,9 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     total = curve.length
     if total <= 0.0 or not np.isfinite(total):
         raise InputError(f"path length {total!r} mm; a path to schedule must have a positive length")
-    window = SlidingWindow(limits, curve)
+    if approach not in (1, 2):
+        raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
+    window = SlidingWindow(limits, curve, approach)
     blocks = []
     for block in window.run(iter_blocks(curve, limits)):
         blocks.append(block)
