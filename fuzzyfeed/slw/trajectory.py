@@ -131,10 +131,18 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
     window = SlidingWindow(limits, curve, approach)
     blocks = []
-    for block in window.run(iter_blocks(curve, limits)):
-        blocks.append(block)
-        if progress is not None:
-            progress(block.s1)
+    try:
+        for block in window.run(iter_blocks(curve, limits)):
+            blocks.append(block)
+            if progress is not None:
+                progress(block.s1)
+    except (ValueError, RuntimeError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        where = blocks[-1].s1 if blocks else 0.0
+        raise InputError(f"SLW scheduling failed after s = {where:.6g} mm of {total:.6g} mm: {exc}; the "
+                         "path has a (near-)stationary point or a corner the look-ahead cannot "
+                         "resolve under these limits") from None
     t, s, v, a, j = _sample_profile(blocks, limits.ts_s, total)
     if t.size < 2:
         raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")
