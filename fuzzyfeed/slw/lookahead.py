@@ -32,6 +32,11 @@ from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_s
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
 CHECK_RTOL = 1e-6
+#: Crawl feed (fraction of the command feed) through a block whose limit is 0 everywhere.
+CRAWL = 1e-3
+#: Blocks shorter than this fraction of one servo period's travel at the command feed are not
+#: checked against the limits (the ticks around them are what the machine sees).
+SUB_TICK = 1e-3
 #: Repairs tried per window before giving up on a block (then reported in the statistics).
 MAX_REPAIRS = 400
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
@@ -120,7 +125,9 @@ class SlidingWindow:
     # ------------------------------------------------------------------ window content
     def _push(self, block: Block) -> None:
         self.stats.blocks_in += 1
-        vmax = min(self.limits.feed_mm_s, block.peak_limit)
+        # a stretch with a zero limit everywhere (a micro-kink between two near-stationary
+        # points) is crawled through at a tiny feed rather than being impassable
+        vmax = min(self.limits.feed_mm_s, max(block.peak_limit, CRAWL * self.limits.feed_mm_s))
         self.blocks.append(_WBlock(block.ref, self.acc, vmax))
         self.juncs.append(_Junction(block.s1, block.cap1))
         if block.cap1 > 0 or block.s1 < block.ref.s[-1]:
@@ -163,6 +170,9 @@ class SlidingWindow:
         b = self.blocks[i]
         key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length, b.cruise_low)
         if b.checked == key:
+            return True
+        if b.length < SUB_TICK * self.limits.feed_mm_s * self.limits.ts_s:
+            b.checked = key  # crossed within a small part of one servo period: nothing to sample
             return True
         kind, segs = self._segments(i)
         ts = self.limits.ts_s
