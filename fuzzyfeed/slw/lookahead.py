@@ -269,8 +269,9 @@ class SlidingWindow:
                 k -= 1
         left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
         cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
-        bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, float(left.vlim.max())))
-        br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, float(right.vlim.max())))
+        crawl = CRAWL * self.limits.feed_mm_s
+        bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, max(float(left.vlim.max()), crawl)))
+        br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, max(float(right.vlim.max()), crawl)))
         self.blocks[i:i + 1] = [bl, br]
         self.juncs.insert(i + 1, _Junction(float(ref.s[k]), cap))
         self.stats.junctions_added += 1
