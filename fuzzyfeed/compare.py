@@ -4,7 +4,9 @@ Methods compared (each executed by :mod:`fuzzyfeed.simulate` and measured the sa
 
 ``fuzzy``       the advisor's feed (seed 002) with the user's maximum feed F;
 ``fuzzy-safe``  the advice clamped, point by point, by the SLW schedule's feed (the envelope the
-                machine can really follow under its velocity, acceleration, jerk and chord limits);
+                machine can really follow), then made acceleration-feasible by the bound's
+                forward/backward pass under that clamp: it respects every limit but the jerk
+                (only the SLW schedule is jerk-limited);
 ``slw``         the jerk-limited look-ahead schedule (seed 000), its own time law;
 ``constant``    the command feed F everywhere (what a program without feed planning asks for);
 ``bound``       the acceleration-limited time-optimal bound (phase-plane pass, no jerk limit).
@@ -115,8 +117,9 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     slw_profile = trajectory.feed_at(samples)
     step("fuzzy")
     fuzzy = advise(samples, table, max_feed_mm_s=limits.feed_mm_s)
-    safe = FeedProfile(samples, np.minimum(fuzzy.feed_mm_s, slw_profile.feed_mm_s), "fuzzy-safe",
-                       limits.feed_mm_s)
+    clamped, _ = time_optimal_bound(samples, limits,
+                                    feed_cap=np.minimum(fuzzy.feed_mm_s, slw_profile.feed_mm_s))
+    safe = FeedProfile(samples, clamped.feed_mm_s, "fuzzy-safe", limits.feed_mm_s)
     constant = FeedProfile(samples, np.full(len(samples), limits.feed_mm_s), "constant",
                            limits.feed_mm_s)
     profiles = {"fuzzy": fuzzy, "fuzzy-safe": safe, "slw": slw_profile, "constant": constant,

@@ -68,9 +68,13 @@ def time_law_from_profile(profile: FeedProfile, ts_s: float) -> TimeLaw:
 
     Between samples a and b (arc length Δs apart) the feed goes linearly in time from v_a to v_b:
     T = 2Δs/(v_a + v_b), a = (v_b − v_a)/T = (v_b² − v_a²)/(2Δs). This is exact for the
-    time-optimal bound (v² linear in s) and handles a stop at either end of a segment. The jerk is
-    the change of that acceleration from tick to tick over Ts — what executing the table literally
-    asks of the machine.
+    time-optimal bound (v² linear in s) and handles a stop at either end of a segment.
+
+    The jerk is measured at the table's own resolution: the segments' accelerations, placed at
+    their mid-times and joined linearly, have slope (a_i+1 − a_i) / ((T_i + T_i+1)/2). (Dividing
+    the acceleration steps by Ts instead would charge the table for its sampling: the SLW
+    schedule's own jerk-limited feed, sampled at 2000 points, would show 48 × the jerk limit on
+    infinity; measured this way it shows 1.08 ×.)
     """
     if not math.isfinite(ts_s) or ts_s <= 0:
         raise InputError(f"ts_s = {ts_s!r}; the servo period must be finite and > 0")
@@ -97,7 +101,13 @@ def time_law_from_profile(profile: FeedProfile, ts_s: float) -> TimeLaw:
     feed = np.maximum(v[seg] + seg_acc[seg] * tau, 0.0)
     acc = seg_acc[seg]
     feed[-1], acc[-1] = v[-1], 0.0 if v[-1] == 0 else acc[-1]
-    jerk = np.concatenate([np.diff(acc) / ts_s, [0.0]])
+    moving = seg_time > 0
+    mid_t = (nodes[:-1] + 0.5 * seg_time)[moving]
+    if mid_t.size > 1:
+        slopes = np.diff(seg_acc[moving]) / np.diff(mid_t)
+        jerk = slopes[np.clip(np.searchsorted(mid_t, t, side="right") - 1, 0, slopes.size - 1)]
+    else:
+        jerk = np.zeros_like(t)
     return TimeLaw(ts_s=ts_s, s_mm=s_k, feed_mm_s=feed, acc_mm_s2=acc, jerk_mm_s3=jerk,
                    duration_s=duration)
 

@@ -57,6 +57,10 @@ def test_comparison_methods_and_invariants(infinity_comparison):
     assert 1.0 <= slw_metrics.ratio_to_bound <= 1.10
     assert c.simulations["bound"].metrics.ratio_to_bound == pytest.approx(1.0)
     assert times["fuzzy-safe"] >= times["fuzzy"] - 1e-9  # clamping never speeds the advice up
+    # the safe advice respects every limit but the jerk (1 % for the measurement from positions)
+    safe_violations = c.simulations["fuzzy-safe"].metrics.violations
+    assert all(worst <= 1.01 for name, (_, worst) in safe_violations.items() if name != "jerk")
+    assert safe[0] == 0.0 and safe[-1] == 0.0  # it starts and ends at rest
     # the constant feed breaks the axis acceleration limit in the tight loops of infinity
     const = c.simulations["constant"].metrics
     assert max(const.violations[f"axis_acc_{a}"][1] for a in "xy") > 1.0

@@ -17,8 +17,13 @@ from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 
 
-def time_optimal_bound(samples: PathSamples, limits: MachineLimits) -> tuple[FeedProfile, float]:
+def time_optimal_bound(samples: PathSamples, limits: MachineLimits,
+                       feed_cap: np.ndarray | None = None) -> tuple[FeedProfile, float]:
     """The bound's feed at every sample (method "bound", 0 at both ends) and its cycle time (s).
+
+    ``feed_cap`` (mm/s, one value per sample), if given, is one more pointwise limit: the result
+    is then the fastest acceleration-feasible profile that never exceeds it (how the comparison
+    makes a planner's advice safe).
 
     The cycle time integrates ds / v̄ with v̄ the mean of a segment's two feeds, exact for a
     constant acceleration between samples (x linear in s). Use a fine arc-length sampling
@@ -28,6 +33,8 @@ def time_optimal_bound(samples: PathSamples, limits: MachineLimits) -> tuple[Fee
 
     s = np.asarray(samples.s, dtype=float)
     vlim = feed_limits(samples, limits)
+    if feed_cap is not None:
+        vlim = np.minimum(vlim, np.asarray(feed_cap, dtype=float))
     tangent = np.ascontiguousarray(np.nan_to_num(np.asarray(samples.tangent, dtype=float), nan=0.0))
     kn = np.ascontiguousarray(np.nan_to_num(curvature_vectors(samples), nan=0.0, posinf=0.0))
     x = phase_plane_kernel()(np.diff(s), vlim * vlim, tangent, kn,
