@@ -109,3 +109,16 @@ def test_cli_compare_bad_input(tmp_path, capsys, args, message):
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_table_jerk_is_measured_at_the_table_resolution():
+    """The SLW schedule's feed, sampled and executed as a table, keeps (nearly) its jerk limit:
+    the per-sample execution does not invent jerk from its own sampling."""
+    samples = sample_shape(load_shape("infinity"), 2000)
+    limits = MachineLimits()
+    table = schedule(samples.curve, limits).feed_at(samples)
+    from fuzzyfeed.simulate import simulate_profile
+
+    m = simulate_profile(table, limits).metrics
+    assert m.tan_jerk_max_mm_s3 <= 1.2 * limits.jerk_mm_s3
+    assert m.cycle_time_s == pytest.approx(table.travel_time_s(), rel=1e-12)
