@@ -395,3 +395,44 @@ def test_path_with_nan_is_refused_and_no_file_written(tmp_path):
     with pytest.raises(ExportError, match=r"samples\.xyz\[17\] = \[.*nan.*\]; refusing to write a non-finite point"):
         write_gcode(tmp_path / "nan.ngc", profile)
     assert not list(tmp_path.iterdir())
+
+
+# ------------------------------------------------------------------ advise / schedule --gcode
+def test_cli_advise_and_schedule_write_gcode_rs274_accepts(tmp_path, capsys):
+    from fuzzyfeed.cli import main
+
+    csv, ngc, g52 = tmp_path / "a.csv", tmp_path / "a.ngc", tmp_path / "a52.ngc"
+    assert main(["advise", "infinity", "-o", str(csv), "--gcode", str(ngc), "--gcode-g52", str(g52),
+                 "--feed-step-mm-min", "100", "--line-numbers"]) == 0
+    out = capsys.readouterr().out
+    assert f"wrote {ngc}" in out and f"wrote {g52}" in out
+    for program in (ngc, g52):
+        run_rs274(program, tmp_path)
+    f_values = [float(f) for f in re.findall(r" F(\S+)", ngc.read_text())]
+    assert all(f > 0 and f % 100 == 0 for f in f_values)
+    # the G-code feeds follow the CSV's advised feeds (mean of the segment ends, rounded down)
+    import pandas as pd
+
+    feed = pd.read_csv(csv)["feed_mm_min"].to_numpy()
+    _, _, per_move, _ = canon_moves(run_rs274(ngc, tmp_path))
+    seg = 0.5 * (feed[:-1] + feed[1:])
+    assert np.all(per_move <= seg + 1e-9) and np.all(per_move > seg - 100 - 1e-9)
+
+    sched = tmp_path / "s.ngc"
+    assert main(["schedule", "trident2", "-o", str(tmp_path / "s.csv"), "--gcode", str(sched)]) == 0
+    lines = run_rs274(sched, tmp_path)
+    _, xyz, per_move, _ = canon_moves(lines)
+    assert len(xyz) == 1999 and np.all(per_move > 0)
+
+
+def test_cli_bad_gcode_options_write_nothing(tmp_path, capsys):
+    from fuzzyfeed.cli import main
+
+    csv = tmp_path / "w.csv"
+    assert main(["advise", "wm", "-o", str(csv), "--gcode-g52", str(tmp_path / "w.ngc"),
+                 "--g52-whole"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot be one G5.2 block" in err[0] and "--g52-whole" in err[0]
+    assert main(["advise", "wm", "-o", str(csv), "--line-numbers"]) == 2
+    assert "is a G-code option" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

@@ -65,7 +65,10 @@ class PreparedGcode:
 
 
 def prepare_gcode(args: argparse.Namespace, profile, shape=None) -> PreparedGcode:
-    """Build the programs the G-code flags ask for (none without --gcode/--gcode-g52)."""
+    """Build the programs the G-code flags ask for (none without --gcode/--gcode-g52).
+
+    ``profile`` is a :class:`~fuzzyfeed.profile.FeedProfile` or a function returning one (called
+    only when a program is asked for)."""
     from fuzzyfeed.io.gcode import gcode_program, nurbs_gcode_program
 
     gcode = getattr(args, "gcode", None)
@@ -81,6 +84,8 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None) -> PreparedGcod
     outputs = [p for p in (getattr(args, "output", None), gcode, g52) if p]
     if len(set(outputs)) != len(outputs):
         raise ExportError(f"output files must differ: {', '.join(outputs)}")
+    if callable(profile):
+        profile = profile()
     title = f"{profile.method} feed on {shape.name}" if shape is not None else None
     prepared = PreparedGcode()
     if gcode:

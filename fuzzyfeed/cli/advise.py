@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
+from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.errors import MachineLimitsError
 from fuzzyfeed.sampling import DEFAULT_POINTS
 
@@ -39,6 +40,7 @@ def register(sub) -> None:
                         "w_<curvature term>_<curvature_variation term> (e.g. w_VS_M)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed and curvature against arc length and the path coloured by feed")
+    add_gcode_arguments(p)
     p.set_defaults(run=run)
 
 
@@ -98,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.csv import write_columns
 
     shape, advice = compute(args)
+    gcode = prepare_gcode(args, advice.profile, shape)  # checked before any file is written
     write_columns(args.output, advice_columns(advice, args.rule_strengths))
     if args.plot:
         from fuzzyfeed.plot import plot_fuzzy_advice
@@ -105,4 +108,6 @@ def run(args: argparse.Namespace) -> int:
         plot_fuzzy_advice(advice, shape.name, args.plot)
     print(summary(shape.name, advice))
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
+    for path in gcode.write():
+        print(f"wrote {path}")
     return 0

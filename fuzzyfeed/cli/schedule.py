@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from fuzzyfeed.cli._common import add_shape_argument
+from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
 
 #: Arc-length step (mm) of the samples the time-optimal bound is computed on.
@@ -34,6 +35,7 @@ def register(sub) -> None:
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed, acceleration and jerk against time (and the feed against "
                         "arc length with the limit and the bound)")
+    add_gcode_arguments(p)  # G-code: the scheduled feed at the shape's 2000 seed-002 samples
     p.set_defaults(run=run)
 
 
@@ -93,8 +95,10 @@ def summary(shape_name: str, traj, m: dict, bound_s: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.csv import write_columns
+    from fuzzyfeed.io.shapes import sample_shape
 
     shape, traj, m, bound_profile, bound_s = compute(args)
+    gcode = prepare_gcode(args, lambda: traj.feed_at(sample_shape(shape)), shape)
     write_columns(args.output, traj.columns())
     print(summary(shape.name, traj, m, bound_s))
     print(f"wrote {args.output}")
@@ -103,4 +107,6 @@ def run(args: argparse.Namespace) -> int:
 
         plot_schedule(traj, bound_profile, title=shape.name, output=args.plot)
         print(f"wrote {args.plot}")
+    for path in gcode.write():
+        print(f"wrote {path}")
     return 0

@@ -265,7 +265,7 @@ def check_g52_curve(curve: Nurbs, rtol: float = 1e-9) -> None:
         raise ExportError(f"knots[{i}] = {float(curve.knots[i])!r}, uniform clamped needs "
                           f"{float(expected[i])!r}: LinuxCNC G5.2 builds a uniform clamped knot "
                           "vector, so this curve cannot be one G5.2 block; write one block per knot "
-                          "span (split='spans') or G1 moves")
+                          "span (split='spans'; on the command line, leave out --g52-whole) or G1 moves")
     if curve.dim == 3:
         z = curve.control_points[:, 2]
         tol = 1e-9 * max(1.0, float(np.abs(z).max()))
