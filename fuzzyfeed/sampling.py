@@ -165,8 +165,12 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
     return np.concatenate([[kappa_inner[0]], kappa_inner, [kappa_inner[-1]]])
 
 
-def samples_from_points(points: np.ndarray) -> PathSamples:
-    """A :class:`PathSamples` for a point sequence: chord-length s, three-point curvature."""
+def samples_from_points(points: np.ndarray, curve: Nurbs | None = None) -> PathSamples:
+    """A :class:`PathSamples` for a point sequence: chord-length s, three-point curvature.
+
+    ``curve``, if given, is the degree-1 NURBS through the points with chord-length knots on
+    [0, 1] (so u = s / L is its parameter at every point); planners and the simulator move along it.
+    """
     pts = np.asarray(points, dtype=float)
     kappa = three_point_curvature(pts)
     dim = pts.shape[1]
@@ -177,4 +181,4 @@ def samples_from_points(points: np.ndarray) -> PathSamples:
     tangent /= np.linalg.norm(tangent, axis=1)[:, None]
     nan = np.full_like(xyz, np.nan)
     return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=tangent, curvature=kappa,
-                       d1=nan, d2=nan, dim=dim, curve=None)
+                       d1=nan, d2=nan, dim=dim, curve=curve)

@@ -122,3 +122,17 @@ def test_table_jerk_is_measured_at_the_table_resolution():
     m = simulate_profile(table, limits).metrics
     assert m.tan_jerk_max_mm_s3 <= 1.2 * limits.jerk_mm_s3
     assert m.cycle_time_s == pytest.approx(table.travel_time_s(), rel=1e-12)
+
+
+def test_cli_compare_on_an_imported_polyline(tmp_path, capsys):
+    """A G-code program (a point sequence) compares like a NURBS: the planners move along its
+    degree-1 curve, the advisor uses the three-point curvature of its vertices."""
+    program = tmp_path / "inf.ngc"
+    assert main(["advise", "infinity", "--points", "300", "-o", str(tmp_path / "a.csv"),
+                 "--gcode", str(program)]) == 0
+    report = tmp_path / "report.csv"
+    assert main(["compare", str(program), "-o", str(report)]) == 0
+    df = pd.read_csv(report)
+    assert df["method"].tolist() == list(METHODS)
+    assert (df.loc[df["method"] == "slw", [c for c in df.columns if c.startswith("violations_")]] == 0).all(axis=None)
+    assert "Traceback" not in capsys.readouterr().err

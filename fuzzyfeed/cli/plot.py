@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
-from fuzzyfeed.io.shapes import load_shape
+from fuzzyfeed.io.shapes import load_shape, sample_shape
 from fuzzyfeed.sampling import sample_by_arc_length
 
 
@@ -24,7 +24,8 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.plot import plot_shape_curvature
 
     shape = load_shape(args.shape)
-    samples = sample_by_arc_length(shape.curve, n=args.points)
+    # a NURBS is drawn from points even in arc length; a polyline from its own vertices
+    samples = sample_shape(shape) if shape.polyline is not None else sample_by_arc_length(shape.curve, n=args.points)
     plot_shape_curvature(samples, title=shape.name, output=args.output)
     print(f"wrote {args.output}")
     return 0

@@ -56,7 +56,7 @@ def sample_shape(shape: Shape, points: int = DEFAULT_POINTS) -> PathSamples:
     """The planners' samples of a shape: ``points`` uniform in u for a NURBS (seed 002); the
     vertices themselves with the three-point curvature (seed 002 eq. 4-9) for a polyline."""
     if shape.polyline is not None:
-        return samples_from_points(shape.polyline)
+        return samples_from_points(shape.polyline, shape.curve)
     return sample_uniform_u(shape.curve, points)
 
 
