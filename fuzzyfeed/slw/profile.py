@@ -16,6 +16,7 @@ A block of length S between two junctions is one of (approach 1 for types 2-3):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 #: Below this fraction of the block's peak feed, a short block uses approach 2 (a peak) instead of
@@ -43,20 +44,25 @@ def stop_distance(feed: float, acc: float, jerk: float) -> float:
     return transition_distance(feed, 0.0, acc, jerk)
 
 
+def _bisect(holds: Callable[[float], bool], good: float, bad: float) -> float:
+    """The speed nearest ``bad`` at which the monotone test ``holds`` is still true, by bisection
+    between ``good`` (where it holds) and ``bad`` (where it fails) — the correction of seed 000."""
+    for _ in range(BISECTION_STEPS):
+        mid = 0.5 * (good + bad)
+        if holds(mid):
+            good = mid
+        else:
+            bad = mid
+        if abs(bad - good) <= 1e-13 * max(good, bad, 1.0):
+            break
+    return good
+
+
 def _bisect_speed(fixed: float, length: float, cap: float, acc: float, jerk: float) -> float:
     """Largest v in [fixed, cap] with transition_distance(fixed, v) ≤ length (monotone in v)."""
     if cap <= fixed or transition_distance(fixed, cap, acc, jerk) <= length:
         return cap
-    lo, hi = fixed, cap
-    for _ in range(BISECTION_STEPS):
-        mid = 0.5 * (lo + hi)
-        if transition_distance(fixed, mid, acc, jerk) <= length:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-13 * max(hi, 1.0):
-            break
-    return lo
+    return _bisect(lambda v: transition_distance(fixed, v, acc, jerk) <= length, fixed, cap)
 
 
 def max_end_speed(v_s: float, length: float, cap: float, acc: float, jerk: float) -> float:
@@ -68,35 +74,20 @@ def min_end_speed(v_s: float, length: float, acc: float, jerk: float) -> float:
     """Lowest end speed reachable from v_s within ``length`` (a deceleration can go no lower)."""
     if transition_distance(v_s, 0.0, acc, jerk) <= length:
         return 0.0
-    lo, hi = 0.0, v_s  # D(v_s, v) decreases towards v = v_s where it is 0
-    for _ in range(BISECTION_STEPS):
-        mid = 0.5 * (lo + hi)
-        if transition_distance(v_s, mid, acc, jerk) <= length:
-            hi = mid
-        else:
-            lo = mid
-        if hi - lo <= 1e-13 * max(hi, 1.0):
-            break
-    return hi
+    # D(v_s, v) decreases towards v = v_s, where it is 0
+    return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, v_s, 0.0)
 
 
 def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, jerk: float) -> float:
     """Highest v_p ≤ cap with D(v_s, v_p) + D(v_p, v_e) ≤ length (Table 1, approach 2)."""
     lo = max(v_s, v_e)
+
     def dist(v: float) -> float:
         return transition_distance(v_s, v, acc, jerk) + transition_distance(v, v_e, acc, jerk)
+
     if cap <= lo or dist(cap) <= length:
         return max(cap, lo)
-    hi = cap
-    for _ in range(BISECTION_STEPS):
-        mid = 0.5 * (lo + hi)
-        if dist(mid) <= length:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-13 * max(hi, 1.0):
-            break
-    return lo
+    return _bisect(lambda v: dist(v) <= length, lo, cap)
 
 
 def max_start_speed(v_e: float, length: float, cap: float, acc: float, jerk: float) -> float:
