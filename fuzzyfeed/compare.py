@@ -25,7 +25,7 @@ from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
-from fuzzyfeed.simulate import Simulation, TimeLaw, simulate, simulate_profile
+from fuzzyfeed.simulate import Simulation, simulate, simulate_profile
 from fuzzyfeed.slw import schedule, time_optimal_bound
 
 METHODS = ("fuzzy", "fuzzy-safe", "slw", "constant", "bound")
@@ -128,10 +128,7 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     for method in METHODS:
         step(f"simulate {method}")
         if method == "slw":
-            law = TimeLaw(ts_s=limits.ts_s, s_mm=trajectory.s_mm, feed_mm_s=trajectory.feed_mm_s,
-                          acc_mm_s2=trajectory.acc_mm_s2, jerk_mm_s3=trajectory.jerk_mm_s3,
-                          duration_s=trajectory.cycle_time_s)
-            sims[method] = simulate(curve, law, limits, "slw", bound_time_s=bound_time)
+            sims[method] = simulate(curve, trajectory.time_law(), limits, "slw", bound_time_s=bound_time)
         else:
             sims[method] = simulate_profile(profiles[method], limits, bound_time_s=bound_time)
     check = _cross_check(samples, fuzzy, slw_profile, sims["fuzzy"].metrics.cycle_time_s,

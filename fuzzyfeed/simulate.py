@@ -24,8 +24,6 @@ from fuzzyfeed.profile import FeedProfile
 #: A tick counts as a violation when it exceeds a limit by more than this fraction (rounding and
 #: the O(ΔL³) chord-to-arc difference must not count).
 VIOLATION_TOLERANCE = 1e-6
-#: Fractions of each tick's parameter interval where the chord error is measured.
-_CHORD_PROBES = np.array([0.25, 0.5, 0.75])
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,22 +166,21 @@ class Simulation:
     metrics: Metrics
 
 
-def _chord_errors(curve: Nurbs, u: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Largest distance of C(u) from the chord C(u_k)C(u_k+1), probed inside every interval."""
-    a, b = pts[:-1], pts[1:]
-    chord = b - a
-    length2 = np.einsum("ij,ij->i", chord, chord)
-    worst = np.zeros(a.shape[0])
-    for f in _CHORD_PROBES:
-        q = curve(u[:-1] + f * (u[1:] - u[:-1]))
-        if q.shape[1] < 3:
-            q = np.hstack([q, np.zeros((q.shape[0], 3 - q.shape[1]))])
-        rel = q - a
-        t = np.divide(np.einsum("ij,ij->i", rel, chord), length2, out=np.zeros_like(length2),
-                      where=length2 > 0)
-        t = np.clip(t, 0.0, 1.0)
-        worst = np.maximum(worst, np.linalg.norm(rel - t[:, None] * chord, axis=1))
-    return worst
+def chord_errors(curve: Nurbs, u: np.ndarray, probes: int = 5) -> np.ndarray:
+    """Largest distance of the curve from each tick's chord C(u_k)C(u_k+1) (mm, one per tick),
+    probed at ``probes`` evenly spaced parameters inside every interval."""
+    frac = np.linspace(0.0, 1.0, probes + 2)[1:-1]
+    u0, u1 = u[:-1], u[1:]
+    inner = u0[:, None] + (u1 - u0)[:, None] * frac[None, :]
+    pts = curve(inner.ravel()).reshape(inner.shape + (curve.dim,))
+    a, b = curve(u0), curve(u1)
+    ab = b - a
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    rel = pts - a[:, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.clip(np.einsum("ikj,ij->ik", rel, ab) / length2[:, None], 0.0, 1.0)
+    t = np.where(length2[:, None] > 0, t, 0.0)
+    return np.linalg.norm(rel - t[..., None] * ab[:, None, :], axis=-1).max(axis=1)
 
 
 def _violation(values: np.ndarray, limit: float) -> tuple[int, float]:
@@ -211,7 +208,7 @@ def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
     vel = step / dt[:, None]                                  # per tick, per axis
     acc = np.diff(vel, axis=0) / (0.5 * (dt[:-1] + dt[1:]))[:, None]  # per tick boundary
     feed = np.linalg.norm(vel, axis=1)
-    chord = _chord_errors(curve, u, pts)
+    chord = chord_errors(curve, u)
     fluct = feed_fluctuation(curve, u, law.s_mm)
     fluct = fluct[np.isfinite(fluct)]
     vel_max = tuple(float(x) for x in np.abs(vel).max(axis=0))

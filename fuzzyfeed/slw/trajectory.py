@@ -15,10 +15,11 @@ import numpy as np
 
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.interpolate import interpolate_u
-from fuzzyfeed.limits import MachineLimits
+from fuzzyfeed.limits import AXES, MachineLimits
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
+from fuzzyfeed.simulate import TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
 from fuzzyfeed.slw.preprocess import iter_blocks
 from fuzzyfeed.slw.profile import segment_state
@@ -69,6 +70,12 @@ class Trajectory:
                 "z_mm": self.xyz[:, 2], "s_mm": self.s_mm, "feed_mm_s": self.feed_mm_s,
                 "feed_mm_min": self.feed_mm_s * 60.0, "acc_mm_s2": self.acc_mm_s2,
                 "jerk_mm_s3": self.jerk_mm_s3}
+
+    def time_law(self) -> TimeLaw:
+        """The schedule as the simulator's time law (arc length, feed, acceleration, jerk per tick)."""
+        return TimeLaw(ts_s=self.limits.ts_s, s_mm=self.s_mm, feed_mm_s=self.feed_mm_s,
+                       acc_mm_s2=self.acc_mm_s2, jerk_mm_s3=self.jerk_mm_s3,
+                       duration_s=self.cycle_time_s)
 
     def feed_at(self, samples: PathSamples) -> FeedProfile:
         """The scheduled feed at the sampling layer's points (method "slw"), interpolated in s."""
@@ -155,50 +162,27 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
 
 
 # ---------------------------------------------------------------------- measurement
-def chord_errors(curve: Nurbs, u: np.ndarray, points_per_tick: int = 5) -> np.ndarray:
-    """Largest distance of the curve between consecutive ticks from their chord (mm), per tick."""
-    frac = np.linspace(0.0, 1.0, points_per_tick + 2)[1:-1]
-    u0, u1 = u[:-1], u[1:]
-    inner = u0[:, None] + (u1 - u0)[:, None] * frac[None, :]
-    pts = curve.evaluate(inner.ravel(), order=0)[0].reshape(inner.shape + (curve.dim,))
-    a = curve.evaluate(u0, order=0)[0]
-    b = curve.evaluate(u1, order=0)[0]
-    ab = b - a
-    length2 = np.einsum("ij,ij->i", ab, ab)
-    rel = pts - a[:, None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.clip(np.einsum("ikj,ij->ik", rel, ab) / length2[:, None], 0.0, 1.0)
-    t = np.where(length2[:, None] > 0, t, 0.0)
-    d = rel - t[..., None] * ab[:, None, :]
-    return np.linalg.norm(d, axis=-1).max(axis=1)
-
-
 def measure(traj: Trajectory) -> dict[str, float]:
-    """Worst ratio to each limit, measured the way the issue asks.
+    """Worst ratio to each limit, measured by the one simulator (:func:`fuzzyfeed.simulate.simulate`).
 
     From the positions (differences at Ts): feed, axial velocity, axial acceleration, chord
     error. From the scheduled profile: tangential acceleration and jerk. Plus the start/end feeds
-    and the terminal error (distance of the last point from the path's end, mm).
+    and the start and terminal errors (distance of the first/last point from the path's ends, mm).
     """
     lim = traj.limits
-    ts = lim.ts_s
-    x = traj.xyz
-    dx = np.diff(x, axis=0)
-    vel = dx / ts
-    feed = np.linalg.norm(dx, axis=1) / ts
-    acc = (x[2:] - 2 * x[1:-1] + x[:-2]) / ts**2 if x.shape[0] > 2 else np.zeros((1, 3))
-    end = traj.curve.evaluate(traj.curve.domain[1], order=0)[0]
-    start = traj.curve.evaluate(traj.curve.domain[0], order=0)[0]
+    m = simulate(traj.curve, traj.time_law(), lim, "slw").metrics
+    ratio = {name: worst for name, (_, worst) in m.violations.items()}
+    start, end = traj.curve(traj.curve.domain[0]), traj.curve(traj.curve.domain[1])
     d = traj.curve.dim
     return {
-        "feed": float(feed.max() / lim.feed_mm_s),
-        "axis_vel": float((np.abs(vel) / np.asarray(lim.axis_vel_mm_s)).max()),
-        "axis_acc": float((np.abs(acc) / np.asarray(lim.axis_acc_mm_s2)).max()),
-        "chord": float(chord_errors(traj.curve, traj.u).max() / lim.chord_tol_mm),
-        "tangential_acc": float(np.abs(traj.acc_mm_s2).max() / lim.tangential_acc_mm_s2),
-        "jerk": float(np.abs(traj.jerk_mm_s3).max() / lim.jerk_mm_s3),
+        "feed": ratio["feed"],
+        "axis_vel": max(ratio[f"axis_vel_{a}"] for a in AXES),
+        "axis_acc": max(ratio[f"axis_acc_{a}"] for a in AXES),
+        "chord": ratio["chord_error"],
+        "tangential_acc": m.tan_acc_max_mm_s2 / lim.tangential_acc_mm_s2,
+        "jerk": ratio["jerk"],
         "start_feed_mm_s": float(traj.feed_mm_s[0]),
         "end_feed_mm_s": float(traj.feed_mm_s[-1]),
-        "start_error_mm": float(np.linalg.norm(x[0, :d] - start)),
-        "terminal_error_mm": float(np.linalg.norm(x[-1, :d] - end)),
+        "start_error_mm": float(np.linalg.norm(traj.xyz[0, :d] - start)),
+        "terminal_error_mm": float(np.linalg.norm(traj.xyz[-1, :d] - end)),
     }
