@@ -10,10 +10,11 @@ import numpy as np
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.errors import MachineLimitsError
+from fuzzyfeed.limits import DEFAULT_FEED_MM_S
 from fuzzyfeed.sampling import DEFAULT_POINTS
 
-#: Default maximum feed F (mm/min) when --feed-mm-min is not given.
-DEFAULT_FEED_MM_MIN = 6000.0
+#: Default maximum feed F (mm/min) when --feed-mm-min is not given: the machine default's feed.
+DEFAULT_FEED_MM_MIN = DEFAULT_FEED_MM_S * 60.0
 
 
 def register(sub) -> None:
