@@ -51,17 +51,6 @@ class Term:
         p = self.points
         return (p[0], p[1], p[1], p[2]) if len(p) == 3 else (p[0], p[1], p[2], p[3])
 
-    def membership(self, x: float) -> float:
-        """μ(x): 0 outside [a, d], linear on the edges, 1 on [b, c] (a shoulder a = b gives 1 at a)."""
-        a, b, c, d = self.trapezoid
-        if x < a or x > d:
-            return 0.0
-        if x < b:
-            return (x - a) / (b - a)
-        if x <= c:
-            return 1.0
-        return (d - x) / (d - c)
-
 
 @dataclass(frozen=True)
 class Variable:
