@@ -109,6 +109,20 @@ class Segment:
         return 0.5 * (self.v0 + self.v1) * self.duration_s
 
 
+def _rise_cruise_fall(v_s: float, v_top: float, v_e: float, cruise: float, acc: float,
+                      jerk: float) -> list[Segment]:
+    """Cosine rise v_s → v_top, a cruise of ``cruise`` mm at v_top, cosine fall v_top → v_e
+    (pieces of zero length left out): the shape of seed 000's type 1 and of approach 2."""
+    segs = []
+    if v_top > v_s:
+        segs.append(Segment(v_s, v_top, transition_time(v_s, v_top, acc, jerk)))
+    if cruise > 0.0 and v_top > 0.0:
+        segs.append(Segment(v_top, v_top, cruise / v_top))
+    if v_top > v_e:
+        segs.append(Segment(v_top, v_e, transition_time(v_top, v_e, acc, jerk)))
+    return segs
+
+
 def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: float,
                    jerk: float, cruise_low: bool = False, approach: int = 1) -> tuple[int, list[Segment]]:
     """Block type (1-3) and its segments covering exactly ``length`` mm (seed 000, Table 1).
@@ -135,30 +149,14 @@ def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: flo
     d_down = transition_distance(v_max, v_e, acc, jerk)
     segs: list[Segment] = []
     if d_up + d_down <= length:  # type 1
-        kind = 1
-        if v_max > v_s:
-            segs.append(Segment(v_s, v_max, transition_time(v_s, v_max, acc, jerk)))
-        cruise = length - d_up - d_down
-        if cruise > 0.0 and v_max > 0.0:
-            segs.append(Segment(v_max, v_max, cruise / v_max))
-        if v_max > v_e:
-            segs.append(Segment(v_max, v_e, transition_time(v_max, v_e, acc, jerk)))
-        return kind, segs
+        return 1, _rise_cruise_fall(v_s, v_max, v_e, length - d_up - d_down, acc, jerk)
     cruise = max(length - d_se, 0.0)
     if (approach == 2 or max(v_s, v_e) <= SLOW_CRUISE * v_max) and cruise > 0.0 and not cruise_low:
         # approach 1 would crawl (or stand still) at the higher end speed: approach 2 instead,
         # a peak v_p between the two transitions (Table 1, figure (d))
         v_p = peak_speed(v_s, v_e, length, v_max, acc, jerk)
-        up = transition_distance(v_s, v_p, acc, jerk)
-        down = transition_distance(v_p, v_e, acc, jerk)
-        if v_p > v_s:
-            segs.append(Segment(v_s, v_p, transition_time(v_s, v_p, acc, jerk)))
-        rest = length - up - down
-        if rest > 0.0 and v_p > 0.0:
-            segs.append(Segment(v_p, v_p, rest / v_p))
-        if v_p > v_e:
-            segs.append(Segment(v_p, v_e, transition_time(v_p, v_e, acc, jerk)))
-        return 2 if v_e > v_s else 3, segs
+        rest = length - transition_distance(v_s, v_p, acc, jerk) - transition_distance(v_p, v_e, acc, jerk)
+        return 2 if v_e > v_s else 3, _rise_cruise_fall(v_s, v_p, v_e, rest, acc, jerk)
     if cruise_low and cruise > 0.0 and min(v_s, v_e) > 0.0:
         low = min(v_s, v_e)
         if v_s > v_e:
