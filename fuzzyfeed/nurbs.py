@@ -17,7 +17,7 @@ from functools import cached_property
 
 import numpy as np
 
-from fuzzyfeed._kernels import nurbs_kernel
+from fuzzyfeed._kernels import evaluate_power_basis
 from fuzzyfeed.errors import NurbsError
 
 #: Gauss–Legendre order used per interval for arc length (exact for polynomials of degree 15).
@@ -104,7 +104,7 @@ class Nurbs:
             raise NurbsError(f"u[{i}] = {_fmt(flat[i])} is outside the curve's domain "
                              f"[{_fmt(lo)}, {_fmt(hi)}]")
         out = np.empty((order + 1, flat.size, self.dim))
-        nurbs_kernel()(self._spans, self._coeffs, flat, order, out)
+        evaluate_power_basis(self._spans, self._coeffs, flat, order, out)
         return out[:, 0] if scalar else out
 
     def __call__(self, u: np.ndarray | float) -> np.ndarray:
