@@ -36,7 +36,9 @@ def child_cpu() -> float:
 
 def timed(cmd: list[str], env: dict, cwd: Path) -> float:
     start = child_cpu()
-    subprocess.run(cmd, env=env, cwd=cwd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    done = subprocess.run(cmd, env=env, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if done.returncode:
+        sys.exit(f"{' '.join(cmd)} failed ({done.returncode}):\n{done.stderr}")
     return child_cpu() - start
 
 
