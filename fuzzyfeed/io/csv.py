@@ -49,23 +49,61 @@ def _quote(text: str) -> str:
     return text
 
 
+def _strings(lengths: np.ndarray, data: bytes):
+    """An Arrow string array from its field lengths and concatenated UTF-8 bytes.
+
+    Arrays are built from buffers throughout: ``pa.array``/``pa.scalar`` would import pandas
+    (0.3 s) to check for pandas objects."""
+    import pyarrow as pa
+
+    offsets = np.zeros(lengths.size + 1, dtype=np.int32)
+    np.cumsum(lengths, out=offsets[1:])
+    return pa.Array.from_buffers(pa.string(), lengths.size,
+                                 [None, pa.py_buffer(offsets), pa.py_buffer(data)])
+
+
+def _constant(text: str, n: int):
+    return _strings(np.full(n, len(text.encode())), text.encode() * n)
+
+
+def _buffers(text) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets and bytes of an Arrow string array."""
+    offsets = np.frombuffer(text.buffers()[1], dtype=np.int32, count=len(text) + 1, offset=4 * text.offset)
+    data = np.frombuffer(text.buffers()[2], dtype=np.uint8) if len(text) else np.zeros(0, np.uint8)
+    return offsets, data
+
+
+def _numbers(values: np.ndarray, arrow_type):
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    values = np.ascontiguousarray(values)
+    array = pa.Array.from_buffers(arrow_type, values.size, [None, pa.py_buffer(values)])
+    return pc.cast(array, pa.string())           # floats: the shortest round-trip digits
+
+
 def _text_column(values: np.ndarray):
     """One column of a block as an Arrow string array of CSV fields."""
     import pyarrow as pa
     import pyarrow.compute as pc
 
+    n = values.size
     if values.dtype.kind == "f":
         values = values.astype(np.float64, copy=False)
-        text = pc.cast(pa.array(values), pa.string())            # shortest round-trip digits
+        text = _numbers(values, pa.float64())
         integral = np.isfinite(values) & (values == np.trunc(values))
         if integral.any():   # "100" -> "100.0", "-0" -> "-0.0" (not "1e+16"): floats read as floats
-            plain = pc.invert(pc.match_substring(text, "e"))
-            add = pc.and_(pa.array(integral), plain)
-            text = pc.if_else(add, pc.binary_join_element_wise(text, ".0", ""), text)
+            offsets, data = _buffers(text)
+            has_e = np.zeros(n, dtype=bool)
+            has_e[np.searchsorted(offsets, np.flatnonzero(data == ord("e")), side="right") - 1] = True
+            add = integral & ~has_e
+            suffix = _strings(np.where(add, 2, 0), b".0" * int(add.sum()))
+            text = pc.binary_join_element_wise(text, suffix, _constant("", n))
         return text
     if values.dtype.kind in "iu":
-        return pc.cast(pa.array(values), pa.string())
-    return pa.array([_quote(str(v)) for v in values.tolist()], type=pa.string())
+        return _numbers(values.astype(np.int64, copy=False), pa.int64())
+    fields = [_quote(str(v)).encode() for v in values.tolist()]
+    return _strings(np.array([len(f) for f in fields], dtype=np.int64), b"".join(fields))
 
 
 def _write_rows(handle, arrays: list[np.ndarray]) -> None:
@@ -76,10 +114,9 @@ def _write_rows(handle, arrays: list[np.ndarray]) -> None:
     n = arrays[0].shape[0]
     for start in range(0, n, ROWS_PER_BLOCK):
         cols = [_text_column(a[start:start + ROWS_PER_BLOCK]) for a in arrays]
-        rows = pc.binary_join_element_wise(*cols, ",") if len(cols) > 1 else cols[0]
-        rows = pc.binary_join_element_wise(rows, "", "\n")     # each row + "\n"
-        offsets = np.frombuffer(rows.buffers()[1], dtype=np.int32, count=len(rows) + 1,
-                                offset=4 * rows.offset)
-        data = memoryview(rows.buffers()[2])[offsets[0]:offsets[-1]]
+        m = len(cols[0])
+        rows = pc.binary_join_element_wise(*cols, _constant(",", m)) if len(cols) > 1 else cols[0]
+        rows = pc.binary_join_element_wise(rows, _constant("", m), _constant("\n", m))  # row + "\n"
+        offsets, data = _buffers(rows)
         handle.flush()               # text already written goes first; the block's bytes as they are
-        handle.buffer.write(data)
+        handle.buffer.write(memoryview(data)[offsets[0]:offsets[-1]])
