@@ -10,6 +10,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from conftest import circle_nurbs, random_nurbs_definition
 
 from fuzzyfeed import _kernels
@@ -47,6 +49,17 @@ def test_nurbs_forms_bit_identical_on_random_curves():
         u = np.sort(np.concatenate([rng.uniform(0, 1, 300), curve.span_breaks]))
         a, b = both_forms(curve, u)
         np.testing.assert_array_equal(a, b)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 400), order=st.integers(0, 2))
+def test_property_both_nurbs_forms_agree_bit_for_bit(seed, n, order):
+    rng = np.random.default_rng(seed)
+    d = random_nurbs_definition(rng)
+    curve = Nurbs(d["degree"], d["knots"], d["points"], d["weights"])
+    u = np.sort(np.concatenate([rng.uniform(0, 1, n), rng.choice(curve.span_breaks, min(n, 5))]))
+    a, b = both_forms(curve, u, order)
+    np.testing.assert_array_equal(a, b)
 
 
 def test_evaluate_switches_form_at_the_threshold():
