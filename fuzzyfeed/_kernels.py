@@ -10,7 +10,7 @@ Compiled kernels are compiled for one explicit signature (read-only inputs accep
 so one compilation serves both) and cached on disk by numba: in ``__pycache__`` beside the module
 when that folder is writable, else in the user's cache folder (numba's own fallback), or in
 ``NUMBA_CACHE_DIR`` when it is set. When a compilation really happens (no cached copy) and stderr is
-a terminal, one line says so; a run whose stderr is a file or a pipe stays silent.
+a terminal, one line says so (once per process); a run whose stderr is a file or a pipe stays silent.
 """
 
 from __future__ import annotations
@@ -29,29 +29,30 @@ def use_compiled(n_points: int) -> bool:
     return n_points >= COMPILED_MIN_POINTS
 
 
+_notice_shown = False
+
+
 def compile_once(dispatcher, signature, what: str, estimate_s: float):
     """Compile (or load from numba's disk cache) ``dispatcher`` for ``signature`` only.
 
     Further compilation is then disabled, so an argument of another type is an error instead of a
     silent second compilation. If numba really compiles (a cache miss) and stderr is a terminal,
-    one line ``fuzzyfeed: compiling <what> once (~N s) ...`` is printed first.
+    one line ``fuzzyfeed: compiling numba kernels once ...`` is printed first (once per process).
     """
     from numba.core import event
 
     class _Notice(event.Listener):
-        shown = False
-
         def on_start(self, ev):
-            if not self.shown and sys.stderr.isatty():
-                print(f"fuzzyfeed: compiling {what} once (~{estimate_s:g} s); later runs load it "
-                      "from the cache", file=sys.stderr, flush=True)
-            self.shown = True
+            global _notice_shown
+            if not _notice_shown and sys.stderr.isatty():
+                print(f"fuzzyfeed: compiling numba kernels once (~{estimate_s:g} s each, first {what}); "
+                      "later runs load them from the cache", file=sys.stderr, flush=True)
+                _notice_shown = True
 
         def on_end(self, ev):
             pass
 
-    notice = _Notice()
-    with event.install_listener("numba:compile", notice):
+    with event.install_listener("numba:compile", _Notice()):
         dispatcher.compile(signature)
     dispatcher.disable_compile()
     return dispatcher

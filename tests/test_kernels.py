@@ -96,14 +96,18 @@ def test_compile_notice_only_on_a_terminal_and_only_when_compiling(monkeypatch, 
     def make():
         return numba.njit(lambda x: x + 1.0)
 
+    monkeypatch.setattr(_kernels, "_notice_shown", False)
     monkeypatch.setattr(sys.stderr, "isatty", lambda: False, raising=False)
     _kernels.compile_once(make(), numba.float64(numba.float64), "a test kernel", 1)
     assert capsys.readouterr().err == ""
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
     kernel = _kernels.compile_once(make(), numba.float64(numba.float64), "a test kernel", 1)
     err = capsys.readouterr().err
-    assert err == "fuzzyfeed: compiling a test kernel once (~1 s); later runs load it from the cache\n"
+    assert err == ("fuzzyfeed: compiling numba kernels once (~1 s each, first a test kernel); "
+                   "later runs load them from the cache\n")
     assert kernel(1.0) == 2.0
+    _kernels.compile_once(make(), numba.float64(numba.float64), "another kernel", 1)
+    assert capsys.readouterr().err == ""          # one line per process
     with pytest.raises(TypeError):  # no silent second compilation for another type
         kernel(np.zeros(2))
 
@@ -130,7 +134,7 @@ def test_compile_notice_not_shown_when_numba_loads_its_cache(tmp_path):
     runs = [subprocess.run([sys.executable, "cached_mod.py"], cwd=tmp_path, env=env, capture_output=True,
                            text=True, check=True) for _ in range(2)]
     assert [r.stdout for r in runs] == ["5.0\n", "5.0\n"]
-    assert runs[0].stderr.startswith("fuzzyfeed: compiling twice once")
+    assert runs[0].stderr.startswith("fuzzyfeed: compiling numba kernels once (~1 s each, first twice)")
     assert runs[1].stderr == ""          # loaded from the cache written by the first run
 
 
