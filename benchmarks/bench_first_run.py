@@ -2,6 +2,7 @@
 
     python benchmarks/bench_first_run.py               # fresh venv, `pip install .` of this checkout
     python benchmarks/bench_first_run.py --reuse-env   # this interpreter, numba cache in an empty dir
+    python benchmarks/bench_first_run.py --big-points 0 --fail-above 1.5   # the CI check
 
 The fresh-venv mode installs the package (not editable) into a new virtual environment, so nothing
 compiled or cached by earlier runs exists, then runs each command twice in subprocesses and takes
@@ -55,6 +56,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--reuse-env", action="store_true",
                         help="use this interpreter with an empty NUMBA_CACHE_DIR instead of a fresh venv")
+    parser.add_argument("--fail-above", type=float, default=None, metavar="R",
+                        help="exit with code 1 if first_over_warm exceeds R (for CI, e.g. 1.5)")
     parser.add_argument("--big-points", type=int, default=300_000,
                         help="points of the informational large run (0: skip it)")
     args = parser.parse_args()
@@ -86,6 +89,8 @@ def main() -> None:
             if label in commands:
                 ratios.append(ratio)
     print(f"first_over_warm={max(ratios):.2f}")
+    if args.fail_above is not None and max(ratios) > args.fail_above:
+        sys.exit(f"first_over_warm={max(ratios):.2f} > {args.fail_above:g}")
 
 
 if __name__ == "__main__":
