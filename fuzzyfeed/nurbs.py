@@ -17,7 +17,7 @@ from functools import cached_property
 
 import numpy as np
 
-from fuzzyfeed._kernels import nurbs_kernel
+from fuzzyfeed._kernels import evaluate_power_basis, use_compiled
 from fuzzyfeed.errors import NurbsError
 
 #: Gauss–Legendre order used per interval for arc length (exact for polynomials of degree 15).
@@ -25,6 +25,9 @@ GAUSS_ORDER = 8
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_ORDER)
 #: Default absolute arc-length tolerance, relative to the control polygon size.
 ARC_LENGTH_RTOL = 1e-13
+#: Intervals integrated per block (GAUSS_ORDER nodes each): bounds the arc length's temporary
+#: memory to a few MB whatever the number of points.
+ARC_BLOCK_INTERVALS = 8192
 
 
 def _fmt(value: float) -> str:
@@ -104,7 +107,7 @@ class Nurbs:
             raise NurbsError(f"u[{i}] = {_fmt(flat[i])} is outside the curve's domain "
                              f"[{_fmt(lo)}, {_fmt(hi)}]")
         out = np.empty((order + 1, flat.size, self.dim))
-        nurbs_kernel()(self._spans, self._coeffs, flat, order, out)
+        evaluate_power_basis(self._spans, self._coeffs, flat, order, out)
         return out[:, 0] if scalar else out
 
     def __call__(self, u: np.ndarray | float) -> np.ndarray:
@@ -347,7 +350,8 @@ class ArcLengthTable:
         arr = np.asarray(u, dtype=float)
         flat = np.atleast_1d(arr).ravel()
         k = self._interval(flat)
-        s = self.cumulative[k] + _gl_lengths(curve, self.breaks[k], flat)
+        s = _gl_lengths(curve, self.breaks[k], flat)
+        s += self.cumulative[k]
         return s.reshape(arr.shape) if arr.ndim else float(s[0])
 
     def param_at(self, curve: Nurbs, s: np.ndarray | float, iterations: int = 30) -> np.ndarray:
@@ -358,7 +362,17 @@ class ArcLengthTable:
         if bad.any():
             i = int(np.argmax(bad))
             raise NurbsError(f"s[{i}] = {_fmt(flat[i])} is outside the curve's length [0, {_fmt(total)}]")
-        target = np.clip(flat, 0.0, total)
+        u = np.empty(flat.size)
+        # block by block (each point's iteration is independent): temporaries stay a few MB
+        compiled = use_compiled(flat.size)
+        for start in range(0, flat.size, ARC_BLOCK_INTERVALS):
+            block = slice(start, start + ARC_BLOCK_INTERVALS)
+            u[block] = self._param_block(curve, np.clip(flat[block], 0.0, total), iterations, compiled)
+        return u.reshape(arr.shape) if arr.ndim else float(u[0])
+
+    def _param_block(self, curve: Nurbs, target: np.ndarray, iterations: int, compiled: bool) -> np.ndarray:
+        """Safeguarded Newton on s(u) = target inside the table interval holding each target."""
+        total = self.cumulative[-1]
         k = np.clip(np.searchsorted(self.cumulative, target, side="right") - 1, 0, self.breaks.size - 2)
         a, b = self.breaks[k].copy(), self.breaks[k + 1].copy()
         seg = self.cumulative[k + 1] - self.cumulative[k]
@@ -374,12 +388,14 @@ class ArcLengthTable:
             if idx.size == 0:
                 break
             ui = u[idx]
-            f = base[idx] + _gl_lengths(curve, left[idx], ui) - target[idx]
+            f = base[idx] + _gl_lengths(curve, left[idx], ui, compiled) - target[idx]
             # keep the bracket [a, b] around the root; f is increasing in u
             pos = f > 0
             b[idx[pos]] = ui[pos]
             a[idx[~pos]] = ui[~pos]
-            speed = np.linalg.norm(curve.evaluate(ui, order=1)[1], axis=-1)
+            d1 = np.empty((2, ui.size, curve.dim))
+            evaluate_power_basis(curve._spans, curve._coeffs, ui, 1, d1, compiled)
+            speed = np.linalg.norm(d1[1], axis=-1)
             with np.errstate(divide="ignore", invalid="ignore"):
                 step = ui - f / speed
             outside = ~np.isfinite(step) | (step < a[idx]) | (step > b[idx])
@@ -387,14 +403,33 @@ class ArcLengthTable:
             converged = (np.abs(f) <= tol) | (np.abs(step - ui) <= 2 * np.finfo(float).eps * span)
             u[idx] = np.where(np.abs(f) <= tol, ui, step)
             active[idx[converged]] = False
-        return u.reshape(arr.shape) if arr.ndim else float(u[0])
+        return u
 
 
-def _gl_lengths(curve: Nurbs, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """∫_lo^hi |C′(u)| du per interval, by GAUSS_ORDER-point Gauss–Legendre (seed 004 eq. 8)."""
-    half = 0.5 * (hi - lo)
-    mid = 0.5 * (hi + lo)
-    nodes = mid[:, None] + half[:, None] * _GL_NODES[None, :]
-    d1 = curve.evaluate(nodes.ravel(), order=1)[1]
-    speed = np.linalg.norm(d1, axis=-1).reshape(nodes.shape)
-    return half * (speed @ _GL_WEIGHTS)
+def _gl_lengths(curve: Nurbs, lo: np.ndarray, hi: np.ndarray, compiled: bool | None = None) -> np.ndarray:
+    """∫_lo^hi |C′(u)| du per interval, by GAUSS_ORDER-point Gauss–Legendre (seed 004 eq. 8).
+
+    Streamed: ARC_BLOCK_INTERVALS intervals at a time, so memory is a few MB at any size; the
+    weighted sum runs node by node in a fixed order, so the result does not depend on the blocks.
+    ``lo`` and ``hi`` lie in the curve's domain (the table's breaks and validated parameters).
+    """
+    lo = np.asarray(lo, dtype=float)
+    hi = np.asarray(hi, dtype=float)
+    n = lo.size
+    if compiled is None:
+        compiled = use_compiled(n * GAUSS_ORDER)
+    out = np.empty(n)
+    spans, coeffs, dim = curve._spans, curve._coeffs, curve.dim
+    for start in range(0, n, ARC_BLOCK_INTERVALS):
+        block = slice(start, start + ARC_BLOCK_INTERVALS)
+        half = 0.5 * (hi[block] - lo[block])
+        mid = 0.5 * (hi[block] + lo[block])
+        nodes = (mid[:, None] + half[:, None] * _GL_NODES[None, :]).ravel()
+        d = np.empty((2, nodes.size, dim))
+        evaluate_power_basis(spans, coeffs, nodes, 1, d, compiled)
+        speed = np.sqrt(np.einsum("ij,ij->i", d[1], d[1])).reshape(-1, GAUSS_ORDER)
+        acc = speed[:, 0] * _GL_WEIGHTS[0]
+        for j in range(1, GAUSS_ORDER):
+            acc += speed[:, j] * _GL_WEIGHTS[j]
+        out[block] = half * acc
+    return out

@@ -182,3 +182,38 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None) -> PathS
     nan = np.full_like(xyz, np.nan)
     return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=tangent, curvature=kappa,
                        d1=nan, d2=nan, dim=dim, curve=curve)
+
+
+def max_curvature(curve: Nurbs, per_span: int = 64, candidates: int = 8, rounds: int = 8) -> tuple[float, float]:
+    """(u, κ) of the largest curvature κ = |C′ × C″| / |C′|³ on the curve, without a dense scan.
+
+    ``per_span`` samples on every knot span (ends included) find the local maxima of the sampled κ;
+    the ``candidates`` highest are refined by resampling their bracket (the neighbouring samples)
+    at ``per_span`` points, ``rounds`` times, each round shrinking the bracket ~per_span/2-fold.
+    A stationary point (C′ = 0) gives κ = inf.
+    """
+    spans = curve.span_breaks
+    t = np.linspace(0.0, 1.0, per_span + 1)[:-1]
+    u = np.append((spans[:-1, None] + np.diff(spans)[:, None] * t).ravel(), spans[-1])
+    k = curve.curvature(u)
+    if not np.isfinite(k).all():
+        i = int(np.argmax(~np.isfinite(k)))
+        return float(u[i]), float("inf")
+    left = np.concatenate([[-np.inf], k[:-1]])
+    right = np.concatenate([k[1:], [-np.inf]])
+    peaks = np.flatnonzero((k >= left) & (k >= right))
+    peaks = peaks[np.argsort(k[peaks])[::-1][:candidates]]
+    best_u, best_k = float(u[peaks[0]]), float(k[peaks[0]])
+    lo_u, hi_u = curve.domain
+    for i in peaks:
+        a, b = u[max(i - 1, 0)], u[min(i + 1, u.size - 1)]
+        for _ in range(rounds):
+            grid = np.linspace(a, b, per_span + 1)
+            kg = curve.curvature(grid)
+            j = int(np.argmax(kg))
+            if not np.isfinite(kg[j]):
+                return float(grid[j]), float("inf")
+            if kg[j] > best_k:
+                best_u, best_k = float(grid[j]), float(kg[j])
+            a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+    return min(max(best_u, lo_u), hi_u), best_k

@@ -133,3 +133,47 @@ def test_binary_csv_and_selector(tmp_path):
     assert load_shape(f"{ok}#1").polyline.shape == (3, 2)
     with pytest.raises(PathFormatError, match="path 2 does not exist"):
         load_shape(f"{ok}#2")
+
+
+# ------------------------------------------------------------------------------ the fast writer
+def test_text_is_shortest_round_trip_and_integral_floats_keep_their_point(tmp_path):
+    values = np.array([0.0, -0.0, 100.0, 0.1, 1 / 3, 1e-7, 1e16, 1e300, 5e-324, -2.5, 123456789.0,
+                       2.0**53, 1.7976931348623157e308])
+    write_columns(tmp_path / "v.csv", {"a": values})
+    text = (tmp_path / "v.csv").read_text().splitlines()[1:]
+    assert text[:4] == ["0.0", "-0.0", "100.0", "0.1"]
+    for field, value in zip(text, values.tolist()):
+        assert float(field) == value and np.signbit(float(field)) == np.signbit(value)
+        # as short as Python's repr: the shortest digits that read back (exponent style may differ)
+        digits = lambda s: len(s.split("e")[0].replace("-", "").replace(".", "").strip("0") or "0")  # noqa: E731
+        assert digits(field) == digits(repr(value)), (field, repr(value))
+
+
+def test_many_blocks_mixed_columns_read_back_like_the_csv_module(tmp_path, monkeypatch):
+    import csv
+
+    from fuzzyfeed.io import csv as csv_mod
+
+    monkeypatch.setattr(csv_mod, "ROWS_PER_BLOCK", 7)
+    rng = np.random.default_rng(4)
+    n = 50
+    columns = {"x mm": rng.standard_normal(n) * 1e3, "whole": np.round(rng.standard_normal(n) * 10),
+               "zero": np.zeros(n), "count": np.arange(n) - 3,
+               "label": np.array(["plain", "a,b", 'say "hi"', "line\nbreak", ""] * 10),
+               "ratio": np.where(np.arange(n) % 5 == 0, np.nan, 0.5)}
+    write_columns(tmp_path / "m.csv", columns, allow_nan=("ratio",))
+    with open(tmp_path / "m.csv", newline="") as handle:
+        rows = list(csv.reader(handle))
+    assert rows[0] == list(columns)
+    body = rows[1:]
+    assert len(body) == n
+    for j, (name, values) in enumerate(columns.items()):
+        got = [r[j] for r in body]
+        if values.dtype.kind == "f":
+            back = np.array([float(g) for g in got])
+            np.testing.assert_array_equal(bits(back), bits(values), err_msg=name)
+        else:
+            assert got == [str(v) for v in values.tolist()], name
+    frame = read_csv_exact(tmp_path / "m.csv", keep_default_na=False, na_values=["nan"])
+    for name in ("x mm", "whole", "zero", "ratio"):
+        assert frame[name].dtype == np.float64, name

@@ -143,3 +143,49 @@ def test_errors_are_value_errors_and_one_line():
     with pytest.raises(ValueError) as info:
         Nurbs(2, [0, 0, 0, 1, 1], [[0, 0], [1, 1], [2, 0], [3, 1]])
     assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------------- streamed arc length
+def test_arc_length_streamed_blocks_do_not_change_results(monkeypatch):
+    """Blocks of 3 intervals and blocks of 8192 give the same s(u) and u(s) to 1e-12 relative,
+    and both match closed forms: a circle's arcs r·θ and a line's |P1 − P0|·u."""
+    from fuzzyfeed import nurbs as nurbs_mod
+
+    r = 7.5
+    circle = circle_nurbs(r)
+    line = Nurbs(1, [0, 0, 1, 1], [[1.0, 2.0, 3.0], [4.0, -2.0, 15.0]])
+    rng = np.random.default_rng(11)
+    u = np.sort(rng.uniform(0, 1, 2500))
+    results = {}
+    for block in (8192, 3):
+        monkeypatch.setattr(nurbs_mod, "ARC_BLOCK_INTERVALS", block)
+        fresh_circle = circle_nurbs(r)
+        fresh_line = Nurbs(1, line.knots, line.control_points)
+        s_c = fresh_circle.arc_length(u)
+        s_l = fresh_line.arc_length(u)
+        results[block] = (s_c, s_l, fresh_circle.param_at_length(s_c), fresh_line.param_at_length(s_l))
+    for a, b in zip(results[8192], results[3]):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=0)
+    s_c, s_l, u_c, u_l = results[3]
+    pts = circle(u)
+    theta = np.unwrap(np.arctan2(pts[:, 1], pts[:, 0]))
+    np.testing.assert_allclose(s_c, r * theta, rtol=1e-12, atol=1e-12 * r)
+    np.testing.assert_allclose(s_l, np.linalg.norm([3.0, -4.0, 12.0]) * u, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(u_c, u, atol=1e-12)
+    np.testing.assert_allclose(u_l, u, atol=1e-12)
+
+
+def test_arc_length_matches_adaptive_quadrature_on_random_curves():
+    """s(u) against scipy's adaptive quad of |C′| (an independent integrator), random NURBS."""
+    from scipy.integrate import quad
+
+    rng = np.random.default_rng(5)
+    for _ in range(6):
+        d = random_nurbs_definition(rng)
+        curve = Nurbs(d["degree"], d["knots"], d["points"], d["weights"])
+        speed = lambda x: float(np.linalg.norm(curve.evaluate(x, order=1)[1]))  # noqa: E731
+        breaks = curve.span_breaks
+        for x in rng.uniform(0, 1, 3):
+            pieces = [(a, min(b, x)) for a, b in zip(breaks[:-1], breaks[1:]) if a < x]
+            want = sum(quad(speed, a, b, epsabs=1e-13, epsrel=1e-13, limit=200)[0] for a, b in pieces)
+            assert curve.arc_length(x) == pytest.approx(want, rel=1e-10, abs=1e-10)

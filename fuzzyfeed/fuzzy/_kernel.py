@@ -1,4 +1,6 @@
-"""Numba kernel of the exact Mamdani engine (imported lazily by :mod:`fuzzyfeed.fuzzy.engine`).
+"""Numba kernel of the exact Mamdani engine (imported lazily by :mod:`fuzzyfeed.fuzzy.engine` for
+calls of at least :data:`fuzzyfeed._kernels.COMPILED_MIN_POINTS` points; smaller calls use the numpy
+form in :mod:`fuzzyfeed.fuzzy._centroid`, which does the same operations in the same order).
 
 Per point: memberships of the two (clipped) inputs, rule strengths w_r = min(μκ, μDκ) (AND = min),
 per output term the clip level h_o = max of the strengths of its rules (min implication, max
@@ -13,8 +15,12 @@ on which A is linear, and ∫A and ∫yA are summed in closed form. No output gr
 
 from __future__ import annotations
 
+from functools import cache
+
 import numba
 import numpy as np
+
+from fuzzyfeed._kernels import compile_once
 
 
 @numba.njit(cache=True, inline="always")
@@ -131,3 +137,16 @@ def mamdani_centroid(kappa, dk, k_terms, d_terms, k_lo, k_hi, d_lo, d_hi, grid_o
                 prev_v = v
         out[i] = moment / area if area > 0.0 else no_fire
     return out
+
+
+@cache
+def centroid_kernel():
+    """``mamdani_centroid`` compiled once for its one signature (read-only inputs accept writable
+    arrays, so read-only samples and writable test arrays share one compiled copy)."""
+    f1, f2, i1, i2 = (numba.types.Array(dt, nd, "C", readonly=True)
+                      for dt, nd in ((numba.float64, 1), (numba.float64, 2), (numba.int64, 1),
+                                     (numba.int64, 2)))
+    f = numba.float64
+    sig = numba.float64[::1](f1, f1, f2, f2, f, f, f, f, i2, numba.int64, f1, i1, i1, f1, f1, f,
+                             numba.float64[::1])
+    return compile_once(mamdani_centroid, sig, "the fuzzy engine", 3)

@@ -7,7 +7,8 @@ impossible for a validated table, whose inputs are covered and whose grid is ful
 the table's ``feed_floor_pct`` — scikit-fuzzy would drop the output there.
 
 The per-point loop is a numba kernel (``fuzzyfeed.fuzzy._kernel``, compiled once and cached on
-disk), imported on first use so ``import fuzzyfeed`` stays light.
+disk) for large calls and its numpy form (``fuzzyfeed.fuzzy._centroid``, the same floats) for calls
+below ``fuzzyfeed._kernels.COMPILED_MIN_POINTS`` points, so a small run never loads numba.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._kernels import use_compiled
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.rules import RuleTable, Variable
 
@@ -102,22 +104,32 @@ class FuzzyEngine:
     def rule_names(self) -> list[str]:
         return self.table.rule_names()
 
-    def feed_pct(self, kappa: np.ndarray, dk: np.ndarray) -> np.ndarray:
-        """Defuzzified output (the table's feed unit, %) for each (κ, Dκ) pair; exact centroid."""
-        from fuzzyfeed.fuzzy._kernel import mamdani_centroid
+    def feed_pct(self, kappa: np.ndarray, dk: np.ndarray, compiled: bool | None = None) -> np.ndarray:
+        """Defuzzified output (the table's feed unit, %) for each (κ, Dκ) pair; exact centroid.
 
+        The compiled loop runs for large calls, the numpy form below ``COMPILED_MIN_POINTS``
+        points (``compiled`` forces one form; both give the same floats)."""
         kappa = check_finite("curvature", np.atleast_1d(kappa))
         dk = check_finite("curvature_variation", np.atleast_1d(dk))
         if kappa.shape != dk.shape:
             raise InputError(f"curvature has {kappa.size} values, curvature_variation {dk.size}; "
                              "give one pair per point")
+        no_fire = float(self.table.feed_floor_pct)
+        if not (use_compiled(kappa.size) if compiled is None else compiled):
+            from fuzzyfeed.fuzzy._centroid import centroid_numpy
+
+            return centroid_numpy(self.clip_levels(kappa, dk), self.x_int, self.act_ptr, self.act_term,
+                                  self.act_m0, self.act_m1, no_fire)
+        from fuzzyfeed.fuzzy._kernel import centroid_kernel
+
+        kernel = centroid_kernel()
         out = np.empty(kappa.size)
         (k_lo, k_hi), (d_lo, d_hi) = self.table.curvature.universe, self.table.curvature_variation.universe
         for start in range(0, kappa.size, CHUNK_POINTS):
             sl = slice(start, start + CHUNK_POINTS)
-            mamdani_centroid(kappa[sl], dk[sl], self.k_terms, self.d_terms, float(k_lo), float(k_hi),
-                             float(d_lo), float(d_hi), self.grid_o, self.o_terms.shape[0], self.x_int, self.act_ptr, self.act_term,
-                             self.act_m0, self.act_m1, float(self.table.feed_floor_pct), out[sl])
+            kernel(kappa[sl], dk[sl], self.k_terms, self.d_terms, float(k_lo), float(k_hi),
+                   float(d_lo), float(d_hi), self.grid_o, self.o_terms.shape[0], self.x_int, self.act_ptr,
+                   self.act_term, self.act_m0, self.act_m1, no_fire, out[sl])
         return out
 
     def firing_strengths(self, kappa: np.ndarray, dk: np.ndarray) -> np.ndarray:
