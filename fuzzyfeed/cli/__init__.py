@@ -56,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _outputs_and_inputs(args: argparse.Namespace) -> tuple[list, list]:
-    outputs = [(flag, getattr(args, attr)) for attr, flag in OUTPUT_ARGS if getattr(args, attr, None)]
+    outputs = [(flag, getattr(args, attr)) for attr, flag in OUTPUT_ARGS if getattr(args, attr, None) is not None]
     inputs = []
     for attr, label in INPUT_ARGS:
         value = getattr(args, attr, None)

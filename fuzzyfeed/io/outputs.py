@@ -118,7 +118,7 @@ def _check_destination(label: str, path: str | os.PathLike, umask: int) -> _Dest
             return _Destination(label, text, "stream", target=real, key=(st.st_dev, st.st_ino))
         if not stat.S_ISREG(st.st_mode):
             raise OutputPathError(f"{name}: is a block device or socket; refusing to write to it")
-        if not os.access(real, os.W_OK):
+        if not os.access(real, os.W_OK) or not st.st_mode & 0o222:
             raise OutputPathError(f"{name}: is read-only; refusing to replace it")
     folder = real.parent
     if not folder.is_dir():
