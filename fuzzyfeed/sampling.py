@@ -12,11 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect, float_array
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.nurbs import Nurbs, curvature_from_derivatives
 
 #: Seed 002 samples its paths at 2000 points (Δu = 0.0005 on [0, 1]).
 DEFAULT_POINTS = 2000
+#: Work budget: the most points any sampling (or arc flattening) may create (~0.3 GB of samples).
+MAX_POINTS = 1_000_000
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
@@ -51,10 +54,15 @@ class PathSamples:
         if n < 1:
             raise InputError("samples: no points; give at least one parameter")
         for name in ("u", "xyz", "s", "tangent", "curvature", "d1", "d2"):
-            arr = _readonly(getattr(self, name))
-            if arr.shape[0] != n:
-                raise InputError(f"samples.{name}: {arr.shape[0]} rows, expected {n}")
+            arr = _readonly(float_array(getattr(self, name), f"samples.{name}"))
+            if arr.ndim == 0 or arr.shape[0] != n:
+                raise InputError(f"samples.{name}: {arr.shape[0] if arr.ndim else 0} rows, expected {n}")
             object.__setattr__(self, name, arr)
+        for name in ("u", "xyz", "s"):
+            bad = ~np.isfinite(getattr(self, name))
+            if bad.any():
+                i = int(np.argwhere(bad)[0, 0])
+                raise InputError(f"samples.{name}[{i}] = {getattr(self, name)[i]}; must be finite")
 
     def __len__(self) -> int:
         return int(self.u.size)
@@ -106,14 +114,24 @@ def samples_at(curve: Nurbs, u: np.ndarray, s: np.ndarray | None = None) -> Path
                        dim=curve.dim, curve=curve)
 
 
+def point_budget(count: float, what: str) -> int:
+    """``count`` points as an int, or a one-line InputError if it exceeds :data:`MAX_POINTS`."""
+    if not count <= MAX_POINTS:  # also NaN
+        raise InputError(f"{what}: needs {count:.4g} points, more than the budget of {MAX_POINTS:,}")
+    return int(count)
+
+
 def _check_count(n: object, name: str = "points") -> int:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
         raise InputError(f"{name}: {n!r}; the number of sample points must be an integer >= 2")
+    if n > MAX_POINTS:
+        raise InputError(f"{name}: {n}; at most {MAX_POINTS:,} sample points")
     return int(n)
 
 
 def sample_uniform_u(curve: Nurbs, n: int = DEFAULT_POINTS) -> PathSamples:
     """n points uniform in the parameter, ends included (seed 002: n = 2000, Δu = 0.0005)."""
+    expect(curve, Nurbs, "curve", "a Nurbs")
     n = _check_count(n)
     lo, hi = curve.domain
     return samples_at(curve, np.linspace(lo, hi, n))
@@ -121,13 +139,17 @@ def sample_uniform_u(curve: Nurbs, n: int = DEFAULT_POINTS) -> PathSamples:
 
 def sample_by_arc_length(curve: Nurbs, step_mm: float | None = None, n: int | None = None) -> PathSamples:
     """Points uniform in arc length: every ``step_mm`` (last step shorter) or ``n`` points."""
+    expect(curve, Nurbs, "curve", "a Nurbs")
+    if step_mm is not None:
+        expect(step_mm, (int, float, np.integer, np.floating), "step_mm", "a number of mm")
     total = curve.length
     if (step_mm is None) == (n is None):
         raise InputError("sample_by_arc_length: give exactly one of step_mm or n")
     if step_mm is not None:
         if not np.isfinite(step_mm) or step_mm <= 0:
             raise InputError(f"step_mm: {step_mm!r}; the arc-length step must be finite and > 0")
-        count = max(1, int(np.ceil(total / step_mm - 1e-9)))
+        count = max(1, point_budget(np.ceil(total / step_mm - 1e-9),
+                                    f"step_mm = {step_mm:g} on {total:.6g} mm"))
         s = np.minimum(np.arange(count + 1) * float(step_mm), total)
         s[-1] = total
     else:
@@ -143,7 +165,7 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
     with t_a, t_b the chord lengths; κ = 2|a2 × a3| / |a2|³ (eq. 9, generalised to 3-D). The two
     end points take their neighbour's value. Repeated points are an error (no chord length).
     """
-    pts = np.asarray(points, dtype=float)
+    pts = float_array(points, "points")
     if pts.ndim != 2 or pts.shape[0] < 3 or pts.shape[1] not in (2, 3):
         raise InputError(f"points: shape {pts.shape}; need at least 3 points of 2 or 3 coordinates")
     if not np.isfinite(pts).all():
@@ -171,7 +193,7 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None) -> PathS
     ``curve``, if given, is the degree-1 NURBS through the points with chord-length knots on
     [0, 1] (so u = s / L is its parameter at every point); planners and the simulator move along it.
     """
-    pts = np.asarray(points, dtype=float)
+    pts = float_array(points, "points")
     kappa = three_point_curvature(pts)
     dim = pts.shape[1]
     xyz = _pad3(pts)

@@ -23,8 +23,12 @@ def point_count(text: str) -> int:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    from fuzzyfeed.sampling import MAX_POINTS
+
     if value < 3:
         raise argparse.ArgumentTypeError(f"{value} is too few; use at least 3 points")
+    if value > MAX_POINTS:
+        raise argparse.ArgumentTypeError(f"{value} is too many; use at most {MAX_POINTS:,} points")
     return value
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.errors import MachineLimitsError
-from fuzzyfeed.limits import DEFAULT_FEED_MM_S
+from fuzzyfeed.limits import DEFAULT_FEED_MM_S, MAX_LIMIT
 from fuzzyfeed.sampling import DEFAULT_POINTS
 
 #: Default maximum feed F (mm/min) when --feed-mm-min is not given: the machine default's feed.
@@ -50,6 +50,9 @@ def check_feed_mm_min(value: float) -> float:
     if not math.isfinite(value) or value <= 0:
         raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
                                  "number > 0 mm/min")
+    if value > MAX_LIMIT:
+        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be at most "
+                                 f"{MAX_LIMIT:g} mm/min")
     return value
 
 

@@ -15,6 +15,7 @@ names the file and line (or the field of an in-memory table), the bad value and 
 from __future__ import annotations
 
 import math
+import os
 import re
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
@@ -263,6 +264,8 @@ def table_names() -> list[str]:
 
 def resolve_rules_path(spec: str | Path | None) -> Path:
     """A --rules argument (None = the default table, a shipped name, or a path) as an existing file."""
+    if spec is not None and not isinstance(spec, (str, os.PathLike)):
+        raise RuleTableError(f"rule table: {type(spec).__name__} {spec!r:.40}; expected a name or a file path")
     return resolve_file(DEFAULT_TABLE if spec is None else spec, "rules", "rule table", RuleTableError)
 
 
@@ -317,6 +320,8 @@ def load_rule_table(spec: str | Path | None = None) -> RuleTable:
 
 def parse_rule_table(text: str, path: Path | str = "<rules>") -> RuleTable:
     """Parse and validate rule-table TOML text; messages name ``path`` and the line."""
+    if not isinstance(text, str):
+        raise RuleTableError(f"{path}: {type(text).__name__}; expected the TOML text as str")
     path = Path(path)
     lines = _Lines(text)
     for section, key, first, again in lines.duplicates:

@@ -12,6 +12,7 @@ as well. A SHAPE argument is a shipped shape's name (see :func:`shape_names`) or
 from __future__ import annotations
 
 import json
+import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,6 +56,8 @@ def shape_names() -> list[str]:
 def sample_shape(shape: Shape, points: int = DEFAULT_POINTS) -> PathSamples:
     """The planners' samples of a shape: ``points`` uniform in u for a NURBS (seed 002); the
     vertices themselves with the three-point curvature (seed 002 eq. 4-9) for a polyline."""
+    if not isinstance(shape, Shape):
+        raise ShapeFileError(f"shape: {type(shape).__name__} {shape!r:.40}; expected a Shape (load_shape)")
     if shape.polyline is not None:
         return samples_from_points(shape.polyline, shape.curve)
     return sample_uniform_u(shape.curve, points)
@@ -76,6 +79,8 @@ def split_selector(spec: str | Path) -> tuple[str | Path, str | None]:
 def load_shape(spec: str | Path) -> Shape:
     """Load a SHAPE: a shipped name, a .toml/.json shape file, or a DXF, G-code or CSV point file,
     optionally followed by ``#SELECTOR`` to pick one path of a file that holds several."""
+    if not isinstance(spec, (str, os.PathLike)):
+        raise ShapeFileError(f"shape: {type(spec).__name__} {spec!r:.40}; expected a name or a file path")
     base, selector = split_selector(spec)
     path = resolve_shape_path(base)
     loader = _LOADERS.get(path.suffix.lower())
