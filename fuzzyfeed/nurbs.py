@@ -161,7 +161,22 @@ def _check_degree(degree: object) -> int:
     return int(degree)
 
 
+def non_number(value: object, depth: int = 0) -> object | None:
+    """The first bool or string inside nested lists (numpy would read True as 1, "2" as 2)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        return value
+    if isinstance(value, (list, tuple)) and depth < 3:
+        for item in value:
+            bad = non_number(item, depth + 1)
+            if bad is not None:
+                return bad
+    return None
+
+
 def _as_float_array(value: object, field_name: str) -> np.ndarray:
+    bad = non_number(value)
+    if bad is not None:
+        raise NurbsError(f"{field_name}: {bad!r} is not a number")
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError) as exc:

@@ -14,7 +14,7 @@ import numpy as np
 
 from fuzzyfeed._checks import expect, float_array
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.nurbs import Nurbs, curvature_from_derivatives
+from fuzzyfeed.nurbs import MAX_COORDINATE_MM, Nurbs, curvature_from_derivatives
 
 #: Seed 002 samples its paths at 2000 points (Δu = 0.0005 on [0, 1]).
 DEFAULT_POINTS = 2000
@@ -171,6 +171,11 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
     if not np.isfinite(pts).all():
         i = int(np.argwhere(~np.isfinite(pts))[0, 0])
         raise InputError(f"points[{i}] = {pts[i].tolist()}; coordinates must be finite")
+    big = np.abs(pts) > MAX_COORDINATE_MM
+    if big.any():
+        i = int(np.argwhere(big)[0, 0])
+        raise InputError(f"points[{i}] = {pts[i].tolist()}; coordinates must lie within "
+                         f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     pts = _pad3(pts)
     d_a = pts[:-2] - pts[1:-1]   # P1 - P2
     d_b = pts[2:] - pts[1:-1]    # P3 - P2
@@ -183,7 +188,8 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
     # eq. 7-8 solved in closed form: d_a/ta = -a2 + a3 ta, d_b/tb = a2 + a3 tb
     a3 = (d_a / ta[:, None] + d_b / tb[:, None]) / (ta + tb)[:, None]
     a2 = d_b / tb[:, None] - a3 * tb[:, None]
-    kappa_inner = 2.0 * np.linalg.norm(np.cross(a2, a3), axis=1) / np.linalg.norm(a2, axis=1) ** 3
+    with np.errstate(divide="ignore", invalid="ignore"):  # a reversal (a2 = 0) gives NaN: a cusp
+        kappa_inner = 2.0 * np.linalg.norm(np.cross(a2, a3), axis=1) / np.linalg.norm(a2, axis=1) ** 3
     return np.concatenate([[kappa_inner[0]], kappa_inner, [kappa_inner[-1]]])
 
 
@@ -200,7 +206,8 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None) -> PathS
     chords = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(chords)])
     tangent = np.gradient(xyz, s, axis=0)
-    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tangent /= np.linalg.norm(tangent, axis=1)[:, None]
     nan = np.full_like(xyz, np.nan)
     return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=tangent, curvature=kappa,
                        d1=nan, d2=nan, dim=dim, curve=curve)

@@ -22,7 +22,7 @@ import numpy as np
 from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import NurbsError, ShapeFileError
 from fuzzyfeed.io.gcode import GCODE_SUFFIXES
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.nurbs import Nurbs, non_number
 from fuzzyfeed.sampling import DEFAULT_POINTS, PathSamples, sample_uniform_u, samples_from_points
 
 #: Units a shape file may declare, with the factor that converts them to mm.
@@ -149,6 +149,13 @@ def shape_from_mapping(data: object, path: Path | None = None) -> Shape:
         if value is None:
             raise ShapeFileError(f"{where}: field '{key}' is missing")
     units = data.get("units", "mm")
+    for key in ("name", "units", "source", "notes"):
+        if key in data and not isinstance(data[key], str):
+            raise ShapeFileError(f"{where}: {key} = {data[key]!r:.40}; must be a string")
+    for key in ("degree", "knotvector", "control_points", "weights"):
+        bad = non_number(knots if key == "knotvector" else data.get(key))
+        if bad is not None:
+            raise ShapeFileError(f"{where}: {key}: {bad!r} is not a number")
     if units not in UNIT_TO_MM:
         raise ShapeFileError(f"{where}: units = {units!r}; use one of {', '.join(UNIT_TO_MM)}")
     try:
