@@ -58,11 +58,6 @@ class PathSamples:
             if arr.ndim == 0 or arr.shape[0] != n:
                 raise InputError(f"samples.{name}: {arr.shape[0] if arr.ndim else 0} rows, expected {n}")
             object.__setattr__(self, name, arr)
-        for name in ("u", "xyz", "s"):
-            bad = ~np.isfinite(getattr(self, name))
-            if bad.any():
-                i = int(np.argwhere(bad)[0, 0])
-                raise InputError(f"samples.{name}[{i}] = {getattr(self, name)[i]}; must be finite")
 
     def __len__(self) -> int:
         return int(self.u.size)
@@ -156,6 +151,31 @@ def sample_by_arc_length(curve: Nurbs, step_mm: float | None = None, n: int | No
         s = np.linspace(0.0, total, _check_count(n))
     u = curve.param_at_length(s)
     return samples_at(curve, u, s=s)
+
+
+#: A unit tangent turning more than this across an interior knot is a corner (infinite curvature).
+CORNER_ANGLE_DEG = 1.0
+
+
+def tangent_breaks(curve: Nurbs, min_angle_deg: float = CORNER_ANGLE_DEG) -> tuple[np.ndarray, np.ndarray]:
+    """Interior knots where the unit tangent jumps by more than ``min_angle_deg``: (u, angle in
+    degrees). Uniform samples almost never land on such a knot, so a corner between two straight
+    pieces would be sampled with curvature 0 on both sides; it must be found on the curve itself."""
+    expect(curve, Nurbs, "curve", "a Nurbs")
+    lo, hi = curve.domain
+    knots = np.unique(curve.knots[(curve.knots > lo) & (curve.knots < hi)])
+    if knots.size == 0:
+        return np.empty(0), np.empty(0)
+    eps = 1e-9 * (hi - lo)
+    d_left = curve.evaluate(knots - eps, order=1)[1]
+    d_right = curve.evaluate(knots + eps, order=1)[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_left = d_left / np.linalg.norm(d_left, axis=1)[:, None]
+        t_right = d_right / np.linalg.norm(d_right, axis=1)[:, None]
+        cos = np.clip(np.einsum("ij,ij->i", t_left, t_right), -1.0, 1.0)
+    angle = np.degrees(np.arccos(np.where(np.isfinite(cos), cos, -1.0)))
+    corner = angle > min_angle_deg
+    return knots[corner], angle[corner]
 
 
 def three_point_curvature(points: np.ndarray) -> np.ndarray:

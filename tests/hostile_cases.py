@@ -100,6 +100,11 @@ def shape_cases() -> list:
     }
     for n, text in raw.items():
         cases.append((f"toml-file-{n}", ["advise", "s.toml", "-o", "o.csv", *FAST], {"s.toml": text}))
+    corner = "degree = 2\nknotvector = [0, 0, 0, 0.5, 1, 1, 1]\ncontrol_points = [[0, 0], [10, 0], [10, 0], [10, 10]]\n"
+    for n in ("2000", "2001", "60"):  # a 90 deg corner between straight pieces: never at full feed
+        cases.append((f"toml-corner-{n}-points", ["advise", "s.toml", "-o", "o.csv", "--points", n], {"s.toml": corner}))
+    cases.append(("toml-degree1-corner", ["advise", "s.toml", "-o", "o.csv"],
+                  {"s.toml": "degree = 1\nknotvector = [0, 0, 0.5, 1, 1]\ncontrol_points = [[0, 0], [10, 0], [10, 10]]\n"}))
     # JSON in both layouts
     js = {
         "syntax": "{degree: 2}", "trailing": JSON_SHAPE + ",", "list": "[1, 2, 3]", "null": "null",

@@ -147,3 +147,19 @@ def test_tiny_bulge_is_a_straight_segment(tmp_path, capsys):
 
     pts = bulge_points(np.array([0.0, 0.0]), np.array([10.0, 0.0]), 1e-300, 1e-4)
     assert pts.tolist() == [[10.0, 0.0]]
+
+
+def test_tangent_breaks_find_corners_not_tangent_continuous_double_knots():
+    """The 9-point circle has double knots (C1 lost in u) but a continuous tangent: no corner; a
+    unit square of degree 1 turns 90 deg at each of its 3 interior vertices (closed form)."""
+    import numpy as np
+    from conftest import circle_nurbs
+    from fuzzyfeed.nurbs import Nurbs
+    from fuzzyfeed.sampling import tangent_breaks
+
+    u, angle = tangent_breaks(circle_nurbs(5.0))
+    assert u.size == 0
+    square = Nurbs(1, [0, 0, 0.25, 0.5, 0.75, 1, 1], [[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]])
+    u, angle = tangent_breaks(square)
+    np.testing.assert_allclose(u, [0.25, 0.5, 0.75])
+    np.testing.assert_allclose(angle, 90.0, atol=1e-6)

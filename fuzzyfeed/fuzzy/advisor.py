@@ -19,7 +19,7 @@ from fuzzyfeed.fuzzy.features import Features, features
 from fuzzyfeed.fuzzy.rules import RuleTable, load_rule_table
 from fuzzyfeed.limits import MAX_LIMIT
 from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import PathSamples
+from fuzzyfeed.sampling import PathSamples, tangent_breaks
 
 
 def average_filter(values: np.ndarray, points: int) -> np.ndarray:
@@ -65,7 +65,7 @@ def _check_feed(max_feed_mm_s: float) -> float:
         raise MachineLimitsError(f"max feed = {max_feed_mm_s!r}; must be a number > 0 (mm/s)") from None
     if not np.isfinite(f) or f <= 0 or f > MAX_LIMIT:
         raise MachineLimitsError(f"max feed = {max_feed_mm_s!r} mm/s; the maximum feed must be "
-                                 f"finite, > 0 and at most {MAX_LIMIT:g}")
+                                 f"finite and > 0 (and at most {MAX_LIMIT:g})")
     return f
 
 
@@ -76,6 +76,13 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
     if table is not None:
         expect(table, RuleTable, "table", "a RuleTable (load_rule_table) or None")
     f_max = _check_feed(max_feed_mm_s)
+    if samples.curve is not None and np.isfinite(samples.d1).all():  # a NURBS, not a point sequence
+        u, angle = tangent_breaks(samples.curve)
+        if u.size:
+            x = samples.curve(float(u[0]))
+            raise InputError(f"the path turns {angle[0]:.1f} deg at u = {u[0]:g} ({', '.join(f'{c:g}' for c in x)}) "
+                             "mm: a corner has infinite curvature and no feed can be advised through it; "
+                             "round the corner or split the path there")
     table = table if table is not None else (engine.table if engine is not None else load_rule_table())
     engine = engine if engine is not None else compile_table(table)
     feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm)

@@ -155,6 +155,9 @@ def shape_from_mapping(data: object, path: Path | None = None) -> Shape:
     for key in ("degree", "knotvector", "control_points", "weights"):
         bad = non_number(knots if key == "knotvector" else data.get(key))
         if bad is not None:
+            if key == "control_points":
+                raise ShapeFileError(f"{where}: control_points must be a list of [x, y] or [x, y, z] "
+                                     f"numbers; found {bad!r}")
             raise ShapeFileError(f"{where}: {key}: {bad!r} is not a number")
     if units not in UNIT_TO_MM:
         raise ShapeFileError(f"{where}: units = {units!r}; use one of {', '.join(UNIT_TO_MM)}")
