@@ -24,10 +24,13 @@ from fuzzyfeed.sampling import PathSamples, tangent_breaks
 
 def average_filter(values: np.ndarray, points: int) -> np.ndarray:
     """Centred moving average over ``points`` samples; at the ends the window shrinks symmetrically
-    (point i averages i − h … i + h with h = min(M // 2, i, N − 1 − i); an even M uses M − 1)."""
+    (point i averages i − h … i + h with h = min(M // 2, i, N − 1 − i); M must be odd)."""
     v = float_array(values, "values")
     if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 1:
         raise InputError(f"filter_points = {points!r}; must be an integer >= 1")
+    if points % 2 == 0:
+        raise InputError(f"filter_points = {points}; a centred moving average needs an odd number of "
+                         f"points (use {points - 1} or {points + 1})")
     if v.ndim != 1:
         raise InputError(f"values: shape {v.shape}; expected a flat array")
     bad = ~np.isfinite(v)

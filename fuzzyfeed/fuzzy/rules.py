@@ -146,6 +146,10 @@ def _validate_features(values: Mapping[str, object], where: Locator) -> None:
         v = values[key]
         if isinstance(v, bool) or not isinstance(v, int) or v < 1:
             raise RuleTableError(f"{where('features', key)}: {key} = {v!r}; must be an integer >= 1")
+    m = values["filter_points"]
+    if m % 2 == 0:  # a centred average has 2h + 1 points; an even size would silently be M - 1
+        raise RuleTableError(f"{where('features', 'filter_points')}: filter_points = {m}; a centred "
+                             f"moving average needs an odd number of points (use {m - 1} or {m + 1})")
     clip = values["dk_clip_1_mm"]
     if not _is_number(clip) or not math.isfinite(clip) or clip <= 0:
         raise RuleTableError(f"{where('features', 'dk_clip_1_mm')}: dk_clip_1_mm = {clip!r}; "
@@ -333,6 +337,8 @@ def parse_rule_table(text: str, path: Path | str = "<rules>") -> RuleTable:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RuleTableError(f"{path}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise RuleTableError(f"{path}: nested too deeply to be a rule table") from None
     where = _file_locator(path, lines)
     return table_from_mapping(data, where, path)
 

@@ -115,6 +115,8 @@ def _load_toml(path: Path) -> Shape:
         data = tomllib.loads(_read_text(path))
     except tomllib.TOMLDecodeError as exc:
         raise ShapeFileError(f"{path}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise ShapeFileError(f"{path}: nested too deeply to be a shape file") from None
     return shape_from_mapping(data, path)
 
 
@@ -123,6 +125,8 @@ def _load_json(path: Path) -> Shape:
         data = json.loads(_read_text(path))
     except json.JSONDecodeError as exc:
         raise ShapeFileError(f"{path}:{exc.lineno}: invalid JSON: {exc.msg}") from None
+    except RecursionError:
+        raise ShapeFileError(f"{path}: nested too deeply to be a shape file") from None
     if isinstance(data, dict) and isinstance(data.get("shape"), dict):  # geomdl exchange layout
         items = data["shape"].get("data") or []
         if len(items) != 1 or not isinstance(items[0], dict):
