@@ -14,6 +14,10 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    from fuzzyfeed.limits import MAX_LIMIT
+
+    if value > MAX_LIMIT:
+        raise argparse.ArgumentTypeError(f"{text!r} is too large; at most {MAX_LIMIT:g}")
     return value
 
 
