@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect
 from fuzzyfeed.fuzzy.advisor import advise
 from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.limits import MachineLimits
@@ -108,6 +109,8 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     The fuzzy advisor's maximum feed is the command feed F of ``limits``. ``progress``, if given,
     is called with the name of each step as it starts (the CLI hooks a progress bar on it).
     """
+    expect(samples, PathSamples, "samples", "PathSamples")
+    expect(limits, MachineLimits, "limits", "MachineLimits")
     curve = samples.curve
     step = progress or (lambda _name: None)
     step("bound")

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect
 from fuzzyfeed.errors import MachineLimitsError
 from fuzzyfeed.sampling import PathSamples
 
@@ -30,6 +31,11 @@ DEFAULT_TS_S = 0.001
 AXES = ("x", "y", "z")
 
 
+#: Largest value any limit may have (in its own unit): beyond it no machine exists and squares of
+#: the value overflow (a feed of 1e308 mm/min prints "mean inf").
+MAX_LIMIT = 1e9
+
+
 def _positive(name: str, value: object) -> float:
     if isinstance(value, bool):
         raise MachineLimitsError(f"{name} = {value!r}; must be a finite number > 0")
@@ -39,6 +45,8 @@ def _positive(name: str, value: object) -> float:
         raise MachineLimitsError(f"{name} = {value!r}; must be a finite number > 0") from None
     if not math.isfinite(v) or v <= 0.0:
         raise MachineLimitsError(f"{name} = {value!r}; must be a finite number > 0")
+    if v > MAX_LIMIT:
+        raise MachineLimitsError(f"{name} = {value!r}; must be at most {MAX_LIMIT:g}")
     return v
 
 
@@ -135,7 +143,8 @@ def feed_limits(samples: PathSamples, limits: MachineLimits) -> np.ndarray:
     """Pointwise feasible feed (mm/s) at every sample: seed 000, eq. (8)-(12).
 
     v ≤ F (command); v·|T_j| ≤ V_j (axial velocity); v ≤ (2/Ts)·√(2ρδ − δ²) with ρ = 1/κ (chord
-    error, 0 where ρ < δ/2); v²·κ·|N_j| ≤ A_j (centripetal part of the axial acceleration). The
+    error; no limit where ρ ≤ δ: a chord deviates at most ρ from its arc); v²·κ·|N_j| ≤ A_j
+    (centripetal part of the axial acceleration). The
     result is finite and ≥ 0 (0 at a stationary point or a corner sharper than the tolerance).
     """
     return feed_limit_components(samples, limits).min(axis=0)
@@ -143,6 +152,8 @@ def feed_limits(samples: PathSamples, limits: MachineLimits) -> np.ndarray:
 
 def feed_limit_components(samples: PathSamples, limits: MachineLimits) -> np.ndarray:
     """The four limits of :func:`feed_limits` as rows (command, axial velocity, chord, centripetal)."""
+    expect(samples, PathSamples, "samples", "PathSamples")
+    expect(limits, MachineLimits, "limits", "MachineLimits")
     n = len(samples)
     command = np.full(n, limits.feed_mm_s)
     tangent = np.abs(np.asarray(samples.tangent, dtype=float))
@@ -154,7 +165,8 @@ def feed_limit_components(samples: PathSamples, limits: MachineLimits) -> np.nda
     delta = limits.chord_tol_mm
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.where(kappa > 0, 1.0 / kappa, np.inf)
-        chord = np.where(np.isinf(rho), np.inf,
+        # a chord of an arc of radius ρ deviates at most ρ from it: no chord limit where ρ <= δ
+        chord = np.where(np.isinf(rho) | (rho <= delta), np.inf,
                          2.0 / limits.ts_s * np.sqrt(np.maximum(2.0 * rho * delta - delta * delta, 0.0)))
     chord = np.where(np.isnan(kappa), 0.0, chord)
     kn = np.abs(curvature_vectors(samples))

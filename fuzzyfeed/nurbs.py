@@ -30,6 +30,19 @@ ARC_LENGTH_RTOL = 1e-13
 ARC_BLOCK_INTERVALS = 8192
 
 
+#: Scale guards (mm): coordinates beyond 1 km are not a machine's path; a control polygon smaller
+#: than 1 nm has no length to feed along.
+MAX_COORDINATE_MM = 1e6
+MIN_EXTENT_MM = 1e-6
+#: Largest ratio of the largest to the smallest weight: beyond it the rational quotient loses every
+#: digit (a weight of 1e-300 next to 1 divides by zero) and arc length never converges.
+MAX_WEIGHT_RATIO = 1e6
+#: Smallest parameter range relative to max(1, |knot|): derivatives scale with 1/range.
+MIN_KNOT_RANGE = 1e-9
+#: Most arc-length intervals the adaptive quadrature may create (a work budget, ~30 MB).
+MAX_ARC_INTERVALS = 1_000_000
+
+
 def _fmt(value: float) -> str:
     return f"{value:.12g}"
 
@@ -60,7 +73,8 @@ class Nurbs:
         for name, value in (("degree", degree), ("knots", knots),
                             ("control_points", points), ("weights", weights)):
             object.__setattr__(self, name, value)
-        spans, coeffs = _power_basis(degree, knots, points, weights)
+        # the curve does not change when every weight is scaled: the largest weight becomes 1
+        spans, coeffs = _power_basis(degree, knots, points, weights / weights.max())
         object.__setattr__(self, "_spans", spans)
         object.__setattr__(self, "_coeffs", coeffs)
 
@@ -150,7 +164,22 @@ def _check_degree(degree: object) -> int:
     return int(degree)
 
 
+def non_number(value: object, depth: int = 0) -> object | None:
+    """The first bool or string inside nested lists (numpy would read True as 1, "2" as 2)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        return value
+    if isinstance(value, (list, tuple)) and depth < 3:
+        for item in value:
+            bad = non_number(item, depth + 1)
+            if bad is not None:
+                return bad
+    return None
+
+
 def _as_float_array(value: object, field_name: str) -> np.ndarray:
+    bad = non_number(value)
+    if bad is not None:
+        raise NurbsError(f"{field_name}: {bad!r} is not a number")
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -167,6 +196,15 @@ def _check_points(points: object) -> np.ndarray:
     if bad.any():
         i, j = (int(v) for v in np.argwhere(bad)[0])
         raise NurbsError(f"control_points[{i}][{j}] = {arr[i, j]}; coordinates must be finite")
+    big = np.abs(arr) > MAX_COORDINATE_MM
+    if big.any():
+        i, j = (int(v) for v in np.argwhere(big)[0])
+        raise NurbsError(f"control_points[{i}][{j}] = {arr[i, j]:g} mm; coordinates must lie within "
+                         f"±{MAX_COORDINATE_MM:g} mm (1 km)")
+    if arr.shape[0] and float(np.ptp(arr, axis=0).max()) < MIN_EXTENT_MM:
+        raise NurbsError(f"control_points: all within {float(np.ptp(arr, axis=0).max()):g} mm of each "
+                         f"other; a path needs a control polygon larger than {MIN_EXTENT_MM:g} mm "
+                         "(this one has no length)")
     arr.flags.writeable = False
     return arr
 
@@ -180,6 +218,10 @@ def _check_weights(weights: object, n: int) -> np.ndarray:
     if bad.any():
         i = int(np.argmax(bad))
         raise NurbsError(f"weights[{i}] = {arr[i]}; weights must be finite and > 0")
+    if arr.size and arr.max() > MAX_WEIGHT_RATIO * arr.min():
+        i, j = int(np.argmax(arr)), int(np.argmin(arr))
+        raise NurbsError(f"weights[{i}] / weights[{j}] = {arr[i]:g} / {arr[j]:g} > {MAX_WEIGHT_RATIO:g}; "
+                         f"the largest weight may be at most {MAX_WEIGHT_RATIO:g} times the smallest")
     arr.flags.writeable = False
     return arr
 
@@ -214,6 +256,10 @@ def _check_knots(knots: object, n: int, p: int) -> np.ndarray:
                              f"p + 1 = {n_end} knots must equal knots[{ref}] = {_fmt(arr[ref])}")
     if arr[0] == arr[-1]:
         raise NurbsError(f"knots: all equal to {_fmt(arr[0])}; the parameter range must not be empty")
+    span = float(arr[-1] - arr[0])
+    if not np.isfinite(span) or span < MIN_KNOT_RANGE * max(1.0, abs(arr[0]), abs(arr[-1])):
+        raise NurbsError(f"knots: range [{_fmt(arr[0])}, {_fmt(arr[-1])}] is too narrow (or too wide); "
+                         f"the range must be at least {MIN_KNOT_RANGE:g} x max(1, |knot|)")
     interior = arr[p + 1: arr.size - p - 1]
     if interior.size:
         values, first_idx, counts = np.unique(interior, return_index=True, return_counts=True)
@@ -329,6 +375,9 @@ class ArcLengthTable:
             ok = np.abs(halves - whole) <= tol * np.maximum(1.0, (hi - lo) / (spans[-1] - spans[0]))
             done_lo.append(lo[ok]); done_hi.append(hi[ok]); done_len.append(halves[ok])
             keep = ~ok
+            if 2 * int(keep.sum()) + sum(a.size for a in done_lo) > MAX_ARC_INTERVALS:
+                raise NurbsError(f"arc length: more than {MAX_ARC_INTERVALS:,} intervals without "
+                                 "converging; the curve is too irregular (check weights and knots)")
             lo = np.concatenate([lo[keep], mid[keep]])
             hi = np.concatenate([mid[keep], hi[keep]])
             whole = np.concatenate([left[keep], right[keep]])

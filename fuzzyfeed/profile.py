@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect, float_array
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.sampling import PathSamples
 
@@ -28,7 +29,9 @@ class FeedProfile:
     max_feed_mm_s: float
 
     def __post_init__(self) -> None:
-        feed = np.array(self.feed_mm_s, dtype=float)
+        expect(self.samples, PathSamples, "samples", "PathSamples")
+        expect(self.max_feed_mm_s, (int, float, np.integer, np.floating), "max_feed_mm_s", "a number of mm/s")
+        feed = np.array(float_array(self.feed_mm_s, "feed_mm_s"), dtype=float)
         if feed.shape != (len(self.samples),):
             raise InputError(f"feed_mm_s: shape {feed.shape}, expected ({len(self.samples)},), "
                              "one feed per sample")
@@ -55,7 +58,12 @@ class FeedProfile:
         A zero feed at a segment's end is handled by using the segment's mean feed (v_a + v_b)/2,
         which is exact for a feed linear in time and finite for a stop at one end.
         """
-        ds = np.diff(self.samples.s)
+        ds = np.diff(np.asarray(self.samples.s, dtype=float))
+        bad = ~np.isfinite(ds) | (ds < 0)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputError(f"samples.s[{i + 1}] = {self.samples.s[i + 1]} after {self.samples.s[i]}; "
+                             "arc lengths must be finite and non-decreasing")
         v = self.feed_mm_s
         mean = 0.5 * (v[:-1] + v[1:])
         if np.any((mean <= 0) & (ds > 0)):

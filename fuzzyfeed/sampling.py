@@ -12,11 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect, float_array
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.nurbs import Nurbs, curvature_from_derivatives
+from fuzzyfeed.nurbs import MAX_COORDINATE_MM, Nurbs, curvature_from_derivatives
 
 #: Seed 002 samples its paths at 2000 points (Δu = 0.0005 on [0, 1]).
 DEFAULT_POINTS = 2000
+#: Work budget: the most points any sampling (or arc flattening) may create (~0.3 GB of samples).
+MAX_POINTS = 1_000_000
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
@@ -51,9 +54,9 @@ class PathSamples:
         if n < 1:
             raise InputError("samples: no points; give at least one parameter")
         for name in ("u", "xyz", "s", "tangent", "curvature", "d1", "d2"):
-            arr = _readonly(getattr(self, name))
-            if arr.shape[0] != n:
-                raise InputError(f"samples.{name}: {arr.shape[0]} rows, expected {n}")
+            arr = _readonly(float_array(getattr(self, name), f"samples.{name}"))
+            if arr.ndim == 0 or arr.shape[0] != n:
+                raise InputError(f"samples.{name}: {arr.shape[0] if arr.ndim else 0} rows, expected {n}")
             object.__setattr__(self, name, arr)
 
     def __len__(self) -> int:
@@ -106,14 +109,24 @@ def samples_at(curve: Nurbs, u: np.ndarray, s: np.ndarray | None = None) -> Path
                        dim=curve.dim, curve=curve)
 
 
+def point_budget(count: float, what: str) -> int:
+    """``count`` points as an int, or a one-line InputError if it exceeds :data:`MAX_POINTS`."""
+    if not count <= MAX_POINTS:  # also NaN
+        raise InputError(f"{what}: needs {count:.4g} points, more than the budget of {MAX_POINTS:,}")
+    return int(count)
+
+
 def _check_count(n: object, name: str = "points") -> int:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
         raise InputError(f"{name}: {n!r}; the number of sample points must be an integer >= 2")
+    if n > MAX_POINTS:
+        raise InputError(f"{name}: {n}; at most {MAX_POINTS:,} sample points")
     return int(n)
 
 
 def sample_uniform_u(curve: Nurbs, n: int = DEFAULT_POINTS) -> PathSamples:
     """n points uniform in the parameter, ends included (seed 002: n = 2000, Δu = 0.0005)."""
+    expect(curve, Nurbs, "curve", "a Nurbs")
     n = _check_count(n)
     lo, hi = curve.domain
     return samples_at(curve, np.linspace(lo, hi, n))
@@ -121,19 +134,48 @@ def sample_uniform_u(curve: Nurbs, n: int = DEFAULT_POINTS) -> PathSamples:
 
 def sample_by_arc_length(curve: Nurbs, step_mm: float | None = None, n: int | None = None) -> PathSamples:
     """Points uniform in arc length: every ``step_mm`` (last step shorter) or ``n`` points."""
+    expect(curve, Nurbs, "curve", "a Nurbs")
+    if step_mm is not None:
+        expect(step_mm, (int, float, np.integer, np.floating), "step_mm", "a number of mm")
     total = curve.length
     if (step_mm is None) == (n is None):
         raise InputError("sample_by_arc_length: give exactly one of step_mm or n")
     if step_mm is not None:
         if not np.isfinite(step_mm) or step_mm <= 0:
             raise InputError(f"step_mm: {step_mm!r}; the arc-length step must be finite and > 0")
-        count = max(1, int(np.ceil(total / step_mm - 1e-9)))
+        count = max(1, point_budget(np.ceil(total / step_mm - 1e-9),
+                                    f"step_mm = {step_mm:g} on {total:.6g} mm"))
         s = np.minimum(np.arange(count + 1) * float(step_mm), total)
         s[-1] = total
     else:
         s = np.linspace(0.0, total, _check_count(n))
     u = curve.param_at_length(s)
     return samples_at(curve, u, s=s)
+
+
+#: A unit tangent turning more than this across an interior knot is a corner (infinite curvature).
+CORNER_ANGLE_DEG = 1.0
+
+
+def tangent_breaks(curve: Nurbs, min_angle_deg: float = CORNER_ANGLE_DEG) -> tuple[np.ndarray, np.ndarray]:
+    """Interior knots where the unit tangent jumps by more than ``min_angle_deg``: (u, angle in
+    degrees). Uniform samples almost never land on such a knot, so a corner between two straight
+    pieces would be sampled with curvature 0 on both sides; it must be found on the curve itself."""
+    expect(curve, Nurbs, "curve", "a Nurbs")
+    lo, hi = curve.domain
+    knots = np.unique(curve.knots[(curve.knots > lo) & (curve.knots < hi)])
+    if knots.size == 0:
+        return np.empty(0), np.empty(0)
+    eps = 1e-9 * (hi - lo)
+    d_left = curve.evaluate(knots - eps, order=1)[1]
+    d_right = curve.evaluate(knots + eps, order=1)[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_left = d_left / np.linalg.norm(d_left, axis=1)[:, None]
+        t_right = d_right / np.linalg.norm(d_right, axis=1)[:, None]
+        cos = np.clip(np.einsum("ij,ij->i", t_left, t_right), -1.0, 1.0)
+    angle = np.degrees(np.arccos(np.where(np.isfinite(cos), cos, -1.0)))
+    corner = angle > min_angle_deg
+    return knots[corner], angle[corner]
 
 
 def three_point_curvature(points: np.ndarray) -> np.ndarray:
@@ -143,12 +185,17 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
     with t_a, t_b the chord lengths; κ = 2|a2 × a3| / |a2|³ (eq. 9, generalised to 3-D). The two
     end points take their neighbour's value. Repeated points are an error (no chord length).
     """
-    pts = np.asarray(points, dtype=float)
+    pts = float_array(points, "points")
     if pts.ndim != 2 or pts.shape[0] < 3 or pts.shape[1] not in (2, 3):
         raise InputError(f"points: shape {pts.shape}; need at least 3 points of 2 or 3 coordinates")
     if not np.isfinite(pts).all():
         i = int(np.argwhere(~np.isfinite(pts))[0, 0])
         raise InputError(f"points[{i}] = {pts[i].tolist()}; coordinates must be finite")
+    big = np.abs(pts) > MAX_COORDINATE_MM
+    if big.any():
+        i = int(np.argwhere(big)[0, 0])
+        raise InputError(f"points[{i}] = {pts[i].tolist()}; coordinates must lie within "
+                         f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     pts = _pad3(pts)
     d_a = pts[:-2] - pts[1:-1]   # P1 - P2
     d_b = pts[2:] - pts[1:-1]    # P3 - P2
@@ -161,7 +208,8 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
     # eq. 7-8 solved in closed form: d_a/ta = -a2 + a3 ta, d_b/tb = a2 + a3 tb
     a3 = (d_a / ta[:, None] + d_b / tb[:, None]) / (ta + tb)[:, None]
     a2 = d_b / tb[:, None] - a3 * tb[:, None]
-    kappa_inner = 2.0 * np.linalg.norm(np.cross(a2, a3), axis=1) / np.linalg.norm(a2, axis=1) ** 3
+    with np.errstate(divide="ignore", invalid="ignore"):  # a reversal (a2 = 0) gives NaN: a cusp
+        kappa_inner = 2.0 * np.linalg.norm(np.cross(a2, a3), axis=1) / np.linalg.norm(a2, axis=1) ** 3
     return np.concatenate([[kappa_inner[0]], kappa_inner, [kappa_inner[-1]]])
 
 
@@ -171,14 +219,15 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None) -> PathS
     ``curve``, if given, is the degree-1 NURBS through the points with chord-length knots on
     [0, 1] (so u = s / L is its parameter at every point); planners and the simulator move along it.
     """
-    pts = np.asarray(points, dtype=float)
+    pts = float_array(points, "points")
     kappa = three_point_curvature(pts)
     dim = pts.shape[1]
     xyz = _pad3(pts)
     chords = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(chords)])
     tangent = np.gradient(xyz, s, axis=0)
-    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tangent /= np.linalg.norm(tangent, axis=1)[:, None]
     nan = np.full_like(xyz, np.nan)
     return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=tangent, curvature=kappa,
                        d1=nan, d2=nan, dim=dim, curve=curve)

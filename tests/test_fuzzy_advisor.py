@@ -51,7 +51,7 @@ def test_forward_window_max_equals_a_naive_loop(values, ws):
 
 
 @settings(max_examples=200, deadline=None)
-@given(arrays(float, st.integers(1, 80), elements=floats), st.integers(1, 30))
+@given(arrays(float, st.integers(1, 80), elements=floats), st.integers(0, 15).map(lambda h: 2 * h + 1))
 def test_average_filter_equals_a_naive_loop(values, m):
     n = values.size
     want = []
@@ -208,7 +208,8 @@ def _samples_with_curvature(k: np.ndarray) -> PathSamples:
 
 @settings(max_examples=150, deadline=None)
 @given(arrays(float, st.integers(2, 300), elements=st.floats(0, 1e4, allow_nan=False)),
-       st.floats(0.1, 1e4), st.integers(1, 60), st.integers(1, 40), st.floats(0.1, 100))
+       st.floats(0.1, 1e4), st.integers(1, 60), st.integers(0, 20).map(lambda h: 2 * h + 1),
+       st.floats(0.1, 100))
 def test_feed_always_within_floor_and_max(paper, k, max_feed, ws, m, floor):
     table = replace(paper, window_points=ws, filter_points=m, feed_floor_pct=floor)
     advice = advise_details(_samples_with_curvature(k), table, max_feed)

@@ -14,6 +14,10 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    from fuzzyfeed.limits import MAX_LIMIT
+
+    if value > MAX_LIMIT:
+        raise argparse.ArgumentTypeError(f"{text!r} is too large; at most {MAX_LIMIT:g}")
     return value
 
 
@@ -23,8 +27,12 @@ def point_count(text: str) -> int:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    from fuzzyfeed.sampling import MAX_POINTS
+
     if value < 3:
         raise argparse.ArgumentTypeError(f"{value} is too few; use at least 3 points")
+    if value > MAX_POINTS:
+        raise argparse.ArgumentTypeError(f"{value} is too many; use at most {MAX_POINTS:,} points")
     return value
 
 

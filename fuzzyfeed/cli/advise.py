@@ -9,8 +9,8 @@ import numpy as np
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.errors import MachineLimitsError
-from fuzzyfeed.limits import DEFAULT_FEED_MM_S
+from fuzzyfeed.errors import InputError, MachineLimitsError
+from fuzzyfeed.limits import DEFAULT_FEED_MM_S, MAX_LIMIT
 from fuzzyfeed.sampling import DEFAULT_POINTS
 
 #: Default maximum feed F (mm/min) when --feed-mm-min is not given: the machine default's feed.
@@ -50,6 +50,9 @@ def check_feed_mm_min(value: float) -> float:
     if not math.isfinite(value) or value <= 0:
         raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
                                  "number > 0 mm/min")
+    if value > MAX_LIMIT:
+        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be at most "
+                                 f"{MAX_LIMIT:g} mm/min")
     return value
 
 
@@ -62,8 +65,11 @@ def compute(args: argparse.Namespace):
     feed_mm_min = check_feed_mm_min(args.feed_mm_min)
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
-    samples = sample_shape(shape, args.points)
-    return shape, advise_details(samples, table, feed_mm_min / 60.0)
+    try:
+        samples = sample_shape(shape, args.points)
+        return shape, advise_details(samples, table, feed_mm_min / 60.0)
+    except InputError as exc:  # the message names the user's file
+        raise InputError(f"{args.shape}: {exc}") from None
 
 
 def advice_columns(advice, rule_strengths: bool = False) -> dict[str, np.ndarray]:

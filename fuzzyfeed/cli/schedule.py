@@ -10,6 +10,7 @@ import numpy as np
 from fuzzyfeed.cli._common import add_shape_argument
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
+from fuzzyfeed.errors import InputError
 
 #: Arc-length step (mm) of the samples the time-optimal bound is computed on.
 BOUND_STEP_MM = 0.05
@@ -67,6 +68,8 @@ def compute(args: argparse.Namespace):
     bar, update = _progress_bar(shape.curve.length)
     try:
         traj = schedule(shape.curve, limits, progress=update, approach=args.approach)
+    except InputError as exc:  # the message names the user's file
+        raise InputError(f"{args.shape}: {exc}") from None
     finally:
         if bar is not None:
             bar.close()

@@ -12,20 +12,31 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect, float_array
 from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
 from fuzzyfeed.fuzzy.rules import RuleTable, load_rule_table
+from fuzzyfeed.limits import MAX_LIMIT
 from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import PathSamples
+from fuzzyfeed.sampling import PathSamples, tangent_breaks
 
 
 def average_filter(values: np.ndarray, points: int) -> np.ndarray:
     """Centred moving average over ``points`` samples; at the ends the window shrinks symmetrically
-    (point i averages i − h … i + h with h = min(M // 2, i, N − 1 − i); an even M uses M − 1)."""
-    v = np.asarray(values, dtype=float)
+    (point i averages i − h … i + h with h = min(M // 2, i, N − 1 − i); M must be odd)."""
+    v = float_array(values, "values")
     if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 1:
         raise InputError(f"filter_points = {points!r}; must be an integer >= 1")
+    if points % 2 == 0:
+        raise InputError(f"filter_points = {points}; a centred moving average needs an odd number of "
+                         f"points (use {points - 1} or {points + 1})")
+    if v.ndim != 1:
+        raise InputError(f"values: shape {v.shape}; expected a flat array")
+    bad = ~np.isfinite(v)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f"values[{i}] = {v[i]}; the average filter needs finite values")
     n = v.size
     half = np.minimum(points // 2, np.minimum(np.arange(n), n - 1 - np.arange(n)))
     csum = np.concatenate([[0.0], np.cumsum(v)])
@@ -55,16 +66,26 @@ def _check_feed(max_feed_mm_s: float) -> float:
         f = float(max_feed_mm_s)
     except (TypeError, ValueError):
         raise MachineLimitsError(f"max feed = {max_feed_mm_s!r}; must be a number > 0 (mm/s)") from None
-    if not np.isfinite(f) or f <= 0:
+    if not np.isfinite(f) or f <= 0 or f > MAX_LIMIT:
         raise MachineLimitsError(f"max feed = {max_feed_mm_s!r} mm/s; the maximum feed must be "
-                                 "finite and > 0")
+                                 f"finite and > 0 (and at most {MAX_LIMIT:g})")
     return f
 
 
 def advise_details(samples: PathSamples, table: RuleTable | None = None, max_feed_mm_s: float = 100.0,
                    engine: FuzzyEngine | None = None) -> FuzzyAdvice:
     """Run the advisor on ``samples`` and keep the features and the unfiltered controller output."""
+    expect(samples, PathSamples, "samples", "PathSamples (sample_uniform_u, sample_shape)")
+    if table is not None:
+        expect(table, RuleTable, "table", "a RuleTable (load_rule_table) or None")
     f_max = _check_feed(max_feed_mm_s)
+    if samples.curve is not None and np.isfinite(samples.d1).all():  # a NURBS, not a point sequence
+        u, angle = tangent_breaks(samples.curve)
+        if u.size:
+            x = samples.curve(float(u[0]))
+            raise InputError(f"the path turns {angle[0]:.1f} deg at u = {u[0]:g} ({', '.join(f'{c:g}' for c in x)}) "
+                             "mm: a corner has infinite curvature and no feed can be advised through it; "
+                             "round the corner or split the path there")
     table = table if table is not None else (engine.table if engine is not None else load_rule_table())
     engine = engine if engine is not None else compile_table(table)
     feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm)

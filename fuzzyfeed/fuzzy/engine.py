@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect, float_array
 from fuzzyfeed._kernels import use_compiled
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.rules import RuleTable, Variable
@@ -72,7 +73,7 @@ def membership(var: Variable, x: np.ndarray) -> np.ndarray:
 
 def check_finite(name: str, values: np.ndarray) -> np.ndarray:
     """Return ``values`` as a float array; NaN or infinity is an :class:`InputError` naming the index."""
-    arr = np.ascontiguousarray(values, dtype=float)
+    arr = np.ascontiguousarray(float_array(values, name), dtype=float)
     if arr.ndim != 1:
         raise InputError(f"{name}: shape {arr.shape}; expected a 1-D array")
     bad = ~np.isfinite(arr)
@@ -153,6 +154,7 @@ class FuzzyEngine:
 def compile_table(table: RuleTable) -> FuzzyEngine:
     """Precompute the arrays the kernel needs: term trapezoids, rule indices, and the static cut of
     the output axis at every term vertex with each term's line inside each interval."""
+    expect(table, RuleTable, "table", "a RuleTable (load_rule_table)")
     k, d, f = table.curvature, table.curvature_variation, table.feed
     rk, rd, ro = [], [], []
     for i in range(len(k.terms)):

@@ -13,12 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._checks import expect, float_array
 from fuzzyfeed.errors import InputError
 
 
 def check_curvature(kappa: np.ndarray, name: str = "curvature") -> np.ndarray:
     """κ as a float array; NaN, infinite or negative values are an :class:`InputError`."""
-    k = np.ascontiguousarray(kappa, dtype=float)
+    k = np.ascontiguousarray(float_array(kappa, name), dtype=float)
     if k.ndim != 1 or k.size == 0:
         raise InputError(f"{name}: shape {k.shape}; expected a non-empty 1-D array")
     bad = ~np.isfinite(k)
@@ -80,6 +81,7 @@ class Features:
 def features(kappa: np.ndarray, window_points: int = 30, clip_1_mm: float = 3.0) -> Features:
     """κ and the normalised Dκ of seed 002 (eq. 10, clip, min–max normalisation)."""
     k = check_curvature(kappa)
+    expect(clip_1_mm, (int, float, np.integer, np.floating), "clip_1_mm", "a number of 1/mm")
     if not np.isfinite(clip_1_mm) or clip_1_mm <= 0:
         raise InputError(f"clip_1_mm = {clip_1_mm!r}; must be finite and > 0")
     raw = forward_window_max(k, window_points)

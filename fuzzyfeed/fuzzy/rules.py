@@ -15,6 +15,7 @@ names the file and line (or the field of an in-memory table), the bad value and 
 from __future__ import annotations
 
 import math
+import os
 import re
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
@@ -145,6 +146,10 @@ def _validate_features(values: Mapping[str, object], where: Locator) -> None:
         v = values[key]
         if isinstance(v, bool) or not isinstance(v, int) or v < 1:
             raise RuleTableError(f"{where('features', key)}: {key} = {v!r}; must be an integer >= 1")
+    m = values["filter_points"]
+    if m % 2 == 0:  # a centred average has 2h + 1 points; an even size would silently be M - 1
+        raise RuleTableError(f"{where('features', 'filter_points')}: filter_points = {m}; a centred "
+                             f"moving average needs an odd number of points (use {m - 1} or {m + 1})")
     clip = values["dk_clip_1_mm"]
     if not _is_number(clip) or not math.isfinite(clip) or clip <= 0:
         raise RuleTableError(f"{where('features', 'dk_clip_1_mm')}: dk_clip_1_mm = {clip!r}; "
@@ -263,6 +268,8 @@ def table_names() -> list[str]:
 
 def resolve_rules_path(spec: str | Path | None) -> Path:
     """A --rules argument (None = the default table, a shipped name, or a path) as an existing file."""
+    if spec is not None and not isinstance(spec, (str, os.PathLike)):
+        raise RuleTableError(f"rule table: {type(spec).__name__} {spec!r:.40}; expected a name or a file path")
     return resolve_file(DEFAULT_TABLE if spec is None else spec, "rules", "rule table", RuleTableError)
 
 
@@ -317,6 +324,8 @@ def load_rule_table(spec: str | Path | None = None) -> RuleTable:
 
 def parse_rule_table(text: str, path: Path | str = "<rules>") -> RuleTable:
     """Parse and validate rule-table TOML text; messages name ``path`` and the line."""
+    if not isinstance(text, str):
+        raise RuleTableError(f"{path}: {type(text).__name__}; expected the TOML text as str")
     path = Path(path)
     lines = _Lines(text)
     for section, key, first, again in lines.duplicates:
@@ -328,6 +337,8 @@ def parse_rule_table(text: str, path: Path | str = "<rules>") -> RuleTable:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RuleTableError(f"{path}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise RuleTableError(f"{path}: nested too deeply to be a rule table") from None
     where = _file_locator(path, lines)
     return table_from_mapping(data, where, path)
 

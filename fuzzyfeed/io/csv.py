@@ -23,6 +23,9 @@ from fuzzyfeed.io.atomic import atomic_write
 def write_columns(path: str | os.PathLike, columns: Mapping[str, np.ndarray],
                   allow_nan: tuple[str, ...] = ()) -> None:
     """Write equal-length columns to ``path`` (header = the keys), atomically."""
+    if not isinstance(columns, Mapping) or not columns:
+        raise ExportError(f"{path}: columns: {type(columns).__name__}; expected a non-empty mapping "
+                          "name -> array")
     names = list(columns)
     arrays = [np.asarray(columns[n]) for n in names]
     lengths = {a.shape[0] for a in arrays}

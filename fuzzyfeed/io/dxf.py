@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzyfeed.errors import NurbsError, PathFormatError
+from fuzzyfeed.errors import InputError, NurbsError, PathFormatError
 from fuzzyfeed.io.gcode import insert_knot
+from fuzzyfeed.sampling import point_budget
 
 #: $INSUNITS code → factor to mm (0 = unitless, read as mm).
 INSUNITS_TO_MM = {0: 1.0, 1: 25.4, 2: 304.8, 4: 1.0, 5: 10.0, 6: 1000.0}
@@ -118,14 +119,14 @@ def bulge_points(p0: np.ndarray, p1: np.ndarray, bulge: float, tolerance: float)
     sagitta of each chord is at most ``tolerance``. 2-D (the polyline's OCS)."""
     chord = p1 - p0
     d = float(np.hypot(*chord))
-    if bulge == 0 or d == 0:
+    if bulge == 0 or d == 0 or abs(bulge) * d / 2 <= tolerance:  # sagitta within tolerance: a line
         return p1[None, :]
     normal = np.array([-chord[1], chord[0]]) / d                  # left of the chord
     center = 0.5 * (p0 + p1) + normal * (d / 2) * (1 - bulge * bulge) / (2 * bulge)
     radius = float(np.hypot(*(p0 - center)))
     sweep = 4.0 * np.arctan(bulge)
     step = 2.0 * np.arccos(max(-1.0, 1.0 - tolerance / radius)) if tolerance < radius else np.pi / 2
-    m = max(2, int(np.ceil(abs(sweep) / step)))
+    m = max(2, point_budget(np.ceil(abs(sweep) / step), f"arc of bulge {bulge:g} and radius {radius:.4g}"))
     a = np.arctan2(*(p0 - center)[::-1]) + sweep * np.arange(1, m + 1) / m
     pts = center + radius * np.column_stack([np.cos(a), np.sin(a)])
     pts[-1] = p1
@@ -184,7 +185,10 @@ def _polyline_points(entity, scale: float, where: str) -> np.ndarray:
             bulge = np.append(bulge, 0.0)
         out = [xy[:1]]
         for i in range(len(xy) - 1):
-            out.append(bulge_points(xy[i], xy[i + 1], bulge[i], BULGE_TOLERANCE_MM / scale))
+            try:
+                out.append(bulge_points(xy[i], xy[i + 1], bulge[i], BULGE_TOLERANCE_MM / scale))
+            except InputError as exc:
+                raise PathFormatError(f"{where}: vertex {i}: {exc}") from None
         xy = np.vstack(out)
         ocs = entity.ocs()
         pts = np.asarray([tuple(ocs.to_wcs((x, y, elevation))) for x, y in xy], dtype=float).reshape(-1, 3)

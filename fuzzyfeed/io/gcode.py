@@ -68,6 +68,7 @@ from fuzzyfeed.errors import ExportError, NurbsError, PathFormatError
 from fuzzyfeed.io.atomic import atomic_write
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.profile import FeedProfile
+from fuzzyfeed.sampling import MAX_POINTS
 
 #: Default number of decimals for mm coordinates (rs274 prints 4).
 DEFAULT_DECIMALS = 4
@@ -655,7 +656,11 @@ class _Parser:
             sweep += 2 * np.pi * (turns - 1)
         r_max = max(r0, r1)
         step = 2.0 * np.arccos(1.0 - ARC_TOLERANCE_MM / r_max) if ARC_TOLERANCE_MM < r_max else np.pi / 2
-        m = max(2, int(np.ceil(abs(sweep) / step)))
+        count = np.ceil(abs(sweep) / step)
+        if not count <= MAX_POINTS:
+            self.fail(line, f"{name}: {abs(sweep) / (2 * np.pi):.4g} turns of radius {r_max:.4g} mm need "
+                            f"{count:.4g} points, more than the budget of {MAX_POINTS:,}")
+        m = max(2, int(count))
         f = np.arange(1, m + 1) / m
         a = a0 + sweep * f
         radius = r0 + (r1 - r0) * f

@@ -60,6 +60,13 @@ def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Pat
     if not np.isfinite(pts).all():
         i = int(np.argwhere(~np.isfinite(pts))[0, 0])
         raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must be finite")
+    from fuzzyfeed.nurbs import MAX_COORDINATE_MM
+
+    big = np.abs(pts) > MAX_COORDINATE_MM
+    if big.any():
+        i = int(np.argwhere(big)[0, 0])
+        raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must lie within "
+                              f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     same = np.all(pts[1:] == pts[:-1], axis=1)
     if same.any():
         i = int(np.argmax(same)) + 1

@@ -12,6 +12,7 @@ as well. A SHAPE argument is a shipped shape's name (see :func:`shape_names`) or
 from __future__ import annotations
 
 import json
+import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +22,7 @@ import numpy as np
 from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import NurbsError, ShapeFileError
 from fuzzyfeed.io.gcode import GCODE_SUFFIXES
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.nurbs import Nurbs, non_number
 from fuzzyfeed.sampling import DEFAULT_POINTS, PathSamples, sample_uniform_u, samples_from_points
 
 #: Units a shape file may declare, with the factor that converts them to mm.
@@ -55,6 +56,8 @@ def shape_names() -> list[str]:
 def sample_shape(shape: Shape, points: int = DEFAULT_POINTS) -> PathSamples:
     """The planners' samples of a shape: ``points`` uniform in u for a NURBS (seed 002); the
     vertices themselves with the three-point curvature (seed 002 eq. 4-9) for a polyline."""
+    if not isinstance(shape, Shape):
+        raise ShapeFileError(f"shape: {type(shape).__name__} {shape!r:.40}; expected a Shape (load_shape)")
     if shape.polyline is not None:
         return samples_from_points(shape.polyline, shape.curve)
     return sample_uniform_u(shape.curve, points)
@@ -76,6 +79,8 @@ def split_selector(spec: str | Path) -> tuple[str | Path, str | None]:
 def load_shape(spec: str | Path) -> Shape:
     """Load a SHAPE: a shipped name, a .toml/.json shape file, or a DXF, G-code or CSV point file,
     optionally followed by ``#SELECTOR`` to pick one path of a file that holds several."""
+    if not isinstance(spec, (str, os.PathLike)):
+        raise ShapeFileError(f"shape: {type(spec).__name__} {spec!r:.40}; expected a name or a file path")
     base, selector = split_selector(spec)
     path = resolve_shape_path(base)
     loader = _LOADERS.get(path.suffix.lower())
@@ -110,6 +115,8 @@ def _load_toml(path: Path) -> Shape:
         data = tomllib.loads(_read_text(path))
     except tomllib.TOMLDecodeError as exc:
         raise ShapeFileError(f"{path}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise ShapeFileError(f"{path}: nested too deeply to be a shape file") from None
     return shape_from_mapping(data, path)
 
 
@@ -118,6 +125,8 @@ def _load_json(path: Path) -> Shape:
         data = json.loads(_read_text(path))
     except json.JSONDecodeError as exc:
         raise ShapeFileError(f"{path}:{exc.lineno}: invalid JSON: {exc.msg}") from None
+    except RecursionError:
+        raise ShapeFileError(f"{path}: nested too deeply to be a shape file") from None
     if isinstance(data, dict) and isinstance(data.get("shape"), dict):  # geomdl exchange layout
         items = data["shape"].get("data") or []
         if len(items) != 1 or not isinstance(items[0], dict):
@@ -144,6 +153,16 @@ def shape_from_mapping(data: object, path: Path | None = None) -> Shape:
         if value is None:
             raise ShapeFileError(f"{where}: field '{key}' is missing")
     units = data.get("units", "mm")
+    for key in ("name", "units", "source", "notes"):
+        if key in data and not isinstance(data[key], str):
+            raise ShapeFileError(f"{where}: {key} = {data[key]!r:.40}; must be a string")
+    for key in ("degree", "knotvector", "control_points", "weights"):
+        bad = non_number(knots if key == "knotvector" else data.get(key))
+        if bad is not None:
+            if key == "control_points":
+                raise ShapeFileError(f"{where}: control_points must be a list of [x, y] or [x, y, z] "
+                                     f"numbers; found {bad!r}")
+            raise ShapeFileError(f"{where}: {key}: {bad!r} is not a number")
     if units not in UNIT_TO_MM:
         raise ShapeFileError(f"{where}: units = {units!r}; use one of {', '.join(UNIT_TO_MM)}")
     try:

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fuzzyfeed._checks import expect
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.interpolate import interpolate_u
 from fuzzyfeed.limits import AXES, MachineLimits
@@ -119,6 +120,16 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
     return t, s, v, a, j
 
 
+def check_work(total_mm: float, limits: MachineLimits) -> None:
+    """Refuse, before any work, a schedule of more than MAX_TICKS servo periods even at the command
+    feed (the fastest the path can be run: L / (F·Ts) is a lower bound on the ticks)."""
+    ticks = total_mm / (limits.feed_mm_s * limits.ts_s)
+    if not ticks <= MAX_TICKS:
+        raise InputError(f"the path of {total_mm:.6g} mm at feed {limits.feed_mm_min:g} mm/min and servo "
+                         f"period {limits.ts_s:g} s needs at least {ticks:.4g} servo periods (more than "
+                         f"{MAX_TICKS:.0e}); raise --feed-mm-min or --ts-s")
+
+
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
              progress: Callable[[float], None] | None = None, approach: int = 1) -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
@@ -128,6 +139,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
 
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block.
     """
+    expect(curve, Nurbs, "curve", "a Nurbs")
     limits = MachineLimits.default() if limits is None else limits
     if not isinstance(limits, MachineLimits):
         raise InputError(f"limits: {type(limits).__name__}; expected MachineLimits")
@@ -136,6 +148,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         raise InputError(f"path length {total!r} mm; a path to schedule must have a positive length")
     if approach not in (1, 2):
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
+    check_work(total, limits)
     window = SlidingWindow(limits, curve, approach)
     blocks = []
     try:
