@@ -23,6 +23,7 @@ from pathlib import Path
 
 from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import RuleTableError
+from fuzzyfeed.fuzzy.filters import DEFAULT_FILTER, FILTER_KINDS
 
 #: Section names of the three fuzzy variables, in the order inputs, output.
 KAPPA, DK, FEED = "curvature", "curvature_variation", "feed"
@@ -33,6 +34,8 @@ UNITS = {KAPPA: "1/mm", DK: "", FEED: "%"}
 DEFAULT_TABLE = "paper"
 #: Settings of the [features] section.
 FEATURE_KEYS = ("window_points", "dk_clip_1_mm", "filter_points", "feed_floor_pct")
+#: Optional settings of [features]: the filter kind, and WS / M as lengths along the path (mm).
+OPTIONAL_FEATURE_KEYS = ("filter", "window_mm", "filter_mm")
 
 # where(section, key) -> "file:line" (or a field path for an in-memory table)
 Locator = Callable[..., str]
@@ -91,6 +94,9 @@ class RuleTable:
     filter_points: int = 21
     feed_floor_pct: float = 5.0
     source: str = ""
+    filter: str = DEFAULT_FILTER
+    window_mm: float | None = None
+    filter_mm: float | None = None
     path: Path | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -155,8 +161,21 @@ def _validate_features(values: Mapping[str, object], where: Locator) -> None:
                              f"{floor!r}; must be in (0, 100] (a feed is never 0)")
 
 
+def _validate_optional_features(values: Mapping[str, object], where: Locator) -> None:
+    kind = values.get("filter", DEFAULT_FILTER)
+    if kind not in FILTER_KINDS:
+        raise RuleTableError(f"{where('features', 'filter')}: filter = {kind!r}; must be one of "
+                             f"{', '.join(repr(k) for k in FILTER_KINDS)}")
+    for key in ("window_mm", "filter_mm"):
+        v = values.get(key)
+        if v is not None and (not _is_number(v) or not math.isfinite(v) or v <= 0):
+            raise RuleTableError(f"{where('features', key)}: {key} = {v!r}; must be a finite "
+                                 "number > 0 (mm along the path)")
+
+
 def _validate(t: RuleTable, where: Locator) -> None:
     _validate_features({k: getattr(t, k) for k in FEATURE_KEYS}, where)
+    _validate_optional_features({k: getattr(t, k) for k in OPTIONAL_FEATURE_KEYS}, where)
     for var in t.variables:
         _validate_variable(var, where, require_cover=var.name != FEED)
     k, d, f = t.curvature, t.curvature_variation, t.feed
@@ -341,12 +360,12 @@ def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path |
             raise RuleTableError(f"{top}: section [{section}] is missing; a rule table has [features], "
                                  "[curvature], [curvature_variation], [feed] and [rules]")
     feats = data["features"]
-    known = set(FEATURE_KEYS)
+    known = set(FEATURE_KEYS) | set(OPTIONAL_FEATURE_KEYS)
     for key in feats:
         if key not in known:
             raise RuleTableError(f"{where('features', key)}: unknown setting {key!r}; "
                                  f"[features] takes {', '.join(sorted(known))}")
-    for key in known:
+    for key in FEATURE_KEYS:
         if key not in feats:
             raise RuleTableError(f"{where('features')}: setting {key!r} is missing from [features]")
     variables = {}
@@ -370,12 +389,20 @@ def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path |
         _validate_variable(var, where, require_cover=var.name != FEED)
     grid = _grid_from_mapping(data["rules"], variables[KAPPA], variables[DK], variables[FEED], where)
     _validate_features(feats, where)
+    _validate_optional_features(feats, where)
     return RuleTable(name=str(data.get("name", path.stem if path else "rules")),
                      curvature=variables[KAPPA], curvature_variation=variables[DK],
                      feed=variables[FEED], grid=grid,
                      window_points=feats["window_points"], dk_clip_1_mm=feats["dk_clip_1_mm"],
                      filter_points=feats["filter_points"], feed_floor_pct=feats["feed_floor_pct"],
-                     source=str(data.get("source", "")), path=path)
+                     source=str(data.get("source", "")), path=path,
+                     filter=feats.get("filter", DEFAULT_FILTER),
+                     window_mm=_opt_float(feats.get("window_mm")),
+                     filter_mm=_opt_float(feats.get("filter_mm")))
+
+
+def _opt_float(v: object) -> float | None:
+    return None if v is None else float(v)  # type: ignore[arg-type]
 
 
 def _grid_from_mapping(rules: Mapping, k: Variable, d: Variable, f: Variable,
@@ -445,7 +472,9 @@ def table_to_toml(t: RuleTable) -> str:
         out.append(f"source = {_quote(t.source)}")
     out += ["", "[features]", f"window_points = {t.window_points}",
             f"dk_clip_1_mm = {_num(t.dk_clip_1_mm)}", f"filter_points = {t.filter_points}",
-            f"feed_floor_pct = {_num(t.feed_floor_pct)}"]
+            f"feed_floor_pct = {_num(t.feed_floor_pct)}", f"filter = {_quote(t.filter)}"]
+    out += [f"{key} = {_num(getattr(t, key))}" for key in ("window_mm", "filter_mm")
+            if getattr(t, key) is not None]
     for var in t.variables:
         width = max(len(x) for x in var.labels)
         out += ["", f"[{var.name}]", f"universe = [{_num(var.universe[0])}, {_num(var.universe[1])}]"]
