@@ -465,9 +465,10 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def table_to_toml(t: RuleTable) -> str:
-    """TOML text of a table in the shipped layout (aligned grid, full float precision)."""
-    out = [f"name = {_quote(t.name)}"]
+def table_to_toml(t: RuleTable, with_name: bool = True) -> str:
+    """TOML text of a table in the shipped layout (aligned grid, full float precision).
+    ``with_name=False`` leaves the name out, so the file's own name becomes the table's."""
+    out = [f"name = {_quote(t.name)}"] if with_name else []
     if t.source:
         out.append(f"source = {_quote(t.source)}")
     out += ["", "[features]", f"window_points = {t.window_points}",
@@ -585,42 +586,3 @@ def grid_text(t: RuleTable, sep: str | None = None) -> str:
         return "\n".join(sep.join(r) for r in rows) + "\n"
     width = max(len(c) for r in rows for c in r) + 2
     return "\n".join("".join(c.ljust(width) for c in r).rstrip() for r in rows) + "\n"
-
-
-def table_to_fcl(t: RuleTable) -> str:
-    """The table in IEC 61131-7 FCL: terms as point lists, AND/ACT MIN, ACCU MAX, METHOD COG and
-    DEFAULT = the feed floor (what fuzzyfeed outputs if no rule fires).
-
-    fuzzyfeed's own inputs are clipped to the universes and Dκ is normalised before the controller;
-    an FCL engine gets the same numbers only if it is fed the same features.
-    """
-    def points(term: Term, lo: float, hi: float) -> str:
-        a, b, c, d = term.trapezoid
-        pts = []
-        if a < b or a > lo:           # a = b > lo: a vertical rising edge, (a, 0) then (a, 1)
-            pts.append((a, 0.0))
-        pts.append((b, 1.0))
-        if c > b:
-            pts.append((c, 1.0))
-        if d > c or d < hi:           # c = d < hi: a vertical falling edge
-            pts.append((d, 0.0))
-        return " ".join(f"({float(x)!r}, {float(y)!r})" for x, y in pts)
-
-    name = re.sub(r"\W", "_", t.name) or "rules"
-    out = [f"(* fuzzyfeed rule table {t.name!r}: {t.source} *)" if t.source else
-           f"(* fuzzyfeed rule table {t.name!r} *)", f"FUNCTION_BLOCK {name}", "", "VAR_INPUT",
-           f"    {KAPPA} : REAL; (* 1/mm, clipped to the universe *)",
-           f"    {DK} : REAL; (* normalised curvature variation *)", "END_VAR", "", "VAR_OUTPUT",
-           f"    {FEED} : REAL; (* % of the maximum feed *)", "END_VAR", ""]
-    for var, block in ((t.curvature, "FUZZIFY"), (t.curvature_variation, "FUZZIFY"), (t.feed, "DEFUZZIFY")):
-        lo, hi = var.universe
-        out += [f"{block} {var.name}", f"    RANGE := ({float(lo)!r} .. {float(hi)!r});"]
-        out += [f"    TERM {term.label} := {points(term, lo, hi)};" for term in var.terms]
-        if block == "DEFUZZIFY":
-            out += ["    METHOD : COG;", f"    DEFAULT := {float(t.feed_floor_pct)!r};"]
-        out += [f"END_{block}", ""]
-    out += ["RULEBLOCK rules", "    AND : MIN;", "    ACT : MIN;", "    ACCU : MAX;"]
-    out += [f"    RULE {n + 1} : IF {KAPPA} IS {k} AND {DK} IS {d} THEN {FEED} IS {f};"
-            for n, (k, d, f) in enumerate(t.rules)]
-    out += ["END_RULEBLOCK", "", "END_FUNCTION_BLOCK"]
-    return "\n".join(out) + "\n"
