@@ -116,3 +116,43 @@ def test_other_shapes_corners_and_smoothness(name):
     peaks = _peaks(samples.curvature)
     assert (a.feed_pct[peaks] <= np.maximum(raw[peaks], table.feed_floor_pct)).all()
     assert np.abs(np.diff(a.feed_pct)).max() <= np.abs(np.diff(b.feed_pct)).max() + 1e-9
+
+
+def test_windows_in_mm_make_the_advice_independent_of_the_sampling():
+    """Issue 9 item 4: WS and M in mm. The trident sampled 2000 × uniform in u (the paper) and
+    6000 × uniform in arc length gets the same advice along s with lengths, not with points."""
+    from fuzzyfeed.sampling import sample_by_arc_length, sample_uniform_u
+
+    curve = load_shape("trident").curve
+    a, b = sample_uniform_u(curve, 2000), sample_by_arc_length(curve, n=6000)
+    paper = load_rule_table()
+    in_mm = replace(paper, window_mm=1.45, filter_mm=1.0)      # ≈ 30 and 21 points at 2000
+    grid = np.linspace(0, a.s[-1], 20000)
+
+    def gap(table):
+        fa, fb = advise_details(a, table), advise_details(b, table)
+        diff = np.abs(np.interp(grid, a.s, fa.feed_pct) - np.interp(grid, b.s, fb.feed_pct))
+        return diff.max(), abs(fb.profile.travel_time_s() / fa.profile.travel_time_s() - 1)
+
+    feed_gap, time_gap = gap(in_mm)
+    assert feed_gap < 2.0 and time_gap < 0.005          # % of F; relative time
+    feed_gap_pts, _ = gap(paper)
+    assert feed_gap_pts > 5 * feed_gap                    # in points the look-ahead shrinks 3×
+
+
+def test_window_and_filter_lengths_in_the_rule_file(tmp_path):
+    from fuzzyfeed.errors import RuleTableError
+    from fuzzyfeed.fuzzy.rules import rules_dir
+
+    text = (rules_dir() / "paper.toml").read_text().replace(
+        '\nfilter = "min-mean"\n', '\nfilter = "min-mean"\nwindow_mm = 1.45\nfilter_mm = 1.0\n')
+    path = tmp_path / "mm.toml"
+    path.write_text(text)
+    t = load_rule_table(path)
+    assert (t.window_mm, t.filter_mm, t.name) == (1.45, 1.0, "mm")
+    path.write_text(text.replace("window_mm = 1.45", "window_mm = -1"))
+    with pytest.raises(RuleTableError, match=r"mm.toml:\d+: window_mm = -1; must be a finite number > 0"):
+        load_rule_table(path)
+    path.write_text(text.replace('\nfilter = "min-mean"\n', '\nfilter = "median"\n'))
+    with pytest.raises(RuleTableError, match=r"filter = 'median'; must be one of 'min-mean', 'mean'"):
+        load_rule_table(path)

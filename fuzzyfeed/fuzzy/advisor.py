@@ -56,7 +56,8 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
     f_max = _check_feed(max_feed_mm_s)
     table = table if table is not None else (engine.table if engine is not None else load_rule_table())
     engine = engine if engine is not None else compile_table(table)
-    feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm)
+    feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm, samples.s,
+                     table.window_mm)
     raw = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
     pct = np.clip(smooth_feed(raw, table.filter, table.filter_points, samples.s, table.filter_mm),
                   table.feed_floor_pct, 100.0)

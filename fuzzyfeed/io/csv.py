@@ -35,3 +35,28 @@ def write_columns(path: str | os.PathLike, columns: Mapping[str, np.ndarray],
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(names)
         writer.writerows(zip(*as_lists))
+
+
+def metadata_path(csv_path: str | os.PathLike) -> str:
+    """The CSVW sidecar of a CSV file: ``OUT.csv`` -> ``OUT.csv-metadata.json`` (W3C "CSV on the
+    Web" naming), so the CSV itself stays plain for spreadsheets and pandas."""
+    return os.fspath(csv_path) + "-metadata.json"
+
+
+def write_metadata(csv_path: str | os.PathLike, columns: list[str], record: Mapping[str, str]) -> str:
+    """Write the CSVW sidecar of ``csv_path``: its columns and a provenance ``record`` (which rule
+    table, F and source made it) under ``notes``; atomically. Returns the sidecar's path."""
+    import json
+
+    meta = {
+        "@context": "http://www.w3.org/ns/csvw",
+        "url": os.path.basename(os.fspath(csv_path)),
+        "dc:source": record.get("source", ""),
+        "dc:creator": record.get("generator", "fuzzyfeed"),
+        "tableSchema": {"columns": [{"name": c, "titles": c} for c in columns]},
+        "notes": [{"fuzzyfeed": dict(record)}],
+    }
+    path = metadata_path(csv_path)
+    with atomic_write(path, "w") as handle:
+        handle.write(json.dumps(meta, indent=2, ensure_ascii=False) + "\n")
+    return path
