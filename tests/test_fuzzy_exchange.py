@@ -283,3 +283,18 @@ def test_cli_import_and_diff(tmp_path, capsys):
     assert main(["rules", "import", str(bad), "-o", str(target)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "and = AlgebraicProduct" in err and not target.exists()
+
+
+def test_provenance_names_the_table_and_survives_a_gcode_comment():
+    from fuzzyfeed.fuzzy.provenance import provenance, provenance_lines, table_digest
+
+    paper = load_rule_table()
+    edited = paper.with_cell("VB", "ZO", "LF")
+    renamed = replace(paper, name="other", source="elsewhere (copy)")
+    assert table_digest(renamed) == table_digest(paper) != table_digest(edited)
+    record = provenance(edited, 6000.0, "shapes/trident.toml (Lin (2021))", 2000)
+    assert record["rules"] == "paper" and record["F_mm_min"] == "6000" and record["points"] == "2000"
+    assert record["filter"] == "corner-mean over 21 points" and record["window"] == "30 points"
+    lines = provenance_lines(record)
+    assert all("(" not in x and ")" not in x and "\n" not in x for x in lines)
+    assert "source: shapes/trident.toml [Lin [2021]]" in lines

@@ -2,7 +2,7 @@
 
 Feed % = centroid of the controller (exact, see :mod:`fuzzyfeed.fuzzy.engine`), smoothed by the
 table's filter over M = ``table.filter_points`` points or ``table.filter_mm`` mm (seed 002's centred
-average, or the default min-mean that never raises a corner's feed; see
+average, or the default corner-mean that never raises a corner's feed; see
 :mod:`fuzzyfeed.fuzzy.filters`), then held to [feed_floor_pct, 100]. Feed [mm/s] = feed % / 100 ×
 F_max.
 """
@@ -59,8 +59,8 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
     feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm, samples.s,
                      table.window_mm)
     raw = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
-    pct = np.clip(smooth_feed(raw, table.filter, table.filter_points, samples.s, table.filter_mm),
-                  table.feed_floor_pct, 100.0)
+    pct = np.clip(smooth_feed(raw, table.filter, table.filter_points, samples.s, table.filter_mm,
+                              feats.curvature_1_mm), table.feed_floor_pct, 100.0)
     profile = FeedProfile(samples=samples, feed_mm_s=pct / 100.0 * f_max, method="fuzzy",
                           max_feed_mm_s=f_max)
     return FuzzyAdvice(profile=profile, features=feats, controller_pct=raw, feed_pct=pct, table=table)
