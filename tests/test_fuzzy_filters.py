@@ -35,12 +35,17 @@ def test_min_mean_never_exceeds_the_controller_anywhere(values, m):
 
 @settings(max_examples=200, deadline=None)
 @given(st.data(), st.floats(0.01, 50))
-def test_min_mean_in_mm_never_exceeds_the_controller(data, length):
+def test_min_mean_and_corner_mean_in_mm_never_exceed_the_controller(data, length):
     n = data.draw(st.integers(1, 100))
     values = data.draw(arrays(float, n, elements=st.floats(0, 100, allow_nan=False)))
     gaps = data.draw(arrays(float, n - 1, elements=st.floats(0.001, 5)))
-    out = smooth_feed(values, "min-mean", s=_positions(gaps), length_mm=length)
+    s = _positions(gaps)
+    out = smooth_feed(values, "min-mean", s=s, length_mm=length)
     assert (out <= values).all() and (out >= values.min()).all()
+    kappa = data.draw(arrays(float, n, elements=st.floats(0, 50, allow_nan=False)))
+    out = smooth_feed(values, "corner-mean", s=s, length_mm=length, curvature=kappa)
+    peaks = curvature_peaks(kappa)
+    assert (out[peaks] <= values[peaks]).all() and (out >= values.min()).all()
 
 
 @settings(max_examples=150, deadline=None)
