@@ -203,3 +203,25 @@ def test_window_and_filter_lengths_in_the_rule_file(tmp_path):
     path.write_text(text.replace('\nfilter = "corner-mean"\n', '\nfilter = "median"\n'))
     with pytest.raises(RuleTableError, match=r"filter = 'median'; must be one of 'corner-mean', 'min-mean', 'mean'"):
         load_rule_table(path)
+
+
+def test_g52_reimport_of_the_trident_gets_the_same_advice_in_mm(tmp_path, capsys):
+    """Issue 9 item 4: the trident written as G5.2 and read back is sampled differently (129 points
+    instead of 2000); with WS and M in points it was advised 6 × slower, in mm it agrees."""
+    from fuzzyfeed.cli import main
+
+    ngc = tmp_path / "t.ngc"
+    assert main(["advise", "trident", "-o", str(tmp_path / "t.csv"), "--gcode-g52", str(ngc)]) == 0
+    capsys.readouterr()
+    direct, back = sample_shape(load_shape("trident"), 2000), sample_shape(load_shape(str(ngc)), 2000)
+    assert len(back) < 500                                     # the re-import's own sampling
+    paper = load_rule_table()
+    in_mm = replace(paper, window_mm=1.45, filter_mm=1.0)
+    t = lambda samples, table: advise_details(samples, table).profile.travel_time_s()  # noqa: E731
+    assert abs(t(back, in_mm) / t(direct, in_mm) - 1) < 0.03          # 1.764 s against 1.776 s
+    assert t(back, paper) / t(direct, paper) > 3                        # 10.3 s against 1.75 s
+    # the CLI flags do the same
+    assert main(["advise", str(ngc), "-o", str(tmp_path / "r.csv"), "--window-mm", "1.45",
+                 "--filter-mm", "1.0"]) == 0
+    out = capsys.readouterr().out
+    assert "corner-mean filter over 1 mm" in out and "never above the controller" in out

@@ -122,7 +122,25 @@ def summary(shape_name: str, advice) -> str:
         f"feed mm/min  min {f.min():.1f}  mean {f.mean():.1f}  max {f.max():.1f}   "
         f"(% of F: {pct.min():.2f} / {pct.mean():.2f} / {pct.max():.2f})",
         f"time at the advised feeds {t:.4f} s  (at constant F: {t_const:.4f} s)",
+        _filter_line(advice),
     ])
+
+
+def _filter_line(advice) -> str:
+    """Smoothness before and after the filter, and the feed at the curvature peaks against the
+    controller's (issue 12: a filter must not speed up a corner)."""
+    from fuzzyfeed.fuzzy.filters import curvature_peaks
+
+    table = advice.table
+    raw, pct = advice.controller_pct, advice.feed_pct
+    size = f"{table.filter_mm:g} mm" if table.filter_mm else f"{table.filter_points} points"
+    steps = (f"{np.abs(np.diff(raw)).max():.2f} % -> {np.abs(np.diff(pct)).max():.2f} %"
+             if raw.size > 1 else "n/a")
+    peaks = curvature_peaks(advice.features.curvature_1_mm)
+    above = float((pct[peaks] - np.maximum(raw[peaks], table.feed_floor_pct)).max())
+    corners = ("never above the controller at a curvature peak" if above <= 1e-9 else
+               f"up to {above:.2f} % above the controller at a curvature peak")
+    return f"{table.filter} filter over {size}: largest point-to-point change {steps}; {corners}"
 
 
 def run(args: argparse.Namespace) -> int:
