@@ -84,7 +84,9 @@ def plot_fuzzy_advice(advice, title: str, output: str | os.PathLike) -> None:
     ax_p = fig.add_subplot(grid[:, 1])
     ax_f.plot(s, advice.controller_pct, lw=0.8, color="0.6", label="controller (before filter)")
     ax_f.plot(s, advice.feed_pct, lw=1.6, color="C0",
-              label=f"advised feed (average filter M = {advice.table.filter_points})")
+              label=f"advised feed ({advice.table.filter} filter, M = "
+                    + (f"{advice.table.filter_mm:g} mm)" if advice.table.filter_mm
+                       else f"{advice.table.filter_points} points)"))
     ax_f.axhline(advice.table.feed_floor_pct, color="C3", lw=0.8, ls=":", label="feed floor")
     ax_f.set_ylabel("feed (% of max)")
     ax_f.set_ylim(0, 105)
@@ -99,7 +101,8 @@ def plot_fuzzy_advice(advice, title: str, output: str | os.PathLike) -> None:
     ax_k.grid(True, which="both", alpha=0.3)
     ax_d = ax_k.twinx()
     ax_d.plot(s, advice.features.curvature_variation, lw=1.0, color="C2",
-              label=f"normalised Dκ (WS = {advice.table.window_points})")
+              label="normalised Dκ (WS = " + (f"{advice.table.window_mm:g} mm)" if advice.table.window_mm
+                                              else f"{advice.table.window_points} points)"))
     ax_d.set_ylabel("normalised Dκ")
     ax_d.set_ylim(-0.02, 1.05)
     lines = ax_k.get_lines() + ax_d.get_lines()

@@ -50,7 +50,25 @@ def test_advise_with_rules_file_and_plot(tmp_path, capsys):
     assert main(["advise", "trident", "-o", str(out), "--rules", str(rules), "--plot", str(fig)]) == 0
     assert read_csv(out)["feed_pct"].min() == 40.0
     assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "rules 'paper'" in capsys.readouterr().out
+    # an edited copy is named after its file, and the sidecar says which table, F and path made the CSV
+    assert "rules 'slow'" in capsys.readouterr().out
+    import json
+
+    meta = json.loads((tmp_path / "t.csv-metadata.json").read_text())
+    record = meta["notes"][0]["fuzzyfeed"]
+    assert meta["url"] == "t.csv" and meta["@context"] == "http://www.w3.org/ns/csvw"
+    assert [c["name"] for c in meta["tableSchema"]["columns"]] == list(read_csv(out))
+    assert record["rules"] == "slow" and record["rules_file"] == str(rules)
+    assert record["F_mm_min"] == "6000" and "trident.toml" in record["source"]
+    from fuzzyfeed.fuzzy.provenance import table_digest
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+
+    assert record["rules_digest"] == table_digest(load_rule_table(rules))
+    assert record["rules_digest"] != table_digest(load_rule_table("paper"))
+    import pandas as pd
+
+    frame = pd.read_csv(out)                     # the CSV itself stays plain
+    assert list(frame.columns) == list(read_csv(out))
 
 
 def _degenerate_shape(tmp_path):

@@ -29,7 +29,7 @@ def test_check(capsys, tmp_path):
     good.write_text(PAPER_TEXT)
     assert main(["rules", "check", str(good), "paper"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0].startswith(f"ok: {good}: table 'paper', 30 rules (6 x 5), 8 feed terms")
+    assert out[0].startswith(f"ok: {good}: table 'good', 30 rules (6 x 5), 8 feed terms")
     bad = tmp_path / "bad.toml"
     bad.write_text(PAPER_TEXT.replace("H  = [0.5, 0.75, 1.0]", "H  = [0.5, 1.0, 0.75]"))
     assert main(["rules", "check", str(bad)]) == 2
@@ -80,7 +80,10 @@ def test_show_fcl(capsys):
     assert main(["rules", "show", "--format", "fcl"]) == 0
     out = capsys.readouterr().out
     assert out.count("RULE ") == 30 and "METHOD : COG;" in out and "ACCU : MAX;" in out
-    assert "RULE 5 : IF curvature IS ZO AND curvature_variation IS VH THEN feed IS VVLF;" in out
+    # numbered as the paper's R1-R30 (curvature runs fastest): R25 and R26 are the two VVLF rules
+    assert "RULE 25 : IF curvature IS ZO AND curvature_variation IS VH THEN feed IS VVLF;" in out
+    assert "RULE 26 : IF curvature IS VS AND curvature_variation IS VH THEN feed IS VVLF;" in out
+    assert "RULE 2 : IF curvature IS VS AND curvature_variation IS ZO THEN feed IS VVHF;" in out
     assert "TERM VVLF := (0.0, 1.0) (10.0, 0.0);" in out
     assert "TERM VB := (0.2, 0.0) (0.5, 1.0) (1.0, 1.0);" in out
     assert re.search(r"DEFAULT := 5\.0;", out)

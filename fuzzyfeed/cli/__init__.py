@@ -57,6 +57,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _outputs_and_inputs(args: argparse.Namespace) -> tuple[list, list]:
     outputs = [(flag, getattr(args, attr)) for attr, flag in OUTPUT_ARGS if getattr(args, attr, None) is not None]
+    if getattr(args, "csv_sidecar", False) and getattr(args, "output", None):
+        from fuzzyfeed.io.csv import metadata_path
+
+        sidecar = metadata_path(args.output)
+        if sidecar is not None:  # the CSV's provenance sidecar is part of the same transaction
+            outputs.append(("-o (its sidecar)", sidecar))
     inputs = []
     for attr, label in INPUT_ARGS:
         value = getattr(args, attr, None)

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from fuzzyfeed.cli._common import add_shape_argument, point_count
+from fuzzyfeed.cli._common import add_shape_argument, point_count, positive_float
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.limits import DEFAULT_FEED_MM_S, MAX_LIMIT
@@ -36,13 +36,24 @@ def register(sub) -> None:
     p.add_argument("--points", type=point_count, default=DEFAULT_POINTS, metavar="N",
                    help="sample points, uniform in the parameter as in seed 002 (default: %(default)s; "
                         "point-sequence shapes use their own points)")
+    p.add_argument("--filter", choices=("min-mean", "mean"), default=None,
+                   help="smoothing of the controller's feed: min-mean never exceeds the controller "
+                        "(default of the shipped table), mean is seed 002's average filter "
+                        "(default: the rule table's)")
+    p.add_argument("--window-mm", type=positive_float, default=None, metavar="L",
+                   help="look-ahead WS as a length: Dk at a point is the largest curvature within "
+                        "the next L mm of path, whatever the sampling (default: the table's "
+                        "window, 30 points in the paper's)")
+    p.add_argument("--filter-mm", type=positive_float, default=None, metavar="L",
+                   help="filter window M as a length of L mm centred on each point (default: the "
+                        "table's, 21 points in the paper's)")
     p.add_argument("--rule-strengths", action="store_true",
                    help="add one column per rule with its firing strength, named "
                         "w_<curvature term>_<curvature_variation term> (e.g. w_VS_M)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed and curvature against arc length and the path coloured by feed")
     add_gcode_arguments(p)
-    p.set_defaults(run=run)
+    p.set_defaults(run=run, csv_sidecar=True)
 
 
 def check_feed_mm_min(value: float) -> float:
@@ -64,6 +75,12 @@ def compute(args: argparse.Namespace):
 
     feed_mm_min = check_feed_mm_min(args.feed_mm_min)
     table = load_rule_table(args.rules)
+    changes = {key: getattr(args, key) for key in ("filter", "window_mm", "filter_mm")
+               if getattr(args, key, None) is not None}
+    if changes:
+        from dataclasses import replace
+
+        table = replace(table, **changes)
     shape = load_shape(args.shape)
     try:
         samples = sample_shape(shape, args.points)
@@ -88,6 +105,17 @@ def advice_columns(advice, rule_strengths: bool = False) -> dict[str, np.ndarray
     return cols
 
 
+def advice_provenance(args: argparse.Namespace, shape, advice) -> dict[str, str]:
+    """Which table, F and tool path made this advice (CSV sidecar, G-code header)."""
+    from fuzzyfeed.fuzzy.provenance import provenance
+
+    source = str(shape.path) if getattr(shape, "path", None) else str(args.shape)
+    if getattr(shape, "source", ""):
+        source += f" ({shape.source})"
+    return provenance(advice.table, advice.profile.max_feed_mm_s * 60.0, source,
+                      len(advice.profile.samples))
+
+
 def summary(shape_name: str, advice) -> str:
     p = advice.profile
     f = p.feed_mm_min
@@ -100,21 +128,42 @@ def summary(shape_name: str, advice) -> str:
         f"feed mm/min  min {f.min():.1f}  mean {f.mean():.1f}  max {f.max():.1f}   "
         f"(% of F: {pct.min():.2f} / {pct.mean():.2f} / {pct.max():.2f})",
         f"time at the advised feeds {t:.4f} s  (at constant F: {t_const:.4f} s)",
+        _filter_line(advice),
     ])
 
 
+def _filter_line(advice) -> str:
+    """Smoothness before and after the filter, and the feed at the curvature peaks against the
+    controller's (issue 12: a filter must not speed up a corner)."""
+    from fuzzyfeed.fuzzy.filters import curvature_peaks
+
+    table = advice.table
+    raw, pct = advice.controller_pct, advice.feed_pct
+    size = f"{table.filter_mm:g} mm" if table.filter_mm else f"{table.filter_points} points"
+    steps = (f"{np.abs(np.diff(raw)).max():.2f} % -> {np.abs(np.diff(pct)).max():.2f} %"
+             if raw.size > 1 else "n/a")
+    peaks = curvature_peaks(advice.features.curvature_1_mm)
+    above = float((pct[peaks] - np.maximum(raw[peaks], table.feed_floor_pct)).max())
+    corners = ("never above the controller at a curvature peak" if above <= 1e-9 else
+               f"up to {above:.2f} % above the controller at a curvature peak")
+    return f"{table.filter} filter over {size}: largest point-to-point change {steps}; {corners}"
+
+
 def run(args: argparse.Namespace) -> int:
-    from fuzzyfeed.io.csv import write_columns
+    from fuzzyfeed.io.csv import write_columns, write_metadata
 
     shape, advice = compute(args)
     gcode = prepare_gcode(args, advice.profile, shape)  # checked before any file is written
-    write_columns(args.output, advice_columns(advice, args.rule_strengths))
+    columns = advice_columns(advice, args.rule_strengths)
+    write_columns(args.output, columns)
+    meta = write_metadata(args.output, list(columns), advice_provenance(args, shape, advice))
     if args.plot:
         from fuzzyfeed.plot import plot_fuzzy_advice
 
         plot_fuzzy_advice(advice, shape.name, args.plot)
     print(summary(shape.name, advice))
-    print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
+    print(f"wrote {args.output}" + (f" ({meta}: rules, F, source)" if meta else "")
+          + (f" and {args.plot}" if args.plot else ""))
     for path in gcode.write():
         print(f"wrote {path}")
     return 0

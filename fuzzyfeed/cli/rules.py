@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from fuzzyfeed.cli._common import point_count
 from fuzzyfeed.errors import RuleTableError
 
 
@@ -16,16 +17,53 @@ def register(sub) -> None:
                     "rule grid. TABLE is a shipped name (default: paper) or a .toml file.")
     rs = p.add_subparsers(dest="rules_command", metavar="ACTION", required=True)
 
-    show = rs.add_parser("show", help="print the grid, the terms and the settings",
+    show = rs.add_parser("show", help="print the grid, the terms and the settings, or export",
                          description="Print a rule table. --format csv/tsv prints only the grid for "
                                      "a spreadsheet; --format toml prints the file itself (with its "
                                      "comments), e.g. to start your own table: "
-                                     "`fuzzyfeed rules show --format toml > mine.toml`; --format fcl "
-                                     "exports IEC 61131-7 FCL (MIN/MIN/MAX, COG).")
+                                     "`fuzzyfeed rules show --format toml > mine.toml` (its name is "
+                                     "then 'mine'). Exports for other fuzzy tools (AND min, "
+                                     "implication min, aggregation max, centroid; rules numbered as "
+                                     "the paper's R1-R30): fcl = IEC 61131-7 FCL; fcl-fuzzylite = "
+                                     "FCL as fuzzylite/QtFuzzyLite reads it; fll = fuzzylite's FLL "
+                                     "(centroid resolution 100000); fis = MATLAB .fis (Mamdani).")
     show.add_argument("table", nargs="?", default=None, metavar="TABLE")
-    show.add_argument("--format", choices=("text", "csv", "tsv", "toml", "fcl"), default="text",
+    show.add_argument("--format", choices=("text", "csv", "tsv", "toml", "fcl", "fcl-fuzzylite", "fll",
+                                           "fis"), default="text",
                       help="output format (default: %(default)s)")
     show.set_defaults(run=run_show)
+
+    imp = rs.add_parser("import", help="read an FCL, FLL or MATLAB .fis file into a rule-table .toml",
+                        description="Convert FILE (.fcl in IEC or fuzzylite form, .fll, .fis) into a "
+                                    "fuzzyfeed rule table. The controller must be fuzzyfeed's: inputs "
+                                    "curvature and curvature_variation, output feed, AND min, "
+                                    "implication min, aggregation max, centroid, one rule per pair of "
+                                    "input terms. fuzzyfeed's own settings (WS, clip, filter, floor) "
+                                    "come from the file's fuzzyfeed-settings comment (written by "
+                                    "`rules show --format fcl/fll`), else from --settings-from. The "
+                                    "table's name is the output file's name unless --name is given.")
+    imp.add_argument("file", metavar="FILE", help=".fcl, .fll or .fis file")
+    imp.add_argument("-o", "--output", required=True, metavar="TABLE.toml", help="rule table to write")
+    imp.add_argument("--format", choices=("fcl", "fll", "fis"), default=None,
+                     help="file format (default: from the suffix)")
+    imp.add_argument("--settings-from", default=None, metavar="TABLE",
+                     help="table whose settings a file without them takes (default: paper)")
+    imp.add_argument("--name", default=None, help="name to write into the table (default: none, "
+                                                  "so the file's name is the table's name)")
+    imp.set_defaults(run=run_import)
+
+    diff = rs.add_parser("diff", help="what differs between two rule tables, and where the feed changes",
+                         description="List the settings, terms and grid cells that differ between "
+                                     "tables A and B (files of any format rules import reads, or "
+                                     "shipped names). With --shape, run both on the shape and list "
+                                     "the stretches of path where the advised feed differs.")
+    diff.add_argument("a", metavar="A")
+    diff.add_argument("b", metavar="B")
+    diff.add_argument("--shape", default=None, metavar="SHAPE", help="shape to advise with both tables")
+    diff.add_argument("--points", type=point_count, default=2000, metavar="N", help="sample points (default: %(default)s)")
+    diff.add_argument("--threshold-pct", type=float, default=0.01, metavar="P",
+                      help="smallest feed difference reported, %% of F (default: %(default)g)")
+    diff.set_defaults(run=run_diff)
 
     check = rs.add_parser("check", help="validate rule-table files",
                           description="Validate each file; prints one line per file. Exit code 2 and "
@@ -58,9 +96,10 @@ def _describe(table) -> str:
     lines = [f"rule table {table.name!r}" + (f"  ({table.path})" if table.path else "")]
     if table.source:
         lines.append(f"source: {table.source}")
-    lines.append(f"features: WS = {table.window_points} points, Dk clip = {table.dk_clip_1_mm:g} 1/mm, "
-                 f"average filter M = {table.filter_points} points, feed floor = "
-                 f"{table.feed_floor_pct:g} %")
+    ws = f"{table.window_mm:g} mm" if table.window_mm else f"{table.window_points} points"
+    m = f"{table.filter_mm:g} mm" if table.filter_mm else f"{table.filter_points} points"
+    lines.append(f"features: WS = {ws}, Dk clip = {table.dk_clip_1_mm:g} 1/mm, "
+                 f"{table.filter} filter M = {m}, feed floor = {table.feed_floor_pct:g} %")
     for var, unit in ((table.curvature, "1/mm"), (table.curvature_variation, "normalised"),
                       (table.feed, "% of max feed")):
         lo, hi = var.universe
@@ -81,10 +120,10 @@ def run_show(args: argparse.Namespace) -> int:
         print(path.read_text(encoding="utf-8"), end="")
         return 0
     table = load_rule_table(args.table)
-    if args.format == "fcl":
-        from fuzzyfeed.fuzzy.rules import table_to_fcl
+    if args.format in ("fcl", "fcl-fuzzylite", "fll", "fis"):
+        from fuzzyfeed.fuzzy.exchange import export_table
 
-        print(table_to_fcl(table), end="")
+        print(export_table(table, args.format), end="")
     elif args.format in ("csv", "tsv"):
         print(grid_text(table, sep="," if args.format == "csv" else "\t"), end="")
     else:
@@ -123,4 +162,68 @@ def run_surface(args: argparse.Namespace) -> int:
     table = load_rule_table(args.table)
     plot_rule_surface(table, args.output)
     print(f"wrote {args.output}")
+    return 0
+
+
+def _load_any(spec: str):
+    """A table from a shipped name, a .toml, or any file ``rules import`` reads."""
+    from fuzzyfeed.fuzzy.exchange import IMPORT_SUFFIXES, import_table
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+
+    if Path(spec).suffix.lower() in IMPORT_SUFFIXES and Path(spec).suffix.lower() != ".toml":
+        if not Path(spec).is_file():
+            raise RuleTableError(f"{spec}: no such file")
+        return import_table(spec)
+    return load_rule_table(spec)
+
+
+def run_import(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from fuzzyfeed.fuzzy.exchange import import_table
+    from fuzzyfeed.fuzzy.rules import load_rule_table, table_to_toml
+    from fuzzyfeed.io.atomic import atomic_write
+
+    src = Path(args.file)
+    if not src.is_file():
+        raise RuleTableError(f"{src}: no such file")
+    out = Path(args.output)
+    if out.suffix.lower() != ".toml":
+        raise RuleTableError(f"-o {out}: must be a .toml file (a fuzzyfeed rule table)")
+    base = load_rule_table(args.settings_from) if args.settings_from else None
+    table = import_table(src, args.format, settings_from=base)
+    name = args.name
+    table = replace(table, name=name if name else out.stem)
+    text = (f"# imported by `fuzzyfeed rules import` from {src.name}\n"
+            + table_to_toml(table, with_name=bool(name)))
+    with atomic_write(out, "w") as handle:
+        handle.write(text)
+    nk, nd = len(table.curvature.terms), len(table.curvature_variation.terms)
+    print(f"wrote {out}: table {table.name!r}, {nk * nd} rules ({nk} x {nd}), "
+          f"{len(table.feed.terms)} feed terms, from {src}")
+    return 0
+
+
+def run_diff(args: argparse.Namespace) -> int:
+    from fuzzyfeed.fuzzy.diff import feed_changes, table_differences
+
+    a, b = _load_any(args.a), _load_any(args.b)
+    lines = table_differences(a, b)
+    print(f"rule tables {a.name!r} ({a.path}) and {b.name!r} ({b.path}): "
+          + (f"{len(lines)} difference(s)" if lines else "the same controller and settings"))
+    for line in lines:
+        print(f"  {line}")
+    if args.shape:
+        from fuzzyfeed.fuzzy.advisor import advise_details
+        from fuzzyfeed.io.shapes import load_shape, sample_shape
+
+        shape = load_shape(args.shape)
+        samples = sample_shape(shape, args.points)
+        fa, fb = advise_details(samples, a).feed_pct, advise_details(samples, b).feed_pct
+        changes = feed_changes(samples.s, fa, fb, args.threshold_pct)
+        print(f"{shape.name}: {len(changes)} stretch(es) where the advised feed differs by more than "
+              f"{args.threshold_pct:g} % of F (B - A)")
+        for c in changes:
+            print(f"  s = {c.s_start_mm:.3f} .. {c.s_end_mm:.3f} mm: up to {c.max_diff_pct:+.3f} % "
+                  f"at s = {c.at_s_mm:.3f} mm")
     return 0

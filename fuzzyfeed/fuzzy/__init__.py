@@ -3,7 +3,12 @@
 - :mod:`~fuzzyfeed.fuzzy.rules` — rule tables (TOML files in ``rules/``): load, validate, edit.
 - :mod:`~fuzzyfeed.fuzzy.features` — κ and the windowed, clipped, normalised Dκ (eq. 10).
 - :mod:`~fuzzyfeed.fuzzy.engine` — exact vectorised Mamdani engine and per-rule firing strengths.
-- :mod:`~fuzzyfeed.fuzzy.advisor` — features → engine → average filter → :class:`FeedProfile`.
+- :mod:`~fuzzyfeed.fuzzy.windows` — sliding windows in points or mm (extremes, means).
+- :mod:`~fuzzyfeed.fuzzy.filters` — the feed filters: seed 002's mean, the default min-mean.
+- :mod:`~fuzzyfeed.fuzzy.advisor` — features → engine → filter → :class:`FeedProfile`.
+- :mod:`~fuzzyfeed.fuzzy.exchange` (+ ``fcl``, ``fll``, ``fis``) — export/import for other tools.
+- :mod:`~fuzzyfeed.fuzzy.diff` — differences between two tables and where the feed changes.
+- :mod:`~fuzzyfeed.fuzzy.provenance` — which table, F and path made an advice.
 - :mod:`~fuzzyfeed.fuzzy.skfuzzy_ref` — the same controller in scikit-fuzzy (cross-check).
 
 Importing this package loads neither numba's kernel nor scikit-fuzzy; both load on first use.
@@ -14,6 +19,7 @@ from __future__ import annotations
 from fuzzyfeed.fuzzy.advisor import FuzzyAdvice, advise, advise_details, average_filter
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
+from fuzzyfeed.fuzzy.filters import smooth_feed
 from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable, load_rule_table, parse_rule_table
 
 __all__ = [
@@ -30,4 +36,5 @@ __all__ = [
     "features",
     "load_rule_table",
     "parse_rule_table",
+    "smooth_feed",
 ]

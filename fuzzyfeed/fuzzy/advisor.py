@@ -1,9 +1,10 @@
 """The fuzzy feedrate advisor (seed 002): features → Mamdani engine → average filter → feed.
 
-Feed % = centroid of the controller (exact, see :mod:`fuzzyfeed.fuzzy.engine`), smoothed by a
-centred moving average of M = ``table.filter_points`` points (seed 002 section 2.7.2; the window
-shrinks symmetrically at the two ends, so it never reaches past the path and the end points keep
-their own value), then held to [feed_floor_pct, 100]. Feed [mm/s] = feed % / 100 × F_max.
+Feed % = centroid of the controller (exact, see :mod:`fuzzyfeed.fuzzy.engine`), smoothed by the
+table's filter over M = ``table.filter_points`` points or ``table.filter_mm`` mm (seed 002's centred
+average, or the default corner-mean that never raises a corner's feed; see
+:mod:`fuzzyfeed.fuzzy.filters`), then held to [feed_floor_pct, 100]. Feed [mm/s] = feed % / 100 ×
+F_max.
 """
 
 from __future__ import annotations
@@ -12,36 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed._checks import expect, float_array
+from fuzzyfeed._checks import expect
 from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
+from fuzzyfeed.fuzzy.filters import average_filter, smooth_feed  # noqa: F401  (average_filter: API)
 from fuzzyfeed.fuzzy.rules import RuleTable, load_rule_table
 from fuzzyfeed.limits import MAX_LIMIT
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples, tangent_breaks
-
-
-def average_filter(values: np.ndarray, points: int) -> np.ndarray:
-    """Centred moving average over ``points`` samples; at the ends the window shrinks symmetrically
-    (point i averages i − h … i + h with h = min(M // 2, i, N − 1 − i); M must be odd)."""
-    v = float_array(values, "values")
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 1:
-        raise InputError(f"filter_points = {points!r}; must be an integer >= 1")
-    if points % 2 == 0:
-        raise InputError(f"filter_points = {points}; a centred moving average needs an odd number of "
-                         f"points (use {points - 1} or {points + 1})")
-    if v.ndim != 1:
-        raise InputError(f"values: shape {v.shape}; expected a flat array")
-    bad = ~np.isfinite(v)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InputError(f"values[{i}] = {v[i]}; the average filter needs finite values")
-    n = v.size
-    half = np.minimum(points // 2, np.minimum(np.arange(n), n - 1 - np.arange(n)))
-    csum = np.concatenate([[0.0], np.cumsum(v)])
-    idx = np.arange(n)
-    return (csum[idx + half + 1] - csum[idx - half]) / (2 * half + 1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,9 +68,11 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
                              "round the corner or split the path there")
     table = table if table is not None else (engine.table if engine is not None else load_rule_table())
     engine = engine if engine is not None else compile_table(table)
-    feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm)
+    feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm, samples.s,
+                     table.window_mm)
     raw = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
-    pct = np.clip(average_filter(raw, table.filter_points), table.feed_floor_pct, 100.0)
+    pct = np.clip(smooth_feed(raw, table.filter, table.filter_points, samples.s, table.filter_mm,
+                              feats.curvature_1_mm), table.feed_floor_pct, 100.0)
     profile = FeedProfile(samples=samples, feed_mm_s=pct / 100.0 * f_max, method="fuzzy",
                           max_feed_mm_s=f_max)
     return FuzzyAdvice(profile=profile, features=feats, controller_pct=raw, feed_pct=pct, table=table)

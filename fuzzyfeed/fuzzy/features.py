@@ -78,11 +78,23 @@ class Features:
     curvature_variation: np.ndarray
 
 
-def features(kappa: np.ndarray, window_points: int = 30, clip_1_mm: float = 3.0) -> Features:
-    """κ and the normalised Dκ of seed 002 (eq. 10, clip, min–max normalisation)."""
+def features(kappa: np.ndarray, window_points: int = 30, clip_1_mm: float = 3.0,
+             s: np.ndarray | None = None, window_mm: float | None = None) -> Features:
+    """κ and the normalised Dκ of seed 002 (eq. 10, clip, min–max normalisation).
+
+    With ``window_mm`` (and the arc length ``s`` of the points) the window is a length instead:
+    Dκᵢ = max κⱼ over s_i ≤ s_j ≤ s_i + window_mm, the same stretch of path at any sampling.
+    """
     k = check_curvature(kappa)
     expect(clip_1_mm, (int, float, np.integer, np.floating), "clip_1_mm", "a number of 1/mm")
     if not np.isfinite(clip_1_mm) or clip_1_mm <= 0:
         raise InputError(f"clip_1_mm = {clip_1_mm!r}; must be finite and > 0")
-    raw = forward_window_max(k, window_points)
+    if window_mm is None:
+        raw = forward_window_max(k, window_points)
+    else:
+        from fuzzyfeed.fuzzy.windows import forward_bounds, range_max
+
+        if s is None or np.shape(s) != k.shape:
+            raise InputError("window_mm needs the arc length s of every point")
+        raw = range_max(k, *forward_bounds(k.size, s=s, length_mm=window_mm))
     return Features(curvature_1_mm=k, window_max_1_mm=raw, curvature_variation=normalise(raw, clip_1_mm))

@@ -24,6 +24,7 @@ from pathlib import Path
 
 from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import RuleTableError
+from fuzzyfeed.fuzzy.filters import DEFAULT_FILTER, FILTER_KINDS
 
 #: Section names of the three fuzzy variables, in the order inputs, output.
 KAPPA, DK, FEED = "curvature", "curvature_variation", "feed"
@@ -34,6 +35,8 @@ UNITS = {KAPPA: "1/mm", DK: "", FEED: "%"}
 DEFAULT_TABLE = "paper"
 #: Settings of the [features] section.
 FEATURE_KEYS = ("window_points", "dk_clip_1_mm", "filter_points", "feed_floor_pct")
+#: Optional settings of [features]: the filter kind, and WS / M as lengths along the path (mm).
+OPTIONAL_FEATURE_KEYS = ("filter", "window_mm", "filter_mm")
 
 # where(section, key) -> "file:line" (or a field path for an in-memory table)
 Locator = Callable[..., str]
@@ -92,6 +95,9 @@ class RuleTable:
     filter_points: int = 21
     feed_floor_pct: float = 5.0
     source: str = ""
+    filter: str = DEFAULT_FILTER
+    window_mm: float | None = None
+    filter_mm: float | None = None
     path: Path | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -160,8 +166,21 @@ def _validate_features(values: Mapping[str, object], where: Locator) -> None:
                              f"{floor!r}; must be in (0, 100] (a feed is never 0)")
 
 
+def _validate_optional_features(values: Mapping[str, object], where: Locator) -> None:
+    kind = values.get("filter", DEFAULT_FILTER)
+    if kind not in FILTER_KINDS:
+        raise RuleTableError(f"{where('features', 'filter')}: filter = {kind!r}; must be one of "
+                             f"{', '.join(repr(k) for k in FILTER_KINDS)}")
+    for key in ("window_mm", "filter_mm"):
+        v = values.get(key)
+        if v is not None and (not _is_number(v) or not math.isfinite(v) or v <= 0):
+            raise RuleTableError(f"{where('features', key)}: {key} = {v!r}; must be a finite "
+                                 "number > 0 (mm along the path)")
+
+
 def _validate(t: RuleTable, where: Locator) -> None:
     _validate_features({k: getattr(t, k) for k in FEATURE_KEYS}, where)
+    _validate_optional_features({k: getattr(t, k) for k in OPTIONAL_FEATURE_KEYS}, where)
     for var in t.variables:
         _validate_variable(var, where, require_cover=var.name != FEED)
     k, d, f = t.curvature, t.curvature_variation, t.feed
@@ -352,12 +371,12 @@ def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path |
             raise RuleTableError(f"{top}: section [{section}] is missing; a rule table has [features], "
                                  "[curvature], [curvature_variation], [feed] and [rules]")
     feats = data["features"]
-    known = set(FEATURE_KEYS)
+    known = set(FEATURE_KEYS) | set(OPTIONAL_FEATURE_KEYS)
     for key in feats:
         if key not in known:
             raise RuleTableError(f"{where('features', key)}: unknown setting {key!r}; "
                                  f"[features] takes {', '.join(sorted(known))}")
-    for key in known:
+    for key in FEATURE_KEYS:
         if key not in feats:
             raise RuleTableError(f"{where('features')}: setting {key!r} is missing from [features]")
     variables = {}
@@ -381,12 +400,20 @@ def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path |
         _validate_variable(var, where, require_cover=var.name != FEED)
     grid = _grid_from_mapping(data["rules"], variables[KAPPA], variables[DK], variables[FEED], where)
     _validate_features(feats, where)
+    _validate_optional_features(feats, where)
     return RuleTable(name=str(data.get("name", path.stem if path else "rules")),
                      curvature=variables[KAPPA], curvature_variation=variables[DK],
                      feed=variables[FEED], grid=grid,
                      window_points=feats["window_points"], dk_clip_1_mm=feats["dk_clip_1_mm"],
                      filter_points=feats["filter_points"], feed_floor_pct=feats["feed_floor_pct"],
-                     source=str(data.get("source", "")), path=path)
+                     source=str(data.get("source", "")), path=path,
+                     filter=feats.get("filter", DEFAULT_FILTER),
+                     window_mm=_opt_float(feats.get("window_mm")),
+                     filter_mm=_opt_float(feats.get("filter_mm")))
+
+
+def _opt_float(v: object) -> float | None:
+    return None if v is None else float(v)  # type: ignore[arg-type]
 
 
 def _grid_from_mapping(rules: Mapping, k: Variable, d: Variable, f: Variable,
@@ -449,14 +476,17 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def table_to_toml(t: RuleTable) -> str:
-    """TOML text of a table in the shipped layout (aligned grid, full float precision)."""
-    out = [f"name = {_quote(t.name)}"]
+def table_to_toml(t: RuleTable, with_name: bool = True) -> str:
+    """TOML text of a table in the shipped layout (aligned grid, full float precision).
+    ``with_name=False`` leaves the name out, so the file's own name becomes the table's."""
+    out = [f"name = {_quote(t.name)}"] if with_name else []
     if t.source:
         out.append(f"source = {_quote(t.source)}")
     out += ["", "[features]", f"window_points = {t.window_points}",
             f"dk_clip_1_mm = {_num(t.dk_clip_1_mm)}", f"filter_points = {t.filter_points}",
-            f"feed_floor_pct = {_num(t.feed_floor_pct)}"]
+            f"feed_floor_pct = {_num(t.feed_floor_pct)}", f"filter = {_quote(t.filter)}"]
+    out += [f"{key} = {_num(getattr(t, key))}" for key in ("window_mm", "filter_mm")
+            if getattr(t, key) is not None]
     for var in t.variables:
         width = max(len(x) for x in var.labels)
         out += ["", f"[{var.name}]", f"universe = [{_num(var.universe[0])}, {_num(var.universe[1])}]"]
@@ -567,42 +597,3 @@ def grid_text(t: RuleTable, sep: str | None = None) -> str:
         return "\n".join(sep.join(r) for r in rows) + "\n"
     width = max(len(c) for r in rows for c in r) + 2
     return "\n".join("".join(c.ljust(width) for c in r).rstrip() for r in rows) + "\n"
-
-
-def table_to_fcl(t: RuleTable) -> str:
-    """The table in IEC 61131-7 FCL: terms as point lists, AND/ACT MIN, ACCU MAX, METHOD COG and
-    DEFAULT = the feed floor (what fuzzyfeed outputs if no rule fires).
-
-    fuzzyfeed's own inputs are clipped to the universes and Dκ is normalised before the controller;
-    an FCL engine gets the same numbers only if it is fed the same features.
-    """
-    def points(term: Term, lo: float, hi: float) -> str:
-        a, b, c, d = term.trapezoid
-        pts = []
-        if a < b or a > lo:           # a = b > lo: a vertical rising edge, (a, 0) then (a, 1)
-            pts.append((a, 0.0))
-        pts.append((b, 1.0))
-        if c > b:
-            pts.append((c, 1.0))
-        if d > c or d < hi:           # c = d < hi: a vertical falling edge
-            pts.append((d, 0.0))
-        return " ".join(f"({float(x)!r}, {float(y)!r})" for x, y in pts)
-
-    name = re.sub(r"\W", "_", t.name) or "rules"
-    out = [f"(* fuzzyfeed rule table {t.name!r}: {t.source} *)" if t.source else
-           f"(* fuzzyfeed rule table {t.name!r} *)", f"FUNCTION_BLOCK {name}", "", "VAR_INPUT",
-           f"    {KAPPA} : REAL; (* 1/mm, clipped to the universe *)",
-           f"    {DK} : REAL; (* normalised curvature variation *)", "END_VAR", "", "VAR_OUTPUT",
-           f"    {FEED} : REAL; (* % of the maximum feed *)", "END_VAR", ""]
-    for var, block in ((t.curvature, "FUZZIFY"), (t.curvature_variation, "FUZZIFY"), (t.feed, "DEFUZZIFY")):
-        lo, hi = var.universe
-        out += [f"{block} {var.name}", f"    RANGE := ({float(lo)!r} .. {float(hi)!r});"]
-        out += [f"    TERM {term.label} := {points(term, lo, hi)};" for term in var.terms]
-        if block == "DEFUZZIFY":
-            out += ["    METHOD : COG;", f"    DEFAULT := {float(t.feed_floor_pct)!r};"]
-        out += [f"END_{block}", ""]
-    out += ["RULEBLOCK rules", "    AND : MIN;", "    ACT : MIN;", "    ACCU : MAX;"]
-    out += [f"    RULE {n + 1} : IF {KAPPA} IS {k} AND {DK} IS {d} THEN {FEED} IS {f};"
-            for n, (k, d, f) in enumerate(t.rules)]
-    out += ["END_RULEBLOCK", "", "END_FUNCTION_BLOCK"]
-    return "\n".join(out) + "\n"

@@ -123,3 +123,35 @@ def _write_rows(handle, arrays: list[np.ndarray]) -> None:
         offsets, data = _buffers(rows)
         handle.flush()               # text already written goes first; the block's bytes as they are
         handle.buffer.write(memoryview(data)[offsets[0]:offsets[-1]])
+
+
+def metadata_path(csv_path: str | os.PathLike) -> str | None:
+    """The CSVW sidecar of a CSV file: ``OUT.csv`` -> ``OUT.csv-metadata.json`` (W3C "CSV on the
+    Web" naming), so the CSV itself stays plain for spreadsheets and pandas. None when the CSV goes
+    to standard output (``-``), a device or a FIFO: a stream has no place beside it."""
+    text = os.fspath(csv_path)
+    if text == "-" or (os.path.exists(text) and not os.path.isfile(text)):
+        return None
+    return text + "-metadata.json"
+
+
+def write_metadata(csv_path: str | os.PathLike, columns: list[str], record: Mapping[str, str]) -> str | None:
+    """Write the CSVW sidecar of ``csv_path``: its columns and a provenance ``record`` (which rule
+    table, F and source made it) under ``notes``; atomically. Returns the sidecar's path (None
+    for a CSV streamed to ``-``, a device or a FIFO)."""
+    import json
+
+    meta = {
+        "@context": "http://www.w3.org/ns/csvw",
+        "url": os.path.basename(os.fspath(csv_path)),
+        "dc:source": record.get("source", ""),
+        "dc:creator": record.get("generator", "fuzzyfeed"),
+        "tableSchema": {"columns": [{"name": c, "titles": c} for c in columns]},
+        "notes": [{"fuzzyfeed": dict(record)}],
+    }
+    path = metadata_path(csv_path)
+    if path is None:
+        return None
+    with atomic_write(path, "w") as handle:
+        handle.write(json.dumps(meta, indent=2, ensure_ascii=False) + "\n")
+    return path
