@@ -11,7 +11,7 @@ from fuzzyfeed.plot import _pyplot, colored_path, save_figure
 
 #: Line style per method, so every figure reads the same.
 STYLE = {"fuzzy": ("tab:orange", "-"), "fuzzy-safe": ("tab:red", "--"), "slw": ("tab:blue", "-"),
-         "constant": ("tab:gray", ":"), "bound": ("black", "-.")}
+         "constant": ("tab:gray", ":"), "bound": ("black", "-."), "slw-tol": ("tab:cyan", "-.")}
 
 
 def comparison_figure(comparison):
@@ -83,8 +83,9 @@ def plot_comparison(comparison, output: str | os.PathLike) -> None:
     save_figure(comparison_figure(comparison), output)
 
 
-def pareto_figure(points: dict[str, list[tuple[float, float, str]]], title: str):
-    """Cycle time against max chord error: ``points`` maps a family to (time, error µm, label)."""
+def pareto_figure(points: dict[str, list[tuple[float, float, str]]], title: str,
+                  ylabel: str = "max chord error (µm)"):
+    """Cycle time against an error: ``points`` maps a family to (time, error µm, label)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 6))
     for family, pts in points.items():
@@ -95,7 +96,8 @@ def pareto_figure(points: dict[str, list[tuple[float, float, str]]], title: str)
         for ti, ei, label in pts:
             ax.annotate(label, (ti, ei), fontsize=7, xytext=(3, 3), textcoords="offset points")
     ax.set_xlabel("cycle time (s)")
-    ax.set_ylabel("max chord error (µm)")
+    ax.set_ylabel(ylabel)
+    ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
