@@ -15,7 +15,8 @@ commanded velocity is constant over each tick. The loops are discretised exactly
 the following error e = x_cmd − x obeys E(s) = (1 − G(s))/s · V(s) with V held over the tick, so
 ``scipy.signal.cont2discrete(..., method="zoh")`` of (1 − G)/s is exact. For the first order this
 is e_k+1 = a·e_k + (1 − α)(1 − a)/Kv · v_k, a = e^(−Kv·Ts). (A zero-order hold on the position
-instead would add Ts/2 of pure lag.) The axes start at rest on the path's first point.
+instead would add Ts/2 of pure lag.) The axes start at rest on the path's first point; errors are
+measured at the ticks of the cycle, t_0 … t_K (the settling after the last set-point is not).
 
 **Contour error** is the distance of the actual position from the exact curve (not from the
 commanded polyline): the nearest point is found among brackets around the nearest vertices of a
