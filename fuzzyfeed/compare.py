@@ -26,6 +26,7 @@ from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
+from fuzzyfeed.servo import ServoModel
 from fuzzyfeed.simulate import Simulation, simulate, simulate_profile
 from fuzzyfeed.slw import schedule, time_optimal_bound
 
@@ -71,6 +72,7 @@ class Comparison:
     profiles: dict[str, FeedProfile]
     simulations: dict[str, Simulation]
     cross_check: CrossCheck
+    servo: ServoModel | None = None
 
     def rows(self) -> list[dict[str, object]]:
         """One metrics row per method (the CSV of ``fuzzyfeed compare``)."""
@@ -103,9 +105,11 @@ def _cross_check(samples: PathSamples, fuzzy: FeedProfile, slw: FeedProfile,
 
 
 def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None = None,
-            name: str = "path", progress=None) -> Comparison:
+            name: str = "path", progress=None, servo: ServoModel | None = None) -> Comparison:
     """Run every method of :data:`METHODS` on ``samples`` and simulate each (DESIGN §3).
 
+    ``servo`` is the axis model every method's contour error is measured with (default
+    ``ServoModel()``: first order, Kv = 30 1/s, no feed-forward).
     The fuzzy advisor's maximum feed is the command feed F of ``limits``. ``progress``, if given,
     is called with the name of each step as it starts (the CLI hooks a progress bar on it).
     """
@@ -131,10 +135,11 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     for method in METHODS:
         step(f"simulate {method}")
         if method == "slw":
-            sims[method] = simulate(curve, trajectory.time_law(), limits, "slw", bound_time_s=bound_time)
+            sims[method] = simulate(curve, trajectory.time_law(), limits, "slw", bound_time_s=bound_time,
+                                    servo=servo)
         else:
-            sims[method] = simulate_profile(profiles[method], limits, bound_time_s=bound_time)
+            sims[method] = simulate_profile(profiles[method], limits, bound_time_s=bound_time, servo=servo)
     check = _cross_check(samples, fuzzy, slw_profile, sims["fuzzy"].metrics.cycle_time_s,
                          sims["slw"].metrics.cycle_time_s)
     return Comparison(name=name, samples=samples, limits=limits, profiles=profiles,
-                      simulations=sims, cross_check=check)
+                      simulations=sims, cross_check=check, servo=servo)

@@ -5,7 +5,8 @@ t_k = k·Ts together with the commanded feed, tangential acceleration and jerk. 
 produces one directly; a feed given per sample (fuzzy advice, a constant feed, the time-optimal
 bound) is turned into one by :func:`time_law_from_profile`. :func:`simulate` then executes the law
 through the one interpolator (:func:`fuzzyfeed.interpolate.interpolate_u`) and measures the
-positions the machine would visit, the same way for everybody.
+positions the machine would visit, the same way for everybody — and, through the axis servo model
+(:mod:`fuzzyfeed.servo`), the positions the tool really reaches and their contour error.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from fuzzyfeed.interpolate import feed_fluctuation, interpolate_u
 from fuzzyfeed.limits import AXES, MachineLimits
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.profile import FeedProfile
+from fuzzyfeed.servo import ServoModel, Tracking, track
 
 #: A tick counts as a violation when it exceeds a limit by more than this fraction (rounding and
 #: the O(ΔL³) chord-to-arc difference must not count).
@@ -120,6 +122,10 @@ class Metrics:
     law's. ``violations`` maps each machine limit — feed, chord error, jerk, axial velocity and
     axial acceleration per axis — to (ticks over it, worst value/limit ratio). The tangential
     acceleration is reported but is no machine limit of its own: the axes' accelerations are.
+
+    The contour error is the distance of the servo-driven actual position from the curve at every
+    tick t_0 … t_K (max, mean, RMS); the following error the distance of the actual position from
+    its set-point (:mod:`fuzzyfeed.servo`; ``servo`` describes the model used).
     """
 
     method: str
@@ -135,6 +141,11 @@ class Metrics:
     axis_acc_max_mm_s2: tuple[float, float, float]
     violations: dict[str, tuple[int, float]]
     ratio_to_bound: float = float("nan")
+    contour_err_max_um: float = float("nan")
+    contour_err_mean_um: float = float("nan")
+    contour_err_rms_um: float = float("nan")
+    following_err_max_um: float = float("nan")
+    servo: str = ""
 
     def row(self) -> dict[str, object]:
         """Flat mapping with units in the names: one CSV row of a comparison."""
@@ -142,6 +153,8 @@ class Metrics:
             "method": self.method, "cycle_time_s": self.cycle_time_s,
             "ratio_to_bound": self.ratio_to_bound,
             "chord_err_max_um": self.chord_err_max_um, "chord_err_mean_um": self.chord_err_mean_um,
+            "contour_err_max_um": self.contour_err_max_um, "contour_err_mean_um": self.contour_err_mean_um,
+            "contour_err_rms_um": self.contour_err_rms_um, "following_err_max_um": self.following_err_max_um,
             "feed_fluct_max_pct": self.feed_fluct_max_pct, "feed_fluct_mean_pct": self.feed_fluct_mean_pct,
             "feed_max_mm_s": self.feed_max_mm_s,
             "tan_acc_max_mm_s2": self.tan_acc_max_mm_s2, "tan_jerk_max_mm_s3": self.tan_jerk_max_mm_s3,
@@ -164,6 +177,7 @@ class Simulation:
     xyz: np.ndarray
     chord_err_mm: np.ndarray   # per tick interval (K values)
     metrics: Metrics
+    tracking: Tracking         # servo response per tick (K + 1 values)
 
 
 def chord_errors(curve: Nurbs, u: np.ndarray, probes: int = 5) -> np.ndarray:
@@ -192,8 +206,14 @@ def _violation(values: np.ndarray, limit: float) -> tuple[int, float]:
 
 
 def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
-             bound_time_s: float | None = None, interpolation: str = "best") -> Simulation:
-    """Execute ``law`` on ``curve`` through the one interpolator and measure it (DESIGN §3)."""
+             bound_time_s: float | None = None, interpolation: str = "best",
+             servo: ServoModel | None = None) -> Simulation:
+    """Execute ``law`` on ``curve`` through the one interpolator and measure it (DESIGN §3).
+
+    ``servo`` is the axis model the contour error is measured with (default: ``ServoModel()``,
+    first order, Kv = 30 1/s, no feed-forward).
+    """
+    servo = ServoModel() if servo is None else servo
     if abs(law.ts_s - limits.ts_s) > 1e-12 * limits.ts_s:
         raise InputError(f"time law at Ts = {law.ts_s} s, limits at Ts = {limits.ts_s} s; "
                          "simulate with the limits' servo period")
@@ -222,6 +242,8 @@ def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
         violations[f"axis_vel_{axis}"] = _violation(vel[:, j], limits.axis_vel_mm_s[j])
         violations[f"axis_acc_{axis}"] = _violation(acc[:, j] if acc.size else np.zeros(0),
                                                     limits.axis_acc_mm_s2[j])
+    tracking = track(curve, pts, law.ts_s, servo)
+    contour = tracking.contour_mm
     metrics = Metrics(
         method=method, cycle_time_s=law.duration_s,
         chord_err_max_um=float(chord.max()) * 1e3, chord_err_mean_um=float(chord.mean()) * 1e3,
@@ -232,15 +254,18 @@ def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
         tan_jerk_max_mm_s3=float(np.abs(law.jerk_mm_s3).max()),
         axis_vel_max_mm_s=vel_max, axis_acc_max_mm_s2=acc_max, violations=violations,
         ratio_to_bound=(law.duration_s / bound_time_s) if bound_time_s else float("nan"),
+        contour_err_max_um=float(contour.max()) * 1e3, contour_err_mean_um=float(contour.mean()) * 1e3,
+        contour_err_rms_um=float(np.sqrt(np.mean(contour * contour))) * 1e3,
+        following_err_max_um=float(tracking.following_mm.max()) * 1e3, servo=servo.describe(),
     )
-    return Simulation(law=law, u=u, xyz=pts, chord_err_mm=chord, metrics=metrics)
+    return Simulation(law=law, u=u, xyz=pts, chord_err_mm=chord, metrics=metrics, tracking=tracking)
 
 
 def simulate_profile(profile: FeedProfile, limits: MachineLimits,
-                     bound_time_s: float | None = None) -> Simulation:
+                     bound_time_s: float | None = None, servo: ServoModel | None = None) -> Simulation:
     """:func:`simulate` for a feed given per sample (see :func:`time_law_from_profile`)."""
     curve = profile.samples.curve
     if curve is None:
         raise InputError(f"{profile.method}: the samples carry no curve to interpolate on")
     law = time_law_from_profile(profile, limits.ts_s)
-    return simulate(curve, law, limits, profile.method, bound_time_s=bound_time_s)
+    return simulate(curve, law, limits, profile.method, bound_time_s=bound_time_s, servo=servo)

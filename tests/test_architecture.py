@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "fuzzyfeed"
-CORE = ("nurbs", "sampling", "profile", "limits", "interpolate", "simulate", "errors", "_kernels",
+CORE = ("nurbs", "sampling", "profile", "limits", "interpolate", "servo", "simulate", "errors", "_kernels",
         "_nurbs_jit")
 HEAVY = ("matplotlib", "pandas", "ezdxf", "skfuzzy", "tqdm")
 

@@ -93,7 +93,38 @@ def test_cli_compare_writes_report_and_figure(tmp_path, capsys):
     assert fig.read_bytes()[:4] == b"\x89PNG"
 
 
+CONTOUR_COLUMNS = ("contour_err_max_um", "contour_err_mean_um", "contour_err_rms_um")
+
+
+def test_cli_compare_servo_contour_columns(tmp_path, capsys):
+    """`compare SHAPE --servo-kv-1-s 30` prints and writes the contour error of every method; a
+    stiffer loop (or Heidenhain's kV) and feed-forward change it the way the model says."""
+    reports = {}
+    for tag, flags in {"kv30": ["--servo-kv-1-s", "30"], "kv60": ["--servo-kv-1-s", "60,60,60"],
+                       "heidenhain": ["--servo-kv-m-min-mm", "1.8"], "ff": ["--servo-ff", "0.9"]}.items():
+        out = tmp_path / f"{tag}.csv"
+        assert main(["compare", "infinity", "--points", "600", "-o", str(out), *flags]) == 0
+        printed = capsys.readouterr().out
+        assert "contour max (um)" in printed and "contour rms (um)" in printed
+        reports[tag] = pd.read_csv(out).set_index("method")
+    df = reports["kv30"]
+    assert df.index.tolist() == list(METHODS)
+    assert set(CONTOUR_COLUMNS) <= set(df.columns)
+    assert (df[list(CONTOUR_COLUMNS)] > 0).all(axis=None) and df[list(CONTOUR_COLUMNS)].notna().all(axis=None)
+    assert (df["contour_err_mean_um"] <= df["contour_err_rms_um"]).all()
+    assert (df["contour_err_rms_um"] <= df["contour_err_max_um"]).all()
+    # 1.8 m/min/mm is 30 1/s; doubling Kv roughly quarters the (v²κ/2Kv²) contour error
+    pd.testing.assert_frame_equal(reports["heidenhain"][list(CONTOUR_COLUMNS)], df[list(CONTOUR_COLUMNS)])
+    ratio = reports["kv60"]["contour_err_max_um"] / df["contour_err_max_um"]
+    assert ((ratio > 0.15) & (ratio < 0.35)).all()
+    assert (reports["ff"]["contour_err_max_um"] < 0.5 * df["contour_err_max_um"]).all()
+
+
 @pytest.mark.parametrize("args, message", [
+    (["--servo-kv-1-s", "0"], "--servo-kv-1-s: '0' must be a finite number > 0"),
+    (["--servo-kv-1-s", "30,30"], "give one number for all axes or three"),
+    (["--servo-ff", "1.5"], "--servo-ff: '1.5' must be a fraction between 0 and 1"),
+    (["--servo-kv-1-s", "30", "--servo-natural-freq-hz", "10"], "not allowed with argument"),
     (["--feed-mm-min", "0"], "--feed-mm-min: '0' must be a finite number > 0"),
     (["--feed-mm-min", "-5"], "must be a finite number > 0"),
     (["--rules", "{bad_rules}"], "bad.toml"),

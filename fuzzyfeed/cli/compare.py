@@ -7,12 +7,15 @@ import sys
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
+from fuzzyfeed.cli._servo import add_servo_arguments, servo_from_args
 
 DESCRIPTION = """\
 Simulate every method on the same samples with the same interpolator at Ts and print one metric
 table: fuzzy (the advice at the command feed F), fuzzy-safe (the advice clamped by the SLW
 schedule), slw (the jerk-limited look-ahead schedule), constant (F everywhere) and bound (the
 acceleration-limited time-optimal bound, no jerk limit). Violations count servo ticks over a limit.
+The contour error is the distance of the tool from the curve when each axis follows its set-points
+through a position loop (default Kv = 30 1/s, no feed-forward; see the servo flags).
 """
 
 
@@ -25,22 +28,26 @@ def register(sub) -> None:
     p.add_argument("--points", type=point_count, default=2000,
                    help="sample points, uniform in u (default: %(default)s, as in seed 002)")
     add_limit_arguments(p)
+    add_servo_arguments(p)
     p.add_argument("-o", "--output", required=True, metavar="REPORT.csv",
                    help="CSV with one row per method (column method) and one column per metric")
     p.add_argument("--plot", metavar="FIG.png", default=None,
-                   help="figure: feeds, acceleration, jerk, chord error, path coloured by the advice")
+                   help="figure: feeds, acceleration, jerk, chord and contour error, path coloured by the advice")
     p.set_defaults(run=run)
 
 
 METRIC_COLUMNS = (("cycle_time_s", "cycle (s)", "{:.4f}"), ("ratio_to_bound", "/bound", "{:.3f}"),
                   ("chord_err_max_um", "chord max (um)", "{:.3g}"),
+                  ("contour_err_max_um", "contour max (um)", "{:.4g}"),
+                  ("contour_err_mean_um", "contour mean (um)", "{:.4g}"),
+                  ("contour_err_rms_um", "contour rms (um)", "{:.4g}"),
                   ("feed_fluct_max_pct", "fluct max (%)", "{:.2g}"),
                   ("tan_acc_max_mm_s2", "acc max (mm/s2)", "{:.4g}"),
                   ("tan_jerk_max_mm_s3", "jerk max (mm/s3)", "{:.4g}"))
 
 
 def format_table(rows: list[dict]) -> str:
-    header = f"{'method':<11}" + "".join(f"{title:>17}" for _, title, _ in METRIC_COLUMNS) + \
+    header = f"{'method':<11}" + "".join(f"{title:>18}" for _, title, _ in METRIC_COLUMNS) + \
         f"{'violations (worst ratio)':>34}"
     lines = [header, "-" * len(header)]
     for row in rows:
@@ -48,7 +55,7 @@ def format_table(rows: list[dict]) -> str:
         bad = [(name, row[f"worst_ratio_{name}"]) for name, c in counts.items() if c]
         worst = max(bad, key=lambda x: x[1]) if bad else None
         summary = f"{sum(counts.values())} ({worst[0]} x{worst[1]:.2f})" if worst else "0"
-        lines.append(f"{row['method']:<11}" + "".join(f"{fmt.format(row[key]):>17}" for key, _, fmt in
+        lines.append(f"{row['method']:<11}" + "".join(f"{fmt.format(row[key]):>18}" for key, _, fmt in
                                                     METRIC_COLUMNS) + f"{summary:>34}")
     return "\n".join(lines)
 
@@ -63,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.shapes import load_shape, sample_shape
 
     limits = limits_from_args(args)
+    servo = servo_from_args(args)
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
     samples = sample_shape(shape, args.points)
@@ -73,12 +81,12 @@ def run(args: argparse.Namespace) -> int:
             bar.set_postfix_str(name)
             bar.update(1)
 
-        result = compare(samples, limits, table, name=shape.name, progress=progress)
+        result = compare(samples, limits, table, name=shape.name, progress=progress, servo=servo)
     rows = result.rows()
     columns = {key: np.array([row[key] for row in rows]) for key in rows[0]}
     write_columns(args.output, columns, allow_nan=("ratio_to_bound",))
     print(f"{shape.name}: {len(samples)} samples, {samples.length:.3f} mm; F = {limits.feed_mm_min:g} mm/min, "
-          f"Ts = {limits.ts_s:g} s, chord tolerance {limits.chord_tol_mm * 1e3:g} um")
+          f"Ts = {limits.ts_s:g} s, chord tolerance {limits.chord_tol_mm * 1e3:g} um; servo {servo.describe()}")
     print(format_table(rows))
     for line in result.cross_check.lines():
         print(f"  {line}")
