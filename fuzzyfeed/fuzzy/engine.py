@@ -63,7 +63,7 @@ def membership(var: Variable, x: np.ndarray) -> np.ndarray:
     out = np.empty((x.size, len(var.terms)))
     for j, term in enumerate(var.terms):
         a, b, c, d = term.trapezoid
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # subnormal widths
             rise = np.where(b > a, (x - a) / (b - a if b > a else 1.0), 1.0)
             fall = np.where(d > c, (d - x) / (d - c if d > c else 1.0), 1.0)
         mu = np.where(x < b, rise, np.where(x <= c, 1.0, fall))
