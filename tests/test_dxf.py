@@ -108,14 +108,15 @@ def test_several_entities_need_a_selector(tmp_path):
     msp.add_line((0, 0), (1, 1))
     path = tmp_path / "two.dxf"
     doc.saveas(path)
-    with pytest.raises(PathFormatError, match=rf"2 usable entities \(SPLINE {a.dxf.handle} \(layer A\), "
-                                              rf"SPLINE {b.dxf.handle} \(layer B\)\); pick one"):
+    with pytest.raises(PathFormatError, match=rf"3 contours \(1: closed contour of SPLINE {a.dxf.handle} "
+                                              rf"\(layer A\), 2: closed contour of SPLINE {b.dxf.handle} "
+                                              r"\(layer B\), 3: open contour of LINE \w+ \(layer 0\)\); pick one"):
         load_shape(str(path))
     assert load_shape(f"{path}#layer=B").curve.n_control_points == 7
     assert load_shape(f"{path}#{a.dxf.handle.lower()}").curve.weights[0] == 0.6
-    with pytest.raises(PathFormatError, match="no usable entity with handle FFFF"):
+    with pytest.raises(PathFormatError, match="no contour holds an entity with handle FFFF"):
         load_shape(f"{path}#FFFF")
-    with pytest.raises(PathFormatError, match="no usable entity on layer 'C'"):
+    with pytest.raises(PathFormatError, match="no contour on layer 'C'"):
         load_shape(f"{path}#layer=C")
     with pytest.raises(PathFormatError, match="unknown selector 'colour'"):
         load_shape(f"{path}#colour=red")
@@ -138,18 +139,18 @@ def test_units_inch_and_ezdxf_default_metres(tmp_path):
 
 def test_no_usable_entity_binary_and_garbage(tmp_path):
     doc, msp = new_doc()
-    msp.add_line((0, 0), (1, 1))
-    msp.add_circle((0, 0), 3)
-    msp.add_line((2, 0), (1, 1))
-    doc.saveas(tmp_path / "lines.dxf")
-    with pytest.raises(PathFormatError, match=r"lines\.dxf: no usable entity .* found CIRCLE x1, LINE x2$"):
-        load_shape(str(tmp_path / "lines.dxf"))
+    msp.add_text("PART 7")
+    msp.add_text("REV B")
+    msp.add_point((1, 1))
+    doc.saveas(tmp_path / "text.dxf")
+    with pytest.raises(PathFormatError, match=r"text\.dxf: no curve to follow .* found POINT x1, TEXT x2$"):
+        load_shape(str(tmp_path / "text.dxf"))
     (tmp_path / "blob.dxf").write_bytes(bytes(range(256)) * 4)
     with pytest.raises(PathFormatError, match=r"blob\.dxf: binary file that is not a DXF"):
         load_shape(str(tmp_path / "blob.dxf"))
-    (tmp_path / "text.dxf").write_text("this is not a drawing\n")
-    with pytest.raises(PathFormatError, match=r"text\.dxf: not a readable DXF"):
-        load_shape(str(tmp_path / "text.dxf"))
+    (tmp_path / "prose.dxf").write_text("this is not a drawing\n")
+    with pytest.raises(PathFormatError, match=r"prose\.dxf: not a DXF that ezdxf can read or recover"):
+        load_shape(str(tmp_path / "prose.dxf"))
 
 
 def test_nan_vertex_and_bad_spline_are_one_line_errors(tmp_path):
