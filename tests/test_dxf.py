@@ -86,18 +86,27 @@ def test_polylines_closed_3d_and_bulge(tmp_path):
     shapes = load_shapes(str(path))
     assert len(shapes) == 3
     rect = load_shape(f"{path}#layer=cut")
-    np.testing.assert_array_equal(rect.polyline, [[0, 0], [10, 0], [10, 5], [0, 5], [0, 0]])
+    # the vertices, straight edges cut into steps of at most 1 mm (STRAIGHT_STEP_MM)
+    corners = [[0, 0], [10, 0], [10, 5], [0, 5], [0, 0]]
+    assert rect.polyline.shape == (31, 2)
+    np.testing.assert_array_equal(rect.polyline[[0, 10, 15, 25, 30]], corners)
+    assert np.linalg.norm(np.diff(rect.polyline, axis=0), axis=1).max() == 1.0
     poly3 = load_shape(f"{path}#{p3.dxf.handle}")
-    np.testing.assert_array_equal(poly3.polyline, [[0, 0, 0], [1, 2, -1], [3, 2, -1], [4, 0, -2]])
+    vertices = np.array([[0, 0, 0], [1, 2, -1], [3, 2, -1], [4, 0, -2]], dtype=float)
+    assert all(np.any(np.all(poly3.polyline == v, axis=1)) for v in vertices)
+    assert poly3.curve.length == pytest.approx(np.linalg.norm(np.diff(vertices, axis=0), axis=1).sum(), rel=1e-12)
     flat = load_shape(f"{path}#handle={arc.dxf.handle}").polyline
     on_arc = flat[(flat[:, 0] <= 10) & (np.arange(len(flat)) < len(flat) - 1)]
     assert len(on_arc) > 10
     np.testing.assert_allclose(np.linalg.norm(on_arc - [5, 0], axis=1), 5.0, atol=1e-12)
     sagitta = 5.0 - np.linalg.norm(0.5 * (on_arc[1:] + on_arc[:-1]) - [5, 0], axis=1)
-    assert 0 < sagitta.max() <= 1e-4
-    assert load_shape(f"{path}#path=1").polyline.shape == (5, 2)
-    # the planners' samples are the vertices with the three-point curvature
-    assert len(sample_shape(rect)) == 5
+    assert 0 < sagitta.max() <= 5 * (1 - np.cos(1e-3)) + 1e-12       # chords turn by <= 2e-3 rad
+    assert load_shape(f"{path}#path=1").polyline.shape == (31, 2)
+    # the planners' samples are the points; the corners are the controller's blend
+    samples = sample_shape(rect)
+    assert len(samples) == 31
+    np.testing.assert_allclose(samples.curvature[[0, 10, 15, 25, 30]], 41.42135623730950, rtol=1e-12)
+    assert np.all(np.delete(samples.curvature, [0, 10, 15, 25, 30]) == 0)
     assert lw.dxf.handle in rect.name
 
 

@@ -40,8 +40,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from fuzzyfeed.cli._common import shape_context
+
     try:
-        result = args.run(args)
+        with shape_context(args):
+            result = args.run(args)
     except (FuzzyfeedError, OSError) as exc:
         message = str(exc) if isinstance(exc, FuzzyfeedError) or not exc.filename else (
             f"{exc.filename}: {exc.strerror}")

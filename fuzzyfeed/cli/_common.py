@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import sys
+import warnings
 
 
 def positive_float(text: str) -> float:
@@ -31,9 +34,55 @@ def point_count(text: str) -> int:
 def add_shape_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("shape", metavar="SHAPE",
                         help="a shipped shape's name (see `fuzzyfeed shapes`) or a file: shape "
-                             "(.toml/.json), DXF (.dxf: SPLINE, LWPOLYLINE, POLYLINE), G-code "
+                             "(.toml/.json), DXF (.dxf: contours chained from LINE, ARC, CIRCLE, "
+                             "ELLIPSE, SPLINE, LWPOLYLINE, POLYLINE, also inside blocks), G-code "
                              "(.ngc/.nc/.gcode/.gc/.tap/.cnc: G0/G1 chains, G5.2 blocks) or a CSV "
                              "point list (.csv: x_mm,y_mm[,z_mm] or x,y[,z]). A file with several "
                              "paths needs FILE#SELECTOR: DXF FILE#HANDLE, FILE#layer=NAME or "
                              "FILE#path=N; G-code FILE#N (one path per chain of feed moves between "
                              "G0 rapids)")
+    parser.add_argument("--units", choices=("mm", "inch", "m"), default=None,
+                        help="units of a DXF drawing's coordinates, overriding its $INSUNITS "
+                             "(default: the header's $INSUNITS; a drawing without it is read as mm "
+                             "with a notice). Other files state their own units")
+
+
+@contextlib.contextmanager
+def shape_context(args: argparse.Namespace):
+    """While a command runs: ``--units`` applied to DXF loading (refused for other files), and
+    :class:`~fuzzyfeed.errors.FuzzyfeedNotice` warnings printed as ``fuzzyfeed: notice: ...``."""
+    from fuzzyfeed.errors import FuzzyfeedNotice, ShapeFileError
+
+    token = None
+    units = getattr(args, "units", None)
+    if units is not None:
+        from pathlib import Path
+
+        from fuzzyfeed.io.dxf import UNITS_OVERRIDE
+        from fuzzyfeed.io.shapes import split_selector
+
+        base, _ = split_selector(args.shape)
+        if Path(str(base)).suffix.lower() != ".dxf":
+            raise ShapeFileError(f"--units {units}: applies to DXF drawings only; {base} states its "
+                                 "own units (G20/G21 in G-code, mm in CSV and shape files)")
+        token = UNITS_OVERRIDE.set(units)
+    shown = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, FuzzyfeedNotice):
+            text = str(message)
+            if text not in shown:
+                shown.add(text)
+                print(f"fuzzyfeed: notice: {text}", file=sys.stderr)
+            return
+        previous(message, category, filename, lineno, file, line)
+
+    previous = warnings.showwarning
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", FuzzyfeedNotice)
+            warnings.showwarning = show
+            yield
+    finally:
+        if token is not None:
+            UNITS_OVERRIDE.reset(token)

@@ -8,7 +8,8 @@ Pieces are chained into contours by matching end points within :data:`CHAIN_TOLE
 
 A contour of one NURBS piece stays that NURBS. A contour of several pieces is a polyline whose
 points lie exactly on the pieces (chord turning ≤ :data:`FLATTEN_ANGLE_RAD`, so its length is
-within 2·10⁻⁷ of the exact one), sampled at its own vertices with the curvature of
+within 2·10⁻⁷ of the exact one; straight segments cut into steps ≤ :data:`STRAIGHT_STEP_MM`),
+sampled at its own vertices with the curvature of
 :mod:`fuzzyfeed.polyline` (arcs fitted back to their exact κ = 1/R, corners blended as the
 controller blends them).
 
@@ -30,6 +31,9 @@ CHAIN_TOLERANCE_MM = 1e-3
 GAP_REPORT_MM = 0.1
 #: Largest turning of one chord when a curved piece of a chain is flattened (rad).
 FLATTEN_ANGLE_RAD = 2e-3
+#: Straight segments of a chain are cut into steps of at most this length (mm), so the planners,
+#: which sample a point sequence at its points, see the straight stretch between two corners.
+STRAIGHT_STEP_MM = 1.0
 
 
 @dataclass(eq=False)
@@ -60,12 +64,29 @@ class Piece:
     def flatten(self) -> np.ndarray:
         """Points on the piece from start to end (in its chain direction)."""
         if self.curve is None:
-            pts = self.points
+            pts = densify(self.points)
         elif self.curve.degree == 1:
-            pts = self.curve.control_points
+            pts = densify(self.curve.control_points)
         else:
             pts = _flatten_nurbs(self.curve)
         return pts[::-1] if self.reversed else pts
+
+
+def densify(points: np.ndarray, step_mm: float = STRAIGHT_STEP_MM) -> np.ndarray:
+    """The points with every segment longer than ``step_mm`` cut into equal steps (the given
+    points are kept exactly)."""
+    pts = np.asarray(points, dtype=float)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    counts = np.maximum(1, np.ceil(seg / step_mm).astype(int))
+    if np.all(counts == 1):
+        return pts
+    out = [pts[:1]]
+    for a, b, n in zip(pts[:-1], pts[1:], counts):
+        t = np.arange(1, n + 1)[:, None] / n
+        step = a + (b - a) * t
+        step[-1] = b
+        out.append(step)
+    return np.vstack(out)
 
 
 def _flatten_nurbs(curve) -> np.ndarray:
