@@ -50,7 +50,8 @@ def add_shape_argument(parser: argparse.ArgumentParser) -> None:
 @contextlib.contextmanager
 def shape_context(args: argparse.Namespace):
     """While a command runs: ``--units`` applied to DXF loading (refused for other files), and
-    :class:`~fuzzyfeed.errors.FuzzyfeedNotice` warnings printed as ``fuzzyfeed: notice: ...``."""
+    :class:`~fuzzyfeed.errors.FuzzyfeedNotice` warnings collected, then printed as
+    ``fuzzyfeed: notice: ...`` lines when the command succeeds (an error stays one line)."""
     from fuzzyfeed.errors import FuzzyfeedNotice, ShapeFileError
 
     token = None
@@ -66,14 +67,12 @@ def shape_context(args: argparse.Namespace):
             raise ShapeFileError(f"--units {units}: applies to DXF drawings only; {base} states its "
                                  "own units (G20/G21 in G-code, mm in CSV and shape files)")
         token = UNITS_OVERRIDE.set(units)
-    shown = set()
+    notices: list[str] = []
 
     def show(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, FuzzyfeedNotice):
-            text = str(message)
-            if text not in shown:
-                shown.add(text)
-                print(f"fuzzyfeed: notice: {text}", file=sys.stderr)
+            if str(message) not in notices:
+                notices.append(str(message))
             return
         previous(message, category, filename, lineno, file, line)
 
@@ -83,6 +82,8 @@ def shape_context(args: argparse.Namespace):
             warnings.simplefilter("always", FuzzyfeedNotice)
             warnings.showwarning = show
             yield
+        for text in notices:      # only when the command succeeds: an error stays one line
+            print(f"fuzzyfeed: notice: {text}", file=sys.stderr)
     finally:
         if token is not None:
             UNITS_OVERRIDE.reset(token)

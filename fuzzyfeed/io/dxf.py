@@ -33,7 +33,9 @@ every contour.
 
 from __future__ import annotations
 
+import contextlib
 import contextvars
+import logging
 import os
 import warnings
 from pathlib import Path
@@ -73,6 +75,29 @@ def shorten(items: list[str], limit: int = LIST_LIMIT) -> str:
     return ", ".join(items[:limit]) + f", … and {len(items) - limit} more"
 
 
+@contextlib.contextmanager
+def _quiet_ezdxf():
+    """ezdxf logs every value it repairs; the user gets one notice instead."""
+    logger = logging.getLogger("ezdxf")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def header_sets_insunits(path: Path) -> bool:
+    """Whether the file's own HEADER section has ``$INSUNITS`` (ezdxf fills a missing header with
+    its defaults, $INSUNITS = 6 metres among them, so the loaded document cannot tell)."""
+    data = path.read_bytes()
+    start = data.find(b"HEADER")
+    if start < 0:
+        return False
+    end = data.find(b"ENDSEC", start)
+    return b"$INSUNITS" in data[start:end if end > 0 else len(data)]
+
+
 def _read(path: Path):
     import ezdxf
     from ezdxf import recover
@@ -83,7 +108,8 @@ def _read(path: Path):
     if b"\x00" in head and not head.startswith(b"AutoCAD Binary DXF"):
         raise PathFormatError(f"{path}: binary file that is not a DXF; expected a DXF drawing")
     try:
-        return ezdxf.readfile(str(path))
+        with _quiet_ezdxf():
+            return ezdxf.readfile(str(path))
     except OSError as exc:
         if exc.errno is not None:
             raise PathFormatError(f"{path}: cannot read ({exc.strerror})") from None
@@ -91,15 +117,15 @@ def _read(path: Path):
     except Exception as exc:  # noqa: BLE001 — ezdxf raises many types on damaged files
         first = exc
     try:
-        doc, auditor = recover.readfile(str(path))
+        with _quiet_ezdxf():
+            doc, auditor = recover.readfile(str(path))
     except Exception as exc:  # noqa: BLE001
         raise PathFormatError(f"{path}: not a DXF that ezdxf can read or recover "
                               f"({type(first).__name__}: {_one_line(first)}; recover: "
                               f"{_one_line(exc)})") from None
-    fixes = len(auditor.fixes) if hasattr(auditor, "fixes") else 0
-    errors = len(auditor.errors) if hasattr(auditor, "errors") else 0
+    reported = len(getattr(auditor, "fixes", [])) + len(getattr(auditor, "errors", []))
     _notice(f"{path}: damaged DXF ({_one_line(first)[:80]}) read through ezdxf.recover "
-            f"({fixes} fix(es), {errors} unrecoverable error(s))")
+            f"({reported} problem(s) reported and repaired or skipped)")
     return doc
 
 
@@ -109,7 +135,7 @@ def _units_factor(doc, path: Path) -> tuple[float, str]:
         if override not in UNITS_TO_MM:
             raise PathFormatError(f"--units = {override!r}; use one of {', '.join(UNITS_TO_MM)}")
         return UNITS_TO_MM[override], f"{override} (--units)"
-    if "$INSUNITS" not in doc.header:
+    if "$INSUNITS" not in doc.header or not header_sets_insunits(path):
         _notice(f"{path}: the header does not set $INSUNITS; coordinates read as mm "
                 "(use --units inch|m if they are not)")
         return 1.0, "mm (no $INSUNITS in the header)"
@@ -383,8 +409,8 @@ def _collect(doc, path: Path, scale: float) -> tuple[list[Piece], dict[str, int]
 
 def _contours(path: Path) -> tuple[list[Contour], str]:
     doc = _read(path)
+    scale, units = _units_factor(doc, path)
     try:
-        scale, units = _units_factor(doc, path)
         pieces, other = _collect(doc, path, scale)
     except PathFormatError:
         raise
