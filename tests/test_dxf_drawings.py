@@ -327,7 +327,43 @@ def test_damaged_file_is_read_through_recover_with_one_notice(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert any(line.startswith("fuzzyfeed: notice: ") and "ezdxf.recover" in line for line in err)
     assert all(line.startswith("fuzzyfeed: notice: ") for line in err)
-    assert load_shape(str(path)).curve.length == pytest.approx(D_LENGTH, rel=1e-7)
+    with pytest.warns(FuzzyfeedNotice, match="read through ezdxf.recover"):
+        assert load_shape(str(path)).curve.length == pytest.approx(D_LENGTH, rel=1e-7)
+
+
+def test_duplicate_handles_and_selection_by_a_shared_handle(tmp_path):
+    path = tmp_path / "dup.dxf"
+    path.write_text(tags((0, "SECTION"), (2, "HEADER"), (9, "$ACADVER"), (1, "AC1009"),
+                         (9, "$HANDLING"), (70, 1), (9, "$INSUNITS"), (70, 4), (0, "ENDSEC"),
+                         (0, "SECTION"), (2, "ENTITIES"),
+                         (0, "LINE"), (5, "2A"), (8, "0"), (10, 0.0), (20, 0.0), (30, 0.0),
+                         (11, 10.0), (21, 0.0), (31, 0.0),
+                         (0, "LINE"), (5, "2A"), (8, "0"), (10, 10.0), (20, 0.0), (30, 0.0),
+                         (11, 10.0), (21, 10.0), (31, 0.0),
+                         (0, "CIRCLE"), (5, "2A"), (8, "0"), (10, 50.0), (20, 0.0), (30, 0.0), (40, 2.0),
+                         (0, "ENDSEC"), (0, "EOF")))
+    shapes = load_shapes(str(path))
+    assert [s.name for s in shapes] == ["dup#path=1", "dup#path=2"]
+    assert shapes[0].curve.length == pytest.approx(20.0) and shapes[1].curve.length == pytest.approx(4 * math.pi)
+    with pytest.raises(PathFormatError, match=r"#2A: 2 contours match \(path=1, path=2\); pick one with #path=N"):
+        load_shape(f"{path}#2A")
+
+
+def test_spline_fit_polyline_follows_its_fitted_vertices_not_the_frame(tmp_path):
+    doc = ezdxf.new("R2000")
+    doc.header["$INSUNITS"] = 4
+    pl = doc.modelspace().add_polyline2d([(0, 0), (10, 10), (20, 0)])
+    pl.dxf.flags |= 4                                  # spline-fit, as PEDIT Spline leaves it
+    for v in pl.vertices:
+        v.dxf.flags |= 16                              # the frame control points
+    for x in np.linspace(0, 1, 9):
+        pl.append_vertex((20 * x, 20 * x * (1 - x)), dxfattribs={"flags": 8})
+    doc.saveas(tmp_path / "fit.dxf")
+    back = ezdxf.readfile(tmp_path / "fit.dxf").modelspace()[0]
+    fitted = np.array([tuple(v.dxf.location)[:2] for v in back.vertices if v.dxf.flags & 8])
+    shape = load_shape(str(tmp_path / "fit.dxf"))
+    assert shape.curve.length == pytest.approx(np.linalg.norm(np.diff(fitted, axis=0), axis=1).sum(), rel=1e-12)
+    assert shape.polyline[:, 1].max() <= 5.0 + 1e-12   # the frame apex (10, 10) is not on the path
 
 
 # ------------------------------------------------------------------------------ bad input
