@@ -107,34 +107,44 @@ def _clusters(pts: np.ndarray, merge_mm: float) -> np.ndarray:
 
 
 def _circle_fit_2d(xy: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Least-squares circle (Kåsa's algebraic fit refined by Gauss–Newton on the geometric
-    distances); None if the points are (numerically) collinear."""
+    """Least-squares circle: Kåsa's algebraic fit refined by two Gauss–Newton steps on the
+    geometric distances (3×3 normal equations); None if the points are (numerically) collinear."""
     c0 = xy.mean(axis=0)
     p = xy - c0
     scale = np.abs(p).max()
     if scale == 0:
         return None
-    p = p / scale
-    a = np.column_stack([p, np.ones(len(p))])
-    b = -(p * p).sum(axis=1)
-    sol, *_ = np.linalg.lstsq(a, b, rcond=None)
-    center = -0.5 * sol[:2]
-    r2 = center @ center - sol[2]
-    if not np.isfinite(r2) or r2 <= 0 or np.sqrt(r2) > 1e6:
+    x, y = p[:, 0] / scale, p[:, 1] / scale
+    z = x * x + y * y
+    n = float(len(x))
+    sx, sy = x.sum(), y.sum()
+    a = np.array([[x @ x, x @ y, sx], [x @ y, y @ y, sy], [sx, sy, n]])
+    try:
+        sol = np.linalg.solve(a, -np.array([x @ z, y @ z, z.sum()]))
+    except np.linalg.LinAlgError:
+        return None
+    cx, cy = -0.5 * sol[0], -0.5 * sol[1]
+    r2 = cx * cx + cy * cy - sol[2]
+    if not np.isfinite(r2) or r2 <= 0 or r2 > 1e12:
         return None
     radius = np.sqrt(r2)
-    for _ in range(3):
-        d = p - center
-        dist = np.linalg.norm(d, axis=1)
+    for _ in range(2):
+        dx, dy = x - cx, y - cy
+        dist = np.sqrt(dx * dx + dy * dy)
         if np.any(dist == 0):
             return None
-        jac = np.column_stack([-d / dist[:, None], -np.ones(len(p))])
-        step, *_ = np.linalg.lstsq(jac, -(dist - radius), rcond=None)
-        center = center + step[:2]
-        radius = radius + step[2]
+        jx, jy = -dx / dist, -dy / dist
+        res = dist - radius
+        jtj = np.array([[jx @ jx, jx @ jy, -jx.sum()], [jx @ jy, jy @ jy, -jy.sum()],
+                        [-jx.sum(), -jy.sum(), n]])
+        try:
+            step = np.linalg.solve(jtj, -np.array([jx @ res, jy @ res, -res.sum()]))
+        except np.linalg.LinAlgError:
+            break
+        cx, cy, radius = cx + step[0], cy + step[1], radius + step[2]
     if not np.isfinite(radius) or radius <= 0:
         return None
-    return center * scale + c0, float(radius * scale)
+    return np.array([cx, cy]) * scale + c0, float(radius * scale)
 
 
 @dataclass(frozen=True)
@@ -148,15 +158,16 @@ def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
     """A line or a circle through every point of ``pts`` within ``tol``, or None."""
     c0 = pts.mean(axis=0)
     q = pts - c0
-    _, sv, vt = np.linalg.svd(q, full_matrices=False)
-    along = q @ vt[0]
-    off_line = np.linalg.norm(q - along[:, None] * vt[0], axis=1)
+    _, vecs = np.linalg.eigh(q.T @ q)          # principal axes, ascending variance
+    axis, second, normal = vecs[:, 2], vecs[:, 1], vecs[:, 0]
+    along = q @ axis
+    off_line = np.linalg.norm(q - along[:, None] * axis, axis=1)
     if off_line.max() <= tol:
-        return _Fit(0.0, None, vt[0])
-    normal = vt[2] if len(vt) > 2 else np.cross(vt[0], vt[1])
+        return _Fit(0.0, None, axis)
     if np.abs(q @ normal).max() > tol:
         return None
-    xy = np.column_stack([q @ vt[0], q @ vt[1]])
+    xy = np.column_stack([along, q @ second])
+    vt = (axis, second)
     fit = _circle_fit_2d(xy)
     if fit is None:
         return None
@@ -183,6 +194,31 @@ def _tangent_of(fit: _Fit, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
     return t if t @ toward >= 0 else -t
 
 
+def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
+    """Cheap screen (vectorised): can the :data:`MIN_RUN` vertices from i lie on one circle or line
+    within ``tol``? Their circumcurvatures (three consecutive points) must agree within what a
+    displacement of ``tol`` can change (8·tol/c² for chords c), with a factor 4 of margin."""
+    n = len(pts)
+    out = np.zeros(n, dtype=bool)
+    if n < MIN_RUN:
+        return out
+    d1 = pts[1:-1] - pts[:-2]
+    d2 = pts[2:] - pts[1:-1]
+    d3 = pts[2:] - pts[:-2]
+    la, lb, lc = (np.linalg.norm(d, axis=1) for d in (d1, d2, d3))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k3 = 2.0 * np.linalg.norm(np.cross(d1, d2), axis=1) / (la * lb * lc)
+        slack = 4.0 * 8.0 * tol / np.minimum(la, lb) ** 2
+    k3 = np.nan_to_num(k3, nan=np.inf, posinf=np.inf)
+    w = MIN_RUN - 2                      # circumcurvatures inside a window of MIN_RUN vertices
+    win = np.lib.stride_tricks.sliding_window_view
+    spread = win(k3, w).max(axis=1) - win(k3, w).min(axis=1)
+    allowed = win(slack, w).min(axis=1)
+    ok = (spread <= allowed) | ~np.isfinite(spread)      # inf - inf: let the full fit decide
+    out[:ok.size] = ok
+    return out
+
+
 def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float) -> list[tuple[int, int, _Fit]]:
     """Maximal runs [i, j] (inclusive vertex indices, consecutive runs may share an end vertex)
     fitted by one line or circle: greedy from the start, galloping then bisecting on j, then
@@ -196,11 +232,12 @@ def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float) -> lis
             return None
         return _fit_run(pts[i:j + 1], tol, path_tol)
 
+    maybe = _run_candidates(pts, tol)
     runs: list[tuple[int, int, _Fit]] = []
     i = 0
     while i + MIN_RUN - 1 < n:
         good_j = i + MIN_RUN - 1
-        fit = fits(i, good_j)
+        fit = fits(i, good_j) if maybe[i] else None
         if fit is None:
             i += 1
             continue
