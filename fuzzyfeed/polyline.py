@@ -30,6 +30,10 @@ program"):
    κ meet without a break (a free-form curve cut into arcs), κ is interpolated linearly in arc
    length between the runs' middles rather than left as steps.
 
+Full-precision points (no quantum found, no tolerance given) have no rounding to see through:
+each vertex gets the circle through it and its neighbours (exact on circles and lines), or the
+blend within P where that is tighter; runs of equal circles get one κ (:func:`_exact_curvature`).
+
 Ends of an open path take the κ of their run, or 0 on a free end segment. A closed path (last
 point = first) blends its seam like any vertex.
 """
@@ -320,6 +324,46 @@ def _interpolate_smooth_chains(kappa: np.ndarray, runs: list, theta: np.ndarray,
         start = end
 
 
+def _circumcurvature(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
+    """1/R of the circle through three points, row-wise (0 for collinear points)."""
+    d1, d2, d3 = p1 - p0, p2 - p1, p2 - p0
+    den = np.linalg.norm(d1, axis=1) * np.linalg.norm(d2, axis=1) * np.linalg.norm(d3, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = 2.0 * np.linalg.norm(np.cross(d1, d2), axis=1) / den
+    return np.nan_to_num(k, nan=0.0, posinf=KAPPA_MAX_1_MM)
+
+
+def _exact_curvature(pts: np.ndarray, turn: np.ndarray, closed: bool, path_tol: float,
+                     extent: float) -> tuple[np.ndarray, np.ndarray]:
+    """Full-precision points (no rounding to see through): the circle through each vertex and its
+    neighbours — exact on circles and lines — or the controller's blend within P where that is
+    tighter (a corner). Runs of ≥ :data:`MIN_RUN` vertices whose circles agree to 1e-7 get their
+    mean (one circle, one κ); float-noise curvature on a line is 0."""
+    m = len(pts)
+    k3 = np.zeros(m)
+    if m > 2:
+        k3[1:-1] = _circumcurvature(pts[:-2], pts[1:-1], pts[2:])
+    if closed:
+        k3[0] = k3[-1] = _circumcurvature(pts[-2:-1], pts[:1], pts[1:2])[0]
+    k3[k3 * max(extent, 1.0) < 1e-8] = 0.0
+    inf = np.full(m, np.inf)
+    k_tol, _ = blend_curvature(turn, inf, inf, path_tol)
+    corner = k_tol > k3
+    kappa = np.minimum(np.maximum(k3, k_tol), KAPPA_MAX_1_MM)
+    same = np.abs(np.diff(k3)) <= 1e-7 * np.maximum(k3[1:], k3[:-1])
+    same &= ~corner[1:] & ~corner[:-1]
+    group = np.concatenate([[0], np.cumsum(~same)])
+    sizes = np.bincount(group)
+    means = np.bincount(group, weights=k3) / sizes
+    long = sizes[group] >= MIN_RUN
+    kappa[long] = means[group[long]]
+    if not closed:
+        corner[0] = corner[-1] = False
+        kappa[0] = kappa[1] if m > 2 and not corner[1] else 0.0
+        kappa[-1] = kappa[-2] if m > 2 and not corner[-2] else 0.0
+    return kappa, corner
+
+
 def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
                        path_tolerance_mm: float | None = None) -> PolylineCurvature:
     """κ, tangent and corners of a point sequence (module docstring); ``tolerance_mm`` is the
@@ -368,6 +412,9 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
     a[0], b[-1] = chord[-1], chord[0]
     if closed:
         turn[0] = turn[-1] = _angle(unit[-1], unit[0])
+    if tolerance_mm is None and quantum is None:
+        kappa, corner = _exact_curvature(reduced, turn, closed, path_tol, extent)
+        return _result(kappa, corner, unit, ids, m, tol, path_tol, quantum)
     runs = _runs(reduced, turn, FIT_SLACK * tol, path_tol)
 
     kappa = np.full(m, np.nan)
@@ -402,7 +449,12 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
         kappa[0] = run_kappa_right[0]
         kappa[-1] = run_kappa_left[-1]
         corner[0] = corner[-1] = False
-    # tangent: the bisector of the chords; at a reversal (bisector ≈ 0) the incoming chord
+    return _result(kappa, corner, unit, ids, m, tol, path_tol, quantum)
+
+
+def _result(kappa, corner, unit, ids, m, tol, path_tol, quantum) -> PolylineCurvature:
+    """Per-point values from the per-vertex ones; tangent: the bisector of the chords, at a
+    reversal (bisector ≈ 0) the incoming chord."""
     t_red = np.empty((m, 3))
     t_red[0], t_red[-1] = unit[0], unit[-1]
     if m > 2:
