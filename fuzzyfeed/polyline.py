@@ -40,6 +40,7 @@ point = first) blends its seam like any vertex.
 
 from __future__ import annotations
 
+import contextvars
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +58,10 @@ MIN_RUN = 5
 FIT_SLACK = 1.5
 #: Share of coordinates that must be multiples of a quantum for it to be taken as the rounding.
 QUANTUM_SHARE = 0.9
+#: (point tolerance, path tolerance P) in mm used where a caller passes None (the CLI's
+#: ``--point-tolerance`` / ``--path-tolerance``); None entries keep the defaults.
+TOLERANCES: contextvars.ContextVar[tuple[float | None, float | None]] = \
+    contextvars.ContextVar("polyline_tolerances", default=(None, None))
 
 
 @dataclass(frozen=True, eq=False)
@@ -369,6 +374,9 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
     """κ, tangent and corners of a point sequence (module docstring); ``tolerance_mm`` is the
     coordinates' rounding (read from the values when None), ``path_tolerance_mm`` the controller's
     blend tolerance P (default :data:`DEFAULT_PATH_TOLERANCE_MM`)."""
+    given_tol, given_path = TOLERANCES.get()
+    tolerance_mm = given_tol if tolerance_mm is None else tolerance_mm
+    path_tolerance_mm = given_path if path_tolerance_mm is None else path_tolerance_mm
     raw = np.asarray(points, dtype=float)
     if raw.ndim != 2 or raw.shape[0] < 2 or raw.shape[1] not in (2, 3):
         raise InputError(f"points: shape {raw.shape}; need at least 2 points of 2 or 3 coordinates")

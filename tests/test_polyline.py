@@ -197,3 +197,31 @@ def test_property_curvature_is_finite_bounded_and_tangents_unit(raw, scale):
     assert np.isfinite(res.curvature).all() and (res.curvature >= 0).all()
     assert (res.curvature <= KAPPA_MAX_1_MM).all()
     np.testing.assert_allclose(np.linalg.norm(res.tangent, axis=1), 1.0, atol=1e-9)
+
+
+def read_csv_column(path, name):
+    import csv
+    return np.array([float(r[name]) for r in csv.DictReader(open(path))])
+
+
+def test_cli_tolerances_reach_the_curvature(tmp_path, capsys):
+    from fuzzyfeed.cli import main
+
+    write_ngc(tmp_path / "sq.ngc", np.array([[0, 0], [10, 0], [10, 10], [0, 10]], dtype=float))
+    out = tmp_path / "sq.csv"
+    assert main(["advise", str(tmp_path / "sq.ngc"), "-o", str(out), "--path-tolerance", "0.05"]) == 0
+    kappa = read_csv_column(out, "curvature_1_mm")
+    np.testing.assert_allclose(kappa[1:3], 1 / blend_radius(np.pi / 2, 0.05), rtol=1e-12)
+    # a circle digitised with ±2 µm noise, written with 6 decimals: only the tolerance the user
+    # gives lets the curvature see the circle
+    rng = np.random.default_rng(7)
+    t = np.linspace(0, 2 * np.pi, 401)
+    pts = np.column_stack([20 * np.cos(t), 20 * np.sin(t)]) + rng.uniform(-0.002, 0.002, (401, 2))
+    pts[-1] = pts[0]
+    write_csv(tmp_path / "noisy.csv", pts, decimals=6)
+    assert main(["advise", str(tmp_path / "noisy.csv"), "-o", str(out)]) == 0
+    assert np.ptp(read_csv_column(out, "curvature_1_mm")) > 0.01
+    assert main(["advise", str(tmp_path / "noisy.csv"), "-o", str(out), "--point-tolerance", "0.003"]) == 0
+    np.testing.assert_allclose(read_csv_column(out, "curvature_1_mm"), 1 / 20, rtol=1e-3)
+    assert np.ptp(read_csv_column(out, "feed_pct")) < 1e-6
+    capsys.readouterr()

@@ -45,11 +45,21 @@ def add_shape_argument(parser: argparse.ArgumentParser) -> None:
                         help="units of a DXF drawing's coordinates, overriding its $INSUNITS "
                              "(default: the header's $INSUNITS; a drawing without it is read as mm "
                              "with a notice). Other files state their own units")
+    parser.add_argument("--point-tolerance", type=positive_float, default=None, metavar="MM",
+                        help="how far the points of a point sequence (G1 chain, CSV, DXF polyline) "
+                             "may be from the path they describe, in mm (default: half the "
+                             "rounding of their coordinates, read from the decimals they are "
+                             "written with). Curvature is estimated within it")
+    parser.add_argument("--path-tolerance", type=positive_float, default=None, metavar="MM",
+                        help="the controller's blend tolerance at corners of a point sequence, as "
+                             "LinuxCNC's G64 P, in mm (default: 0.01); a corner's curvature is "
+                             "that of the blend arc within it")
 
 
 @contextlib.contextmanager
 def shape_context(args: argparse.Namespace):
-    """While a command runs: ``--units`` applied to DXF loading (refused for other files), and
+    """While a command runs: ``--units`` applied to DXF loading (refused for other files),
+    ``--point-tolerance``/``--path-tolerance`` to point-sequence curvature, and
     :class:`~fuzzyfeed.errors.FuzzyfeedNotice` warnings collected, then printed as
     ``fuzzyfeed: notice: ...`` lines when the command succeeds (an error stays one line)."""
     from fuzzyfeed.errors import FuzzyfeedNotice, ShapeFileError
@@ -67,6 +77,10 @@ def shape_context(args: argparse.Namespace):
             raise ShapeFileError(f"--units {units}: applies to DXF drawings only; {base} states its "
                                  "own units (G20/G21 in G-code, mm in CSV and shape files)")
         token = UNITS_OVERRIDE.set(units)
+    from fuzzyfeed.polyline import TOLERANCES
+
+    tolerances = TOLERANCES.set((getattr(args, "point_tolerance", None),
+                                 getattr(args, "path_tolerance", None)))
     notices: list[str] = []
 
     def show(message, category, filename, lineno, file=None, line=None):
@@ -85,5 +99,6 @@ def shape_context(args: argparse.Namespace):
         for text in notices:      # only when the command succeeds: an error stays one line
             print(f"fuzzyfeed: notice: {text}", file=sys.stderr)
     finally:
+        TOLERANCES.reset(tolerances)
         if token is not None:
             UNITS_OVERRIDE.reset(token)
