@@ -430,3 +430,36 @@ def test_many_contours_are_listed_short_and_advised_all(tmp_path, capsys):
     np.testing.assert_allclose([float(r["curvature_1_mm"]) for r in circle], 1 / 3, rtol=1e-9)
     one = load_shape(f"{tmp_path / 'many.dxf'}#layer=OUT")
     assert one.curve.length == pytest.approx(2 * (50 + 30) + 2 * math.pi * 5, rel=1e-7)
+
+
+# --------------------------------------------------------------------- chaining, property
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.permutations(range(8)), st.lists(st.booleans(), min_size=8, max_size=8),
+       st.floats(-4e-4, 4e-4), st.sampled_from(["0", "CUT"]))
+def test_property_chaining_ignores_order_direction_and_tiny_gaps(order, flip, jitter, layer):
+    """A rounded rectangle's 8 entities in any order and direction, ends moved by less than the
+    chain tolerance, chain into one closed contour of the same length."""
+    from pathlib import Path
+
+    from fuzzyfeed.io.contours import chain
+    from fuzzyfeed.io.dxf import _pieces_of
+
+    doc = ezdxf.new("R2010")
+    msp = doc.modelspace()
+    rounded_rect(msp, layer=layer)
+    entities = list(msp)
+    for e, f in zip(entities, flip):
+        if e.dxftype() == "LINE":
+            if f:
+                e.dxf.start, e.dxf.end = e.dxf.end, e.dxf.start
+            e.dxf.start = e.dxf.start + (jitter, 0, 0)
+    pieces = [p for k in order for p in _pieces_of(entities[k], 1.0, Path("mem.dxf"), f"#{k}", str(k), layer)]
+    contours = chain(pieces, "mem.dxf")
+    assert len(contours) == 1 and contours[0].closed and len(contours[0].pieces) == 8
+    pts = contours[0].points()
+    length = np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()
+    assert length == pytest.approx(2 * (50 + 30) + 2 * math.pi * 5, abs=8 * 1e-3)
