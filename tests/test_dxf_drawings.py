@@ -463,3 +463,15 @@ def test_property_chaining_ignores_order_direction_and_tiny_gaps(order, flip, ji
     pts = contours[0].points()
     length = np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()
     assert length == pytest.approx(2 * (50 + 30) + 2 * math.pi * 5, abs=8 * 1e-3)
+
+
+def test_zero_radius_circle_is_skipped_with_a_notice(tmp_path):
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    msp.add_circle((0, 0), 0)
+    msp.add_circle((5, 5), 2)
+    doc.saveas(tmp_path / "zero.dxf")
+    with pytest.warns(FuzzyfeedNotice, match=r"radius = 0 is a point, not a path \(skipped\)"):
+        shapes = load_shapes(str(tmp_path / "zero.dxf"))
+    assert len(shapes) == 1 and shapes[0].curve.length == pytest.approx(4 * math.pi)

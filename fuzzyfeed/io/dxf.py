@@ -399,6 +399,12 @@ def _collect(doc, path: Path, scale: float) -> tuple[list[Piece], dict[str, int]
         if kind not in CURVE_TYPES:
             other[kind] = other.get(kind, 0) + 1
             return
+        if kind in ("ARC", "CIRCLE") and not float(e.dxf.get("radius", 0) or 0) > 0:
+            label = f"{kind} (radius <= 0)"
+            other[label] = other.get(label, 0) + 1
+            _notice(f"{path}: {_describe(e, parent)}: radius = {float(e.dxf.get('radius', 0) or 0):g} "
+                    "is a point, not a path (skipped)")
+            return
         own = handle or e.dxf.get("handle", None) or "?"
         pieces.extend(_pieces_of(e, scale, path, _describe(e, parent), own, e.dxf.get("layer", "0")))
 
