@@ -39,3 +39,8 @@ class PathFormatError(ValueError, FuzzyfeedError):
 
 class ExportError(ValueError, FuzzyfeedError):
     """A profile cannot be exported in the requested format."""
+
+
+class FuzzyfeedNotice(UserWarning):
+    """Something the user should know that is not an error (a damaged file read through recovery,
+    units assumed); the CLI prints it as one line ``fuzzyfeed: notice: ...`` on stderr."""

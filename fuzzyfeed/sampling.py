@@ -3,7 +3,9 @@
 ``sample_uniform_u`` samples uniformly in the parameter (seed 002 uses 2000 points, Δu = 0.0005);
 ``sample_by_arc_length`` samples uniformly in arc length through u(s). Both return one
 :class:`PathSamples` value. ``samples_from_points`` builds the same value from a point sequence
-(a G-code polyline, a CSV of points) with the three-point curvature of seed 002, eq. 4–9.
+(a G-code polyline, a CSV of points) with the curvature of :mod:`fuzzyfeed.polyline` (the path
+within the coordinates' rounding, corners as the controller's blend); the three-point curvature of
+seed 002, eq. 4–9 (:func:`three_point_curvature`) stays available as the paper's estimate.
 """
 
 from __future__ import annotations
@@ -213,24 +215,33 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
     return np.concatenate([[kappa_inner[0]], kappa_inner, [kappa_inner[-1]]])
 
 
-def samples_from_points(points: np.ndarray, curve: Nurbs | None = None) -> PathSamples:
-    """A :class:`PathSamples` for a point sequence: chord-length s, three-point curvature.
+def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
+                        tolerance_mm: float | None = None,
+                        path_tolerance_mm: float | None = None) -> PathSamples:
+    """A :class:`PathSamples` for a point sequence: chord-length s, and the curvature of the path
+    the points describe within their rounding, corners blended as a controller blends them within
+    the path tolerance P (:func:`fuzzyfeed.polyline.polyline_curvature`; ``tolerance_mm`` None
+    reads the rounding from the coordinates, ``path_tolerance_mm`` None is LinuxCNC-style
+    G64 P0.01). Consecutive repeated points are allowed (they get their neighbour's values).
 
     ``curve``, if given, is the degree-1 NURBS through the points with chord-length knots on
     [0, 1] (so u = s / L is its parameter at every point); planners and the simulator move along it.
     """
+    from fuzzyfeed.polyline import polyline_curvature
+
     pts = float_array(points, "points")
-    kappa = three_point_curvature(pts)
+    if pts.ndim != 2 or pts.shape[0] < 2 or pts.shape[1] not in (2, 3):
+        raise InputError(f"points: shape {pts.shape}; need at least 2 points of 2 or 3 coordinates")
+    result = polyline_curvature(pts, tolerance_mm, path_tolerance_mm)
     dim = pts.shape[1]
     xyz = _pad3(pts)
     chords = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(chords)])
-    tangent = np.gradient(xyz, s, axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    if s[-1] <= 0:
+        raise InputError("points: all points coincide; a path needs length > 0")
     nan = np.full_like(xyz, np.nan)
-    return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=tangent, curvature=kappa,
-                       d1=nan, d2=nan, dim=dim, curve=curve)
+    return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=result.tangent,
+                       curvature=result.curvature, d1=nan, d2=nan, dim=dim, curve=curve)
 
 
 def max_curvature(curve: Nurbs, per_span: int = 64, candidates: int = 8, rounds: int = 8) -> tuple[float, float]:

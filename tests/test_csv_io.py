@@ -112,7 +112,7 @@ def test_point_csv_column_names(tmp_path, header, rows, expected):
     ("x,y\n0,0\n1\n", r"pts\.csv:3: column y = '' is not a number"),
     ("a,b\n0,0\n", r"pts\.csv:1: header \['a', 'b'\] has no x_mm,y_mm or x,y columns"),
     ("x,y\n0,0\n", r"pts\.csv: 1 point row\(s\); a path needs at least 2"),
-    ("x,y\n0,0\n1,1\n1,1\n", r"pts\.csv:4: point \[1\.0, 1\.0\] repeats the previous row"),
+    ("x,y\n1,1\n1,1\n1,1\n", r"pts\.csv: every point repeats the first; a path needs at least 2"),
     ("", r"pts\.csv: empty file"),
 ])
 def test_bad_point_csv_one_clear_line(tmp_path, text, message):
@@ -177,3 +177,11 @@ def test_many_blocks_mixed_columns_read_back_like_the_csv_module(tmp_path, monke
     frame = read_csv_exact(tmp_path / "m.csv", keep_default_na=False, na_values=["nan"])
     for name in ("x mm", "whole", "zero", "ratio"):
         assert frame[name].dtype == np.float64, name
+
+
+def test_repeated_rows_are_dropped_with_a_note(tmp_path):
+    path = tmp_path / "dup.csv"
+    path.write_text("x,y\n0,0\n1,0\n1,0\n2,1\n2,1\n3,3\n")
+    shape = load_shape(str(path))
+    np.testing.assert_array_equal(shape.polyline, [[0, 0], [1, 0], [2, 1], [3, 3]])
+    assert "2 repeated point(s) dropped" in shape.notes

@@ -86,18 +86,27 @@ def test_polylines_closed_3d_and_bulge(tmp_path):
     shapes = load_shapes(str(path))
     assert len(shapes) == 3
     rect = load_shape(f"{path}#layer=cut")
-    np.testing.assert_array_equal(rect.polyline, [[0, 0], [10, 0], [10, 5], [0, 5], [0, 0]])
+    # the vertices, straight edges cut into steps of at most 1 mm (STRAIGHT_STEP_MM)
+    corners = [[0, 0], [10, 0], [10, 5], [0, 5], [0, 0]]
+    assert rect.polyline.shape == (31, 2)
+    np.testing.assert_array_equal(rect.polyline[[0, 10, 15, 25, 30]], corners)
+    assert np.linalg.norm(np.diff(rect.polyline, axis=0), axis=1).max() == 1.0
     poly3 = load_shape(f"{path}#{p3.dxf.handle}")
-    np.testing.assert_array_equal(poly3.polyline, [[0, 0, 0], [1, 2, -1], [3, 2, -1], [4, 0, -2]])
+    vertices = np.array([[0, 0, 0], [1, 2, -1], [3, 2, -1], [4, 0, -2]], dtype=float)
+    assert all(np.any(np.all(poly3.polyline == v, axis=1)) for v in vertices)
+    assert poly3.curve.length == pytest.approx(np.linalg.norm(np.diff(vertices, axis=0), axis=1).sum(), rel=1e-12)
     flat = load_shape(f"{path}#handle={arc.dxf.handle}").polyline
     on_arc = flat[(flat[:, 0] <= 10) & (np.arange(len(flat)) < len(flat) - 1)]
     assert len(on_arc) > 10
     np.testing.assert_allclose(np.linalg.norm(on_arc - [5, 0], axis=1), 5.0, atol=1e-12)
     sagitta = 5.0 - np.linalg.norm(0.5 * (on_arc[1:] + on_arc[:-1]) - [5, 0], axis=1)
-    assert 0 < sagitta.max() <= 1e-4
-    assert load_shape(f"{path}#path=1").polyline.shape == (5, 2)
-    # the planners' samples are the vertices with the three-point curvature
-    assert len(sample_shape(rect)) == 5
+    assert 0 < sagitta.max() <= 5 * (1 - np.cos(1e-3)) + 1e-12       # chords turn by <= 2e-3 rad
+    assert load_shape(f"{path}#path=1").polyline.shape == (31, 2)
+    # the planners' samples are the points; the corners are the controller's blend
+    samples = sample_shape(rect)
+    assert len(samples) == 31
+    np.testing.assert_allclose(samples.curvature[[0, 10, 15, 25, 30]], 41.42135623730950, rtol=1e-12)
+    assert np.all(np.delete(samples.curvature, [0, 10, 15, 25, 30]) == 0)
     assert lw.dxf.handle in rect.name
 
 
@@ -108,14 +117,15 @@ def test_several_entities_need_a_selector(tmp_path):
     msp.add_line((0, 0), (1, 1))
     path = tmp_path / "two.dxf"
     doc.saveas(path)
-    with pytest.raises(PathFormatError, match=rf"2 usable entities \(SPLINE {a.dxf.handle} \(layer A\), "
-                                              rf"SPLINE {b.dxf.handle} \(layer B\)\); pick one"):
+    with pytest.raises(PathFormatError, match=rf"3 contours \(1: closed contour of SPLINE {a.dxf.handle} "
+                                              rf"\(layer A\), 2: closed contour of SPLINE {b.dxf.handle} "
+                                              r"\(layer B\), 3: open contour of LINE \w+ \(layer 0\)\); pick one"):
         load_shape(str(path))
     assert load_shape(f"{path}#layer=B").curve.n_control_points == 7
     assert load_shape(f"{path}#{a.dxf.handle.lower()}").curve.weights[0] == 0.6
-    with pytest.raises(PathFormatError, match="no usable entity with handle FFFF"):
+    with pytest.raises(PathFormatError, match="no contour holds an entity with handle FFFF"):
         load_shape(f"{path}#FFFF")
-    with pytest.raises(PathFormatError, match="no usable entity on layer 'C'"):
+    with pytest.raises(PathFormatError, match="no contour on layer 'C'"):
         load_shape(f"{path}#layer=C")
     with pytest.raises(PathFormatError, match="unknown selector 'colour'"):
         load_shape(f"{path}#colour=red")
@@ -138,18 +148,18 @@ def test_units_inch_and_ezdxf_default_metres(tmp_path):
 
 def test_no_usable_entity_binary_and_garbage(tmp_path):
     doc, msp = new_doc()
-    msp.add_line((0, 0), (1, 1))
-    msp.add_circle((0, 0), 3)
-    msp.add_line((2, 0), (1, 1))
-    doc.saveas(tmp_path / "lines.dxf")
-    with pytest.raises(PathFormatError, match=r"lines\.dxf: no usable entity .* found CIRCLE x1, LINE x2$"):
-        load_shape(str(tmp_path / "lines.dxf"))
+    msp.add_text("PART 7")
+    msp.add_text("REV B")
+    msp.add_point((1, 1))
+    doc.saveas(tmp_path / "text.dxf")
+    with pytest.raises(PathFormatError, match=r"text\.dxf: no curve to follow .* found POINT x1, TEXT x2$"):
+        load_shape(str(tmp_path / "text.dxf"))
     (tmp_path / "blob.dxf").write_bytes(bytes(range(256)) * 4)
     with pytest.raises(PathFormatError, match=r"blob\.dxf: binary file that is not a DXF"):
         load_shape(str(tmp_path / "blob.dxf"))
-    (tmp_path / "text.dxf").write_text("this is not a drawing\n")
-    with pytest.raises(PathFormatError, match=r"text\.dxf: not a readable DXF"):
-        load_shape(str(tmp_path / "text.dxf"))
+    (tmp_path / "prose.dxf").write_text("this is not a drawing\n")
+    with pytest.raises(PathFormatError, match=r"prose\.dxf: not a DXF that ezdxf can read or recover"):
+        load_shape(str(tmp_path / "prose.dxf"))
 
 
 def test_nan_vertex_and_bad_spline_are_one_line_errors(tmp_path):

@@ -90,13 +90,15 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    from fuzzyfeed.cli._common import shape_context
+
     try:
         outputs, inputs = _outputs_and_inputs(args)
         transaction = OutputSet(outputs, inputs, stdout=sys.stdout)
         # with an output on standard output, the command's own messages go to stderr
         quiet = contextlib.redirect_stdout(sys.stderr) if any(p == "-" for _, p in outputs) else \
             contextlib.nullcontext()
-        with transaction, quiet:
+        with transaction, quiet, shape_context(args):
             result = args.run(args)
     except (FuzzyfeedError, OSError, MemoryError, RecursionError) as exc:
         print(_error_line(exc, args), file=sys.stderr)

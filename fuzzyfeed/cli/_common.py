@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import sys
+import warnings
 
 
 def positive_float(text: str) -> float:
@@ -39,9 +42,71 @@ def point_count(text: str) -> int:
 def add_shape_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("shape", metavar="SHAPE",
                         help="a shipped shape's name (see `fuzzyfeed shapes`) or a file: shape "
-                             "(.toml/.json), DXF (.dxf: SPLINE, LWPOLYLINE, POLYLINE), G-code "
+                             "(.toml/.json), DXF (.dxf: contours chained from LINE, ARC, CIRCLE, "
+                             "ELLIPSE, SPLINE, LWPOLYLINE, POLYLINE, also inside blocks), G-code "
                              "(.ngc/.nc/.gcode/.gc/.tap/.cnc: G0/G1 chains, G5.2 blocks) or a CSV "
                              "point list (.csv: x_mm,y_mm[,z_mm] or x,y[,z]). A file with several "
                              "paths needs FILE#SELECTOR: DXF FILE#HANDLE, FILE#layer=NAME or "
                              "FILE#path=N; G-code FILE#N (one path per chain of feed moves between "
                              "G0 rapids)")
+    parser.add_argument("--units", choices=("mm", "inch", "m"), default=None,
+                        help="units of a DXF drawing's coordinates, overriding its $INSUNITS "
+                             "(default: the header's $INSUNITS; a drawing without it is read as mm "
+                             "with a notice). Other files state their own units")
+    parser.add_argument("--point-tolerance", type=positive_float, default=None, metavar="MM",
+                        help="how far the points of a point sequence (G1 chain, CSV, DXF polyline) "
+                             "may be from the path they describe, in mm (default: half the "
+                             "rounding of their coordinates, read from the decimals they are "
+                             "written with). Curvature is estimated within it")
+    parser.add_argument("--path-tolerance", type=positive_float, default=None, metavar="MM",
+                        help="the controller's blend tolerance at corners of a point sequence, as "
+                             "LinuxCNC's G64 P, in mm (default: 0.01); a corner's curvature is "
+                             "that of the blend arc within it")
+
+
+@contextlib.contextmanager
+def shape_context(args: argparse.Namespace):
+    """While a command runs: ``--units`` applied to DXF loading (refused for other files),
+    ``--point-tolerance``/``--path-tolerance`` to point-sequence curvature, and
+    :class:`~fuzzyfeed.errors.FuzzyfeedNotice` warnings collected, then printed as
+    ``fuzzyfeed: notice: ...`` lines when the command succeeds (an error stays one line)."""
+    from fuzzyfeed.errors import FuzzyfeedNotice, ShapeFileError
+
+    token = None
+    units = getattr(args, "units", None)
+    if units is not None:
+        from pathlib import Path
+
+        from fuzzyfeed.io.dxf import UNITS_OVERRIDE
+        from fuzzyfeed.io.shapes import split_selector
+
+        base, _ = split_selector(args.shape)
+        if Path(str(base)).suffix.lower() != ".dxf":
+            raise ShapeFileError(f"--units {units}: applies to DXF drawings only; {base} states its "
+                                 "own units (G20/G21 in G-code, mm in CSV and shape files)")
+        token = UNITS_OVERRIDE.set(units)
+    from fuzzyfeed.polyline import TOLERANCES
+
+    tolerances = TOLERANCES.set((getattr(args, "point_tolerance", None),
+                                 getattr(args, "path_tolerance", None)))
+    notices: list[str] = []
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, FuzzyfeedNotice):
+            if str(message) not in notices:
+                notices.append(str(message))
+            return
+        previous(message, category, filename, lineno, file, line)
+
+    previous = warnings.showwarning
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", FuzzyfeedNotice)
+            warnings.showwarning = show
+            yield
+        for text in notices:      # only when the command succeeds: an error stays one line
+            print(f"fuzzyfeed: notice: {text}", file=sys.stderr)
+    finally:
+        TOLERANCES.reset(tolerances)
+        if token is not None:
+            UNITS_OVERRIDE.reset(token)

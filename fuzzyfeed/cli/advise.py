@@ -149,9 +149,58 @@ def _filter_line(advice) -> str:
     return f"{table.filter} filter over {size}: largest point-to-point change {steps}; {corners}"
 
 
+def drawing_paths(args: argparse.Namespace) -> list | None:
+    """Every path of SHAPE when it is a file of several (a drawing's contours) and no FILE#SELECTOR
+    picks one; None otherwise."""
+    from fuzzyfeed.io.shapes import load_shapes, split_selector
+
+    _, selector = split_selector(args.shape)
+    if selector is not None:
+        return None
+    shapes = load_shapes(args.shape)
+    return shapes if len(shapes) > 1 else None
+
+
+def run_paths(args: argparse.Namespace, shapes: list) -> int:
+    """Advise every path of a file, as a program runs them: one CSV (column ``path``, 1-based, then
+    the one-path columns) and one summary line per path."""
+    from fuzzyfeed.errors import ExportError
+    from fuzzyfeed.fuzzy.advisor import advise_details
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.io.csv import write_columns
+    from fuzzyfeed.io.shapes import sample_shape
+
+    for flag in ("gcode", "gcode_g52", "plot"):
+        if getattr(args, flag, None):
+            option = "--" + flag.replace("_", "-")
+            raise ExportError(f"{option}: {args.shape} holds {len(shapes)} paths; {option} writes "
+                              f"one path, pick it with {args.shape}#path=N")
+    feed_mm_min = check_feed_mm_min(args.feed_mm_min)
+    table = load_rule_table(args.rules)
+    parts, lines = [], []
+    for number, shape in enumerate(shapes, start=1):
+        advice = advise_details(sample_shape(shape, args.points), table, feed_mm_min / 60.0)
+        cols = advice_columns(advice, args.rule_strengths)
+        parts.append({"path": np.full(len(advice.profile.samples), number), **cols})
+        p = advice.profile
+        lines.append(f"path {number} {shape.name}: {len(p.samples)} points, length "
+                     f"{p.samples.length:.3f} mm, feed mm/min min {p.feed_mm_min.min():.1f} mean "
+                     f"{p.feed_mm_min.mean():.1f} max {p.feed_mm_min.max():.1f}, time "
+                     f"{p.travel_time_s():.4f} s")
+    columns = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
+    write_columns(args.output, columns)
+    print(f"{args.shape}: {len(shapes)} paths, rules {table.name!r}, F = {feed_mm_min:g} mm/min")
+    print("\n".join(lines))
+    print(f"wrote {args.output}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.csv import write_columns, write_metadata
 
+    shapes = drawing_paths(args)
+    if shapes is not None:
+        return run_paths(args, shapes)
     shape, advice = compute(args)
     gcode = prepare_gcode(args, advice.profile, shape)  # checked before any file is written
     columns = advice_columns(advice, args.rule_strengths)

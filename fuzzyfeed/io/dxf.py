@@ -1,52 +1,108 @@
-"""DXF import with ezdxf: SPLINE entities as NURBS, LWPOLYLINE/POLYLINE as point sequences.
+"""DXF import with ezdxf: the contours of a drawing as paths.
 
-Every usable entity of the modelspace becomes one path (:func:`load_dxf_shapes`):
+Curves (model space, and block references ``INSERT``/``MINSERT`` exploded with their transforms
+through ezdxf's ``virtual_entities``, nested blocks included):
 
-- ``SPLINE`` with control points: degree, knots, control points and weights as stored (a
-  non-rational spline has weights 1). A spline with fit points only is converted by ezdxf's own
-  construction tool (``Spline.construction_tool()``, the global interpolation AutoCAD uses).
-  A knot vector that is not clamped (closed/periodic splines) is clamped to its valid range
-  [u_p, u_n] by knot insertion (The NURBS Book §5.3): the same curve, with clamped ends.
-- ``LWPOLYLINE`` and 2-D/3-D ``POLYLINE``: the vertices as a polyline (closed ones repeat the first
-  vertex at the end). Arc segments (bulge ≠ 0) are flattened into points on the exact
-  arc with a sagitta of at most :data:`BULGE_TOLERANCE_MM`. Polyface and mesh POLYLINEs are not paths and are skipped.
+- ``LINE``; ``ARC``, ``CIRCLE``, ``ELLIPSE`` as exact rational quadratic NURBS (ezdxf's
+  ``rational_bspline_from_ellipse``; a non-uniformly scaled block turns arcs into ellipses);
+- ``SPLINE`` with control points as stored (weights 1 if not rational); fit points only: ezdxf's
+  construction tool (AutoCAD's global interpolation); unclamped (closed/periodic) knots clamped to
+  [u_p, u_n] by knot insertion (The NURBS Book §5.3); piecewise-Bézier splines (interior knots of
+  multiplicity p + 1) joined where the pieces meet, split where they do not;
+- ``LWPOLYLINE`` and 2-D/3-D ``POLYLINE``: the vertices; bulge segments flattened into points on
+  the exact arc; spline-fit and curve-fit POLYLINEs as the fitted vertices ezdxf stores (frame
+  points skipped). Polyface/mesh POLYLINEs, texts, hatches, dimensions are not paths.
 
-Units: the header's ``$INSUNITS`` is honoured (0 unitless and 4 = mm are taken as mm; 1 inch,
-2 feet, 5 cm, 6 m are converted to mm; other codes are refused). Note that ``ezdxf.new()`` sets
-``$INSUNITS = 6`` (metres) unless told otherwise.
+They are chained into contours by :mod:`fuzzyfeed.io.contours` (end points within 1 µm, per
+layer). A contour of one SPLINE/ARC/CIRCLE/ELLIPSE is that exact NURBS; a chain of several pieces,
+or a polyline, is a point sequence on the exact pieces.
 
-Choosing one path (:func:`load_dxf`): ``FILE#HANDLE`` or ``FILE#handle=H`` picks the entity by
-handle, ``FILE#layer=NAME`` the only usable entity of a layer, ``FILE#path=N`` the N-th usable
-entity (1-based, file order). A file with several usable entities and no selector is an error
-listing them (type, handle, layer), so a path is never picked by accident.
+Units: ``$INSUNITS`` is honoured only where the header sets it (0 unitless and 4 read as mm; 1 inch,
+2 feet, 5 cm, 6 m converted; other codes refused); a file without it is read as mm with a notice.
+``units=`` ("mm", "inch", "m") overrides both. (``ezdxf.new()`` writes ``$INSUNITS = 6``, metres.)
 
-ezdxf is imported inside the functions (it is slow to import and not needed by the core).
+Damaged files that ``ezdxf.readfile`` refuses are read through ``ezdxf.recover`` with a notice;
+any ezdxf failure becomes one line naming the file. Notices are :class:`FuzzyfeedNotice` warnings.
+
+Choosing one contour (:func:`load_dxf`): ``FILE#HANDLE``/``FILE#handle=H`` the contour holding
+that entity (an INSERT's handle for its exploded pieces), ``FILE#layer=NAME`` the only contour of
+a layer, ``FILE#path=N`` the N-th contour (1-based, file order of its first piece). Without a
+selector a drawing of several contours is an error for one path; :func:`load_dxf_shapes` returns
+every contour.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import logging
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from fuzzyfeed.errors import InputError, NurbsError, PathFormatError
-from fuzzyfeed.io.gcode import insert_knot
-from fuzzyfeed.sampling import point_budget
+from fuzzyfeed.errors import FuzzyfeedNotice, NurbsError, PathFormatError
+from fuzzyfeed.io.contours import FLATTEN_ANGLE_RAD, Contour, Piece, chain
+from fuzzyfeed.io.dxf_splines import spline_curves
 
+#: A bulge whose sagitta is below this (mm) is a straight segment (a bulge of 1e-300 has no arc).
+STRAIGHT_SAGITTA_MM = 1e-9
 #: $INSUNITS code → factor to mm (0 = unitless, read as mm).
 INSUNITS_TO_MM = {0: 1.0, 1: 25.4, 2: 304.8, 4: 1.0, 5: 10.0, 6: 1000.0}
-#: Largest distance between an arc segment of a polyline and its flattened points (mm).
-BULGE_TOLERANCE_MM = 1e-4
-USABLE_TYPES = ("SPLINE", "LWPOLYLINE", "POLYLINE")
+_INSUNITS_NAMES = {0: "unitless (read as mm)", 1: "inch", 2: "feet", 4: "mm", 5: "cm", 6: "m"}
+#: ``--units`` choices → factor to mm.
+UNITS_TO_MM = {"mm": 1.0, "inch": 25.4, "m": 1000.0}
+#: Units forced by the caller (the CLI's ``--units``); None: the file's header decides.
+UNITS_OVERRIDE: contextvars.ContextVar[str | None] = contextvars.ContextVar("dxf_units", default=None)
+CURVE_TYPES = ("LINE", "ARC", "CIRCLE", "ELLIPSE", "SPLINE", "LWPOLYLINE", "POLYLINE")
+#: Deepest block nesting followed through INSERTs (guards against a block that inserts itself).
+MAX_BLOCK_DEPTH = 16
+#: How many items a message lists before "… and N more".
+LIST_LIMIT = 5
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split())
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _notice(message: str) -> None:
+    warnings.warn(message, FuzzyfeedNotice, stacklevel=3)
+
+
+def shorten(items: list[str], limit: int = LIST_LIMIT) -> str:
+    """``a, b, c`` — or the first ``limit`` and "… and N more"."""
+    if len(items) <= limit:
+        return ", ".join(items)
+    return ", ".join(items[:limit]) + f", … and {len(items) - limit} more"
+
+
+@contextlib.contextmanager
+def _quiet_ezdxf():
+    """ezdxf logs every value it repairs; the user gets one notice instead."""
+    logger = logging.getLogger("ezdxf")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def header_sets_insunits(path: Path) -> bool:
+    """Whether the file's own HEADER section has ``$INSUNITS`` (ezdxf fills a missing header with
+    its defaults, $INSUNITS = 6 metres among them, so the loaded document cannot tell)."""
+    data = path.read_bytes()
+    start = data.find(b"HEADER")
+    if start < 0:
+        return False
+    end = data.find(b"ENDSEC", start)
+    return b"$INSUNITS" in data[start:end if end > 0 else len(data)]
 
 
 def _read(path: Path):
     import ezdxf
+    from ezdxf import recover
 
     if not path.is_file():
         raise PathFormatError(f"{path}: no such file")
@@ -54,106 +110,67 @@ def _read(path: Path):
     if b"\x00" in head and not head.startswith(b"AutoCAD Binary DXF"):
         raise PathFormatError(f"{path}: binary file that is not a DXF; expected a DXF drawing")
     try:
-        return ezdxf.readfile(str(path))
-    except (ezdxf.DXFStructureError, ezdxf.DXFError) as exc:
-        raise PathFormatError(f"{path}: not a readable DXF ({_one_line(exc)})") from None
-    except (UnicodeDecodeError, ValueError) as exc:
-        raise PathFormatError(f"{path}: not a readable DXF ({type(exc).__name__}: {_one_line(exc)})") from None
+        with _quiet_ezdxf():
+            return ezdxf.readfile(str(path))
     except OSError as exc:
-        if exc.errno is None:  # ezdxf's "is not a DXF file"
-            raise PathFormatError(f"{path}: not a readable DXF ({_one_line(exc)})") from None
-        raise PathFormatError(f"{path}: cannot read ({exc.strerror})") from None
+        if exc.errno is not None:
+            raise PathFormatError(f"{path}: cannot read ({exc.strerror})") from None
+        first = exc
+    except Exception as exc:  # noqa: BLE001 — ezdxf raises many types on damaged files
+        first = exc
+    try:
+        with _quiet_ezdxf():
+            doc, auditor = recover.readfile(str(path))
+    except Exception as exc:  # noqa: BLE001
+        raise PathFormatError(f"{path}: not a DXF that ezdxf can read or recover "
+                              f"({type(first).__name__}: {_one_line(first)}; recover: "
+                              f"{_one_line(exc)})") from None
+    reported = len(getattr(auditor, "fixes", [])) + len(getattr(auditor, "errors", []))
+    _notice(f"{path}: damaged DXF ({_one_line(first)[:80]}) read through ezdxf.recover "
+            f"({reported} problem(s) reported and repaired or skipped)")
+    return doc
 
 
 def _units_factor(doc, path: Path) -> tuple[float, str]:
-    code = int(doc.header.get("$INSUNITS", 0) or 0)
+    override = UNITS_OVERRIDE.get()
+    if override is not None:
+        if override not in UNITS_TO_MM:
+            raise PathFormatError(f"--units = {override!r}; use one of {', '.join(UNITS_TO_MM)}")
+        return UNITS_TO_MM[override], f"{override} (--units)"
+    if "$INSUNITS" not in doc.header or not header_sets_insunits(path):
+        _notice(f"{path}: the header does not set $INSUNITS; coordinates read as mm "
+                "(use --units inch|m if they are not)")
+        return 1.0, "mm (no $INSUNITS in the header)"
+    try:
+        code = int(doc.header.get("$INSUNITS", 0) or 0)
+    except (TypeError, ValueError):
+        raise PathFormatError(f"{path}: $INSUNITS = {doc.header.get('$INSUNITS')!r} is not a "
+                              "units code; use --units mm|inch|m") from None
     if code not in INSUNITS_TO_MM:
         raise PathFormatError(f"{path}: $INSUNITS = {code} is not supported; use 0 (unitless = mm), "
-                              "1 (inch), 2 (feet), 4 (mm), 5 (cm) or 6 (m)")
-    return INSUNITS_TO_MM[code], {0: "unitless (read as mm)", 1: "inch", 2: "feet", 4: "mm",
-                                  5: "cm", 6: "m"}[code]
+                              "1 (inch), 2 (feet), 4 (mm), 5 (cm) or 6 (m), or --units mm|inch|m")
+    return INSUNITS_TO_MM[code], _INSUNITS_NAMES[code]
 
 
-def _spline_curve(entity, scale: float, where: str):
-    from fuzzyfeed.nurbs import Nurbs
-
-    if len(entity.control_points) > 0:
-        degree = int(entity.dxf.degree)
-        knots = np.asarray(list(entity.knots), dtype=float)
-        points = np.asarray([tuple(p) for p in entity.control_points], dtype=float)
-        weights = np.asarray(list(entity.weights), dtype=float) if len(entity.weights) else None
-        how = "control points"
-    elif len(entity.fit_points) > 0:
-        try:
-            tool = entity.construction_tool()
-        except Exception as exc:  # ezdxf raises several types for degenerate fit data
-            raise PathFormatError(f"{where}: fit points could not be interpolated by ezdxf "
-                                  f"({type(exc).__name__}: {_one_line(exc)})") from None
-        degree = int(tool.degree)
-        knots = np.asarray(tool.knots(), dtype=float)
-        points = np.asarray([tuple(p) for p in tool.control_points], dtype=float)
-        weights = np.asarray(tool.weights(), dtype=float) if tool.is_rational else None
-        how = f"{len(entity.fit_points)} fit points (ezdxf construction tool)"
-    else:
-        raise PathFormatError(f"{where}: SPLINE has neither control points nor fit points")
-    if not np.isfinite(points).all():
-        i = int(np.argwhere(~np.isfinite(points))[0, 0])
-        raise PathFormatError(f"{where}: control point {i} = {points[i].tolist()}; must be finite")
-    points = points * scale
-    weights = np.ones(len(points)) if weights is None or weights.size == 0 else weights
-    if (degree >= 1 and knots.size == len(points) + degree + 1 and np.all(np.diff(knots) >= 0)
-            and np.all(weights > 0) and (np.ptp(knots[:degree + 1]) > 0 or np.ptp(knots[-degree - 1:]) > 0)):
-        knots, points, weights = clamp_knots(degree, knots, points, weights)
-        how += ", unclamped knots clamped to [u_p, u_n]"
-    if np.all(points[:, 2] == 0):
-        points = points[:, :2]
-    try:
-        return Nurbs(degree, knots, points, weights), how
-    except NurbsError as exc:
-        raise PathFormatError(f"{where}: {exc}") from None
-
-
-def bulge_points(p0: np.ndarray, p1: np.ndarray, bulge: float, tolerance: float) -> np.ndarray:
-    """Points after ``p0`` up to and including ``p1`` along the arc of a polyline segment with
-    ``bulge`` = tan(θ/4) (θ the signed included angle, counter-clockwise positive), spaced so the
-    sagitta of each chord is at most ``tolerance``. 2-D (the polyline's OCS)."""
+# ---------------------------------------------------------------------------------- polylines
+def bulge_points(p0: np.ndarray, p1: np.ndarray, bulge: float,
+                 max_turn_rad: float = FLATTEN_ANGLE_RAD) -> np.ndarray:
+    """Points after ``p0`` up to and including ``p1`` on the exact arc of a polyline segment with
+    ``bulge`` = tan(θ/4) (θ the signed included angle, counter-clockwise positive), each chord
+    turning by at most ``max_turn_rad``. 2-D (the polyline's OCS)."""
     chord = p1 - p0
     d = float(np.hypot(*chord))
-    if bulge == 0 or d == 0 or abs(bulge) * d / 2 <= tolerance:  # sagitta within tolerance: a line
+    if bulge == 0 or d == 0 or abs(bulge) * d / 2 <= STRAIGHT_SAGITTA_MM:  # no arc to speak of
         return p1[None, :]
     normal = np.array([-chord[1], chord[0]]) / d                  # left of the chord
     center = 0.5 * (p0 + p1) + normal * (d / 2) * (1 - bulge * bulge) / (2 * bulge)
     radius = float(np.hypot(*(p0 - center)))
     sweep = 4.0 * np.arctan(bulge)
-    step = 2.0 * np.arccos(max(-1.0, 1.0 - tolerance / radius)) if tolerance < radius else np.pi / 2
-    m = max(2, point_budget(np.ceil(abs(sweep) / step), f"arc of bulge {bulge:g} and radius {radius:.4g}"))
+    m = max(2, int(np.ceil(abs(sweep) / max_turn_rad)))
     a = np.arctan2(*(p0 - center)[::-1]) + sweep * np.arange(1, m + 1) / m
     pts = center + radius * np.column_stack([np.cos(a), np.sin(a)])
     pts[-1] = p1
     return pts
-
-
-def _clamp_start(p: int, knots: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a = float(knots[p])
-    while np.count_nonzero(knots == a) < p:
-        knots, pw = insert_knot(p, knots, pw, a)
-    j = int(np.argmax(knots == a))                   # first knot equal to a
-    if j == 0:                                        # already p + 1 equal knots at the start
-        return knots, pw
-    m = int(np.count_nonzero(knots == a))
-    start_cp = j + m - p - 1                          # C(a) = this control point
-    return np.concatenate([[a] * (p + 1), knots[j + m:]]), pw[start_cp:]
-
-
-def clamp_knots(p: int, knots: np.ndarray, points: np.ndarray, weights: np.ndarray):
-    """The same curve on [u_p, u_n] with a clamped knot vector: insert u_p (and u_n) until each
-    has multiplicity p, then drop the knots and control points outside the range (The NURBS Book
-    §5.3, knot insertion; the curve is unchanged)."""
-    pw = np.column_stack([points * weights[:, None], weights])
-    knots, pw = _clamp_start(p, np.asarray(knots, dtype=float), pw)
-    rk, rpw = _clamp_start(p, -knots[::-1], pw[::-1])
-    knots, pw = -rk[::-1], rpw[::-1]
-    return knots, pw[:, :-1] / pw[:, -1:], pw[:, -1]
 
 
 def _polyline_points(entity, scale: float, where: str) -> np.ndarray:
@@ -166,10 +183,13 @@ def _polyline_points(entity, scale: float, where: str) -> np.ndarray:
     else:
         closed = entity.is_closed
         planar = entity.is_2d_polyline
-        xyz = np.asarray([tuple(v.dxf.location) for v in entity.vertices], dtype=float).reshape(-1, 3)
-        bulges = np.asarray([float(v.dxf.get("bulge", 0) or 0) for v in entity.vertices])
+        vertices = [v for v in entity.vertices if not (int(v.dxf.get("flags", 0) or 0) & 16)]
+        xyz = np.asarray([tuple(v.dxf.location) for v in vertices], dtype=float).reshape(-1, 3)
+        bulges = np.asarray([float(v.dxf.get("bulge", 0) or 0) for v in vertices])
         xyb = np.column_stack([xyz[:, :2], bulges])
         elevation = float(xyz[0, 2]) if planar and len(xyz) else 0.0
+    if len(xyb) == 0:
+        raise PathFormatError(f"{where}: polyline without vertices")
     if not np.isfinite(xyb).all():
         i = int(np.argwhere(~np.isfinite(xyb))[0, 0])
         vertex = (xyb[i, :2].tolist() + [elevation]) if planar else xyz[i].tolist()
@@ -181,14 +201,10 @@ def _polyline_points(entity, scale: float, where: str) -> np.ndarray:
     else:
         xy, bulge = xyb[:, :2], xyb[:, 2]
         if closed and len(xy) > 1 and not np.array_equal(xy[0], xy[-1]):
-            xy = np.vstack([xy, xy[:1]])
-            bulge = np.append(bulge, 0.0)
+            xy = np.vstack([xy, xy[:1]])      # the last vertex's bulge is the closing segment's
         out = [xy[:1]]
         for i in range(len(xy) - 1):
-            try:
-                out.append(bulge_points(xy[i], xy[i + 1], bulge[i], BULGE_TOLERANCE_MM / scale))
-            except InputError as exc:
-                raise PathFormatError(f"{where}: vertex {i}: {exc}") from None
+            out.append(bulge_points(xy[i], xy[i + 1], bulge[i]))
         xy = np.vstack(out)
         ocs = entity.ocs()
         pts = np.asarray([tuple(ocs.to_wcs((x, y, elevation))) for x, y in xy], dtype=float).reshape(-1, 3)
@@ -196,95 +212,211 @@ def _polyline_points(entity, scale: float, where: str) -> np.ndarray:
         i = int(np.argwhere(~np.isfinite(pts))[0, 0])
         raise PathFormatError(f"{where}: vertex {i} = {pts[i].tolist()}; coordinates must be finite")
     keep = np.concatenate([[True], np.any(pts[1:] != pts[:-1], axis=1)])  # drop repeated vertices
-    pts = pts[keep] * scale
-    if np.all(pts[:, 2] == 0):
-        pts = pts[:, :2]
-    return pts
+    return pts[keep] * scale
 
 
-def _usable(msp) -> tuple[list, dict]:
-    usable, other = [], {}
-    for e in msp:
+# ----------------------------------------------------------------------------------- entities
+def _conic_curve(entity, scale: float, where: str):
+    """ARC, CIRCLE or ELLIPSE as ezdxf's exact rational quadratic B-spline, in WCS, scaled."""
+    from ezdxf.math import ConstructionEllipse, rational_bspline_from_ellipse
+
+    from fuzzyfeed.nurbs import Nurbs
+
+    kind = entity.dxftype()
+    if kind == "ELLIPSE":
+        ellipse = entity.construction_tool()
+    else:
+        d = entity.dxf
+        start, end = (0.0, 360.0) if kind == "CIRCLE" else (float(d.start_angle), float(d.end_angle))
+        if not float(d.radius) > 0:
+            raise PathFormatError(f"{where}: radius = {float(d.radius):g}; must be > 0")
+        ellipse = ConstructionEllipse.from_arc(center=d.center, radius=float(d.radius),
+                                               extrusion=d.extrusion, start_angle=start, end_angle=end)
+    spline = rational_bspline_from_ellipse(ellipse)
+    pts = np.asarray([tuple(p) for p in spline.control_points], dtype=float) * scale
+    w = np.asarray(spline.weights(), dtype=float) if spline.is_rational else None
+    try:
+        return Nurbs(int(spline.degree), np.asarray(spline.knots(), dtype=float), pts, w)
+    except NurbsError as exc:
+        raise PathFormatError(f"{where}: {exc}") from None
+
+
+def _describe(e, parent: str = "") -> str:
+    handle = e.dxf.get("handle", None)
+    own = f"{e.dxftype()} {handle}" if handle else e.dxftype()
+    return f"{parent}{own} (layer {e.dxf.get('layer', '0')})"
+
+
+def _pieces_of(e, scale: float, path: Path, where: str, handle: str, layer: str) -> list[Piece]:
+    from fuzzyfeed.nurbs import Nurbs
+
+    kind = e.dxftype()
+    full = f"{path}: {where}"
+    if kind == "LINE":
+        a = np.asarray(tuple(e.dxf.start), dtype=float) * scale
+        b = np.asarray(tuple(e.dxf.end), dtype=float) * scale
+        if not (np.isfinite(a).all() and np.isfinite(b).all()):
+            raise PathFormatError(f"{full}: end points {a.tolist()}, {b.tolist()}; must be finite")
+        if np.array_equal(a, b):
+            return []
+        return [Piece(where, layer, handle, curve=Nurbs(1, [0, 0, 1, 1], np.vstack([a, b])))]
+    if kind in ("ARC", "CIRCLE", "ELLIPSE"):
+        return [Piece(where, layer, handle, curve=_conic_curve(e, scale, full))]
+    if kind == "SPLINE":
+        curves, how = spline_curves(e, scale, full)
+        return [Piece(where, layer, handle, how=how, curve=c if c.dim == 3 else
+                      Nurbs(c.degree, c.knots, np.column_stack([c.control_points, np.zeros(c.n_control_points)]),
+                            c.weights)) for c in curves]
+    pts = _polyline_points(e, scale, full)
+    if len(pts) < 2:
+        return []
+    return [Piece(where, layer, handle, points=pts)]
+
+
+def _collect(doc, path: Path, scale: float) -> tuple[list[Piece], dict[str, int]]:
+    """Pieces of the model space (INSERTs exploded) and the count of non-path entities by type."""
+    pieces: list[Piece] = []
+    other: dict[str, int] = {}
+
+    def visit(e, parent: str, handle: str | None, depth: int) -> None:
         kind = e.dxftype()
+        if kind == "INSERT":
+            if depth >= MAX_BLOCK_DEPTH:
+                raise PathFormatError(f"{path}: {parent}INSERT nested deeper than {MAX_BLOCK_DEPTH} "
+                                      "blocks (a block that inserts itself?)")
+            name = e.dxf.get("name", "?")
+            here = f"{parent}INSERT {e.dxf.get('handle', None) or ''} (block {name}) > ".replace("  ", " ")
+            try:
+                inserts = list(e.multi_insert()) if e.mcount > 1 else [e]
+                children = [c for ins in inserts for c in ins.virtual_entities()]
+            except PathFormatError:
+                raise
+            except Exception as exc:  # noqa: BLE001 — a broken block reference
+                raise PathFormatError(f"{path}: {here.rstrip(' >')}: cannot explode the block "
+                                      f"({type(exc).__name__}: {_one_line(exc)})") from None
+            for child in children:
+                visit(child, here, handle or e.dxf.get("handle", None), depth + 1)
+            return
         if kind == "POLYLINE" and not (e.is_2d_polyline or e.is_3d_polyline):
             other["POLYLINE (mesh/polyface)"] = other.get("POLYLINE (mesh/polyface)", 0) + 1
-        elif kind in USABLE_TYPES:
-            usable.append(e)
-        else:
+            return
+        if kind not in CURVE_TYPES:
             other[kind] = other.get(kind, 0) + 1
-    return usable, other
+            return
+        if kind in ("ARC", "CIRCLE") and not float(e.dxf.get("radius", 0) or 0) > 0:
+            label = f"{kind} (radius <= 0)"
+            other[label] = other.get(label, 0) + 1
+            _notice(f"{path}: {_describe(e, parent)}: radius = {float(e.dxf.get('radius', 0) or 0):g} "
+                    "is a point, not a path (skipped)")
+            return
+        own = handle or e.dxf.get("handle", None) or "?"
+        pieces.extend(_pieces_of(e, scale, path, _describe(e, parent), own, e.dxf.get("layer", "0")))
+
+    for entity in doc.modelspace():
+        visit(entity, "", None, 0)
+    return pieces, other
 
 
-def _describe(e) -> str:
-    return f"{e.dxftype()} {e.dxf.handle} (layer {e.dxf.layer})"
-
-
-def _entity_shape(e, path: Path, scale: float, units: str):
-    from fuzzyfeed.io.points import polyline_shape
-    from fuzzyfeed.io.shapes import Shape
-
-    where = f"{path}: {_describe(e)}"
-    name = f"{path.stem}#{e.dxf.handle}"
-    source = f"{path} ({_describe(e)}, units {units})"
-    if e.dxftype() == "SPLINE":
-        curve, how = _spline_curve(e, scale, where)
-        return Shape(name=name, curve=curve, source=source, path=path,
-                     notes=f"DXF SPLINE from {how}, degree {curve.degree}")
-    pts = _polyline_points(e, scale, where)
-    return polyline_shape(pts, name=name, source=source, path=path, where=where,
-                          notes=f"DXF {e.dxftype()} with {len(pts)} vertices")
-
-
-def _open(path: str | os.PathLike):
-    path = Path(path)
+def _contours(path: Path) -> tuple[list[Contour], str]:
     doc = _read(path)
     scale, units = _units_factor(doc, path)
-    usable, other = _usable(doc.modelspace())
-    if not usable:
+    try:
+        pieces, other = _collect(doc, path, scale)
+    except PathFormatError:
+        raise
+    except Exception as exc:  # noqa: BLE001 — any ezdxf failure on a strange file is one line
+        raise PathFormatError(f"{path}: ezdxf could not read the drawing's entities "
+                              f"({type(exc).__name__}: {_one_line(exc)})") from None
+    if not pieces:
         found = ", ".join(f"{k} x{n}" for k, n in sorted(other.items())) or "nothing"
-        raise PathFormatError(f"{path}: no usable entity (SPLINE, LWPOLYLINE, 2-D/3-D POLYLINE) in "
-                              f"the modelspace; found {found}")
-    return path, usable, scale, units
+        raise PathFormatError(f"{path}: no curve to follow (LINE, ARC, CIRCLE, ELLIPSE, SPLINE, "
+                              f"LWPOLYLINE, POLYLINE) in the model space or its blocks; found {found}")
+    return chain(pieces, str(path)), units
+
+
+def _contour_shape(contour: Contour, path: Path, units: str, name: str):
+    from fuzzyfeed.io.points import polyline_shape
+    from fuzzyfeed.io.shapes import Shape
+    from fuzzyfeed.nurbs import Nurbs
+
+    first = contour.pieces[0]
+    source = f"{path} ({contour.describe()}, units {units})"
+    if len(contour.pieces) == 1 and first.curve is not None and first.curve.degree > 1:
+        c = first.curve
+        pts = c.control_points[::-1] if first.reversed else c.control_points
+        w = c.weights[::-1] if first.reversed else c.weights
+        knots = (c.knots[0] + c.knots[-1] - c.knots[::-1]) if first.reversed else c.knots
+        if np.all(pts[:, 2] == 0):
+            pts = pts[:, :2]
+        curve = Nurbs(c.degree, knots, pts, w)
+        kind = first.where.split(" (")[0].split("> ")[-1].split(" ")[0]
+        return Shape(name=name, curve=curve, source=source, path=path,
+                     notes=f"DXF {kind} as an exact NURBS of degree {curve.degree}"
+                           + (f" from {first.how}" if first.how else ""))
+    pts = contour.points()
+    if np.all(pts[:, 2] == 0):
+        pts = pts[:, :2]
+    return polyline_shape(pts, name=name, source=source, path=path, where=f"{path}: {contour.describe()}",
+                          notes=f"DXF {contour.describe()}: {len(pts)} points on the exact pieces")
+
+
+def _names(path: Path, contours: list[Contour]) -> list[str]:
+    """``stem#HANDLE`` where the first piece's handle names only that contour, else ``stem#path=N``
+    (both are selectors that pick the contour again)."""
+    owners: dict[str, int] = {}
+    for c in contours:
+        for h in set(h.upper() for h in c.handles):
+            owners[h] = owners.get(h, 0) + 1
+    names = []
+    for n, c in enumerate(contours):
+        handle = c.pieces[0].handle
+        unique = owners.get(handle.upper()) == 1 and handle != "?"
+        names.append(f"{path.stem}#{handle}" if unique else f"{path.stem}#path={n + 1}")
+    return names
 
 
 def load_dxf_shapes(path: str | os.PathLike) -> list:
-    """Every usable entity of a DXF's modelspace as a :class:`Shape`, in file order."""
-    path, usable, scale, units = _open(path)
-    return [_entity_shape(e, path, scale, units) for e in usable]
+    """Every contour of a drawing as a :class:`Shape`, in file order of their first pieces."""
+    path = Path(path)
+    contours, units = _contours(path)
+    return [_contour_shape(c, path, units, name) for c, name in zip(contours, _names(path, contours))]
 
 
-def select_entity(path: Path, usable: list, selector: str | None):
-    """The entity chosen by ``selector`` (see the module docstring)."""
-    listing = ", ".join(_describe(e) for e in usable)
+def select_contour(path: Path, contours: list[Contour], selector: str | None) -> int:
+    """Index of the contour ``selector`` names (see the module docstring)."""
+    listing = shorten([f"{n + 1}: {c.describe()}" for n, c in enumerate(contours)])
     if selector is None:
-        if len(usable) == 1:
-            return usable[0]
-        raise PathFormatError(f"{path}: {len(usable)} usable entities ({listing}); pick one with "
+        if len(contours) == 1:
+            return 0
+        raise PathFormatError(f"{path}: {len(contours)} contours ({listing}); pick one with "
                               f"{path}#HANDLE, #layer=NAME or #path=N")
     key, _, value = selector.partition("=")
     key = key.strip().lower() if value else "handle"
     value = (value if value else selector).strip()
     if key == "handle":
-        hits = [e for e in usable if e.dxf.handle.upper() == value.upper()]
+        hits = [n for n, c in enumerate(contours) if value.upper() in (h.upper() for h in c.handles)]
         if not hits:
-            raise PathFormatError(f"{path}#{selector}: no usable entity with handle {value}; "
-                                  f"usable: {listing}")
-        return hits[0]
-    if key == "layer":
-        hits = [e for e in usable if e.dxf.layer.lower() == value.lower()]
-        if len(hits) != 1:
-            what = "no usable entity" if not hits else f"{len(hits)} usable entities ({', '.join(map(_describe, hits))})"
-            raise PathFormatError(f"{path}#{selector}: {what} on layer {value!r}; "
-                                  + ("pick one by handle" if hits else f"usable: {listing}"))
-        return hits[0]
-    if key == "path":
+            raise PathFormatError(f"{path}#{selector}: no contour holds an entity with handle {value}; "
+                                  f"contours: {listing}")
+    elif key == "layer":
+        hits = [n for n, c in enumerate(contours) if c.layer.lower() == value.lower()]
+        if not hits:
+            raise PathFormatError(f"{path}#{selector}: no contour on layer {value!r}; contours: {listing}")
+    elif key == "path":
         from fuzzyfeed.io.points import pick_by_index
-        return usable[pick_by_index(path, selector, [_describe(e) for e in usable])]
-    raise PathFormatError(f"{path}#{selector}: unknown selector {key!r}; use HANDLE, handle=H, "
-                          "layer=NAME or path=N")
+        return pick_by_index(path, selector, [f"{n + 1}" for n in range(len(contours))])
+    else:
+        raise PathFormatError(f"{path}#{selector}: unknown selector {key!r}; use HANDLE, handle=H, "
+                              "layer=NAME or path=N")
+    if len(hits) > 1:
+        raise PathFormatError(f"{path}#{selector}: {len(hits)} contours match "
+                              f"({shorten([f'path={n + 1}' for n in hits])}); pick one with #path=N")
+    return hits[0]
 
 
 def load_dxf(path: str | os.PathLike, selector: str | None = None):
-    """One path of a DXF: the only usable entity, or the one ``selector`` names."""
-    path, usable, scale, units = _open(path)
-    return _entity_shape(select_entity(path, usable, selector), path, scale, units)
+    """One contour of a drawing: the only one, or the one ``selector`` names."""
+    path = Path(path)
+    contours, units = _contours(path)
+    index = select_contour(path, contours, selector)
+    return _contour_shape(contours[index], path, units, _names(path, contours)[index])

@@ -4,12 +4,13 @@
 CSV: a header row, then one point per row. The coordinate columns are ``x_mm, y_mm[, z_mm]`` or
 ``x, y[, z]`` (case and surrounding spaces ignored); other columns are ignored, so a CSV that
 fuzzyfeed wrote loads back as a path. Values are parsed with Python's ``float`` (exact for the
-``repr`` text fuzzyfeed writes). An empty, non-numeric, NaN or infinite value, or a point that
-repeats the previous one, is an error naming the file, the row (the file's line number) and the
-column.
+``repr`` text fuzzyfeed writes). An empty, non-numeric, NaN or infinite value is an error naming
+the file, the row (the file's line number) and the column; a row that repeats the previous point
+is dropped (a note says how many).
 
 A polyline shape keeps the points (``Shape.polyline``) — the planners sample it at its vertices
-with the three-point curvature (seed 002, eq. 4–9) — and carries as ``Shape.curve`` the degree-1
+with the curvature of :mod:`fuzzyfeed.polyline` (the path within the coordinates' rounding,
+corners as the controller's blend) — and carries as ``Shape.curve`` the degree-1
 NURBS through the points with chord-length knots, for plotting and arc length.
 """
 
@@ -46,8 +47,9 @@ def chord_knots(points: np.ndarray) -> np.ndarray:
 
 def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Path | None = None,
                    notes: str = "", where: str | None = None):
-    """A polyline :class:`Shape` from (N, 2|3) points in mm (N ≥ 2, finite, consecutive points
-    distinct). With two points only the curve is kept (a straight line, sampled as a NURBS)."""
+    """A polyline :class:`Shape` from (N, 2|3) points in mm (N ≥ 2, finite; a point that repeats
+    the previous one is dropped with a note). With two points only the curve is kept (a straight
+    line, sampled as a NURBS)."""
     from fuzzyfeed.io.shapes import Shape
     from fuzzyfeed.nurbs import Nurbs
 
@@ -68,9 +70,12 @@ def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Pat
         raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must lie within "
                               f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     same = np.all(pts[1:] == pts[:-1], axis=1)
-    if same.any():
-        i = int(np.argmax(same)) + 1
-        raise PathFormatError(f"{where}: point {i} repeats point {i - 1}; consecutive points must differ")
+    if same.any():   # a repeated point is no move: dropped, and said so
+        pts = pts[np.concatenate([[True], ~same])]
+        notes = (notes + "; " if notes else "") + f"{int(same.sum())} repeated point(s) dropped"
+        if pts.shape[0] < 2:
+            raise PathFormatError(f"{where}: every point repeats the first; a path needs at least 2 "
+                                  "distinct points")
     curve = Nurbs(1, chord_knots(pts), pts)
     polyline = pts.copy() if pts.shape[0] >= 3 else None
     if polyline is not None:
@@ -134,9 +139,6 @@ def read_points_csv(path: str | os.PathLike) -> np.ndarray:
                 raise PathFormatError(f"{path}:{line_no}: column {label} = {cell}; coordinates must "
                                       "be finite")
             values.append(value)
-        if points and values == points[-1]:
-            raise PathFormatError(f"{path}:{line_no}: point {values} repeats the previous row; "
-                                  "consecutive points must differ")
         points.append(values)
     if len(points) < 2:
         raise PathFormatError(f"{path}: {len(points)} point row(s); a path needs at least 2")
