@@ -143,7 +143,7 @@ def feed_limits(samples: PathSamples, limits: MachineLimits) -> np.ndarray:
     """Pointwise feasible feed (mm/s) at every sample: seed 000, eq. (8)-(12).
 
     v ≤ F (command); v·|T_j| ≤ V_j (axial velocity); v ≤ (2/Ts)·√(2ρδ − δ²) with ρ = 1/κ (chord
-    error; no limit where ρ ≤ δ: a chord deviates at most ρ from its arc); v²·κ·|N_j| ≤ A_j
+    error; no limit where 2ρ ≤ δ: an arc deviates at most 2ρ from any chord of it); v²·κ·|N_j| ≤ A_j
     (centripetal part of the axial acceleration). The
     result is finite and ≥ 0 (0 at a stationary point or a corner sharper than the tolerance).
     """
@@ -165,8 +165,9 @@ def feed_limit_components(samples: PathSamples, limits: MachineLimits) -> np.nda
     delta = limits.chord_tol_mm
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.where(kappa > 0, 1.0 / kappa, np.inf)
-        # a chord of an arc of radius ρ deviates at most ρ from it: no chord limit where ρ <= δ
-        chord = np.where(np.isinf(rho) | (rho <= delta), np.inf,
+        # an arc of radius ρ deviates at most 2ρ from any chord of it (the arc beyond a half
+        # turn): no chord limit where 2ρ <= δ, where the formula's root is not real either
+        chord = np.where(np.isinf(rho) | (2.0 * rho <= delta), np.inf,
                          2.0 / limits.ts_s * np.sqrt(np.maximum(2.0 * rho * delta - delta * delta, 0.0)))
     chord = np.where(np.isnan(kappa), 0.0, chord)
     kn = np.abs(curvature_vectors(samples))

@@ -25,7 +25,7 @@ program"):
    stays within P of the corner, the second the arc through the chords' mid-region of a smooth
    curve (≈ 1/κ for a finely sampled curve). κ = 1/r. Where the first bound is the smaller, the
    vertex is a **corner**: the controller leaves the polyline by P there. A reversal (θ = 180°)
-   has r = 0; κ is capped at :data:`KAPPA_MAX_1_MM` (a full stop in every planner), never NaN.
+   has r = 0; κ is capped at :data:`KAPPA_MAX_1_MM` (the planners crawl there: √(A/κ) ≈ 0.3 mm/s at 1000 mm/s²), never NaN.
    Where two runs meet, θ is the angle between their fitted tangents. Where arc runs of similar
    κ meet without a break (a free-form curve cut into arcs), κ is interpolated linearly in arc
    length between the runs' middles rather than left as steps.

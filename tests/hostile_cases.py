@@ -275,7 +275,6 @@ def program_cases() -> list:
         ("gcode-selector-range", ["advise", "p.ngc#9", "-o", "o.csv"], {"p.ngc": two}),
         ("gcode-selector-word", ["advise", "p.ngc#abc", "-o", "o.csv"], {"p.ngc": two}),
         ("gcode-selector-zero", ["advise", "p.ngc#0", "-o", "o.csv"], {"p.ngc": two}),
-        ("gcode-ambiguous", ["advise", "p.ngc", "-o", "o.csv"], {"p.ngc": two}),
         ("gcode-schedule-bad", ["schedule", "p.ngc", "-o", "o.csv"], {"p.ngc": GCODE_PROGRAMS["nan"]}),
     ]
     return cases
@@ -323,7 +322,6 @@ def csv_cases() -> list:
         "no-header": "0,0\n1,1\n2,0\n", "one-column": "x_mm\n1\n2\n3\n", "four-columns": "a,b,c,d\n1,2,3,4\n5,6,7,8\n9,1,2,3\n",
         "semicolon": "x_mm;y_mm\n0;0\n1;1\n2;0\n", "latin1": "x_mm,y_mm\n0,0\n1,1\n2,0\n\xe9\n".encode("latin-1"),
         "unknown-header": "lon,lat\n0,0\n1,1\n2,0\n", "1e400": "x_mm,y_mm\n0,0\n1e400,1\n2,0\n",
-        "collinear-back": "x_mm,y_mm\n0,0\n10,0\n0,0\n",
     }
     cases = [(f"csv-{n}", ["advise", "p.csv", "-o", "o.csv"], {"p.csv": t}) for n, t in texts.items()]
     cases.append(("csv-selector", ["advise", "p.csv#2", "-o", "o.csv"], {"p.csv": POINTS}))

@@ -26,6 +26,9 @@ from fuzzyfeed.errors import PathFormatError
 
 #: End points closer than this (mm) are one joint of a contour.
 CHAIN_TOLERANCE_MM = 1e-3
+#: The comparison's reach: the tolerance plus float noise, so a gap of exactly the tolerance (the
+#: butterfly's ends, 0.001 mm apart) joins whatever the last bits of the evaluation.
+_JOIN_MM = CHAIN_TOLERANCE_MM * (1 + 1e-9)
 #: An open contour whose end is this close (mm) to another free end is a contour that does not
 #: close: an error naming the gap (a drawing error, not a path).
 GAP_REPORT_MM = 0.1
@@ -59,7 +62,7 @@ class Piece:
 
     @property
     def closed(self) -> bool:
-        return bool(np.linalg.norm(self.ends[0] - self.ends[1]) <= CHAIN_TOLERANCE_MM)
+        return bool(np.linalg.norm(self.ends[0] - self.ends[1]) <= _JOIN_MM)
 
     def flatten(self) -> np.ndarray:
         """Points on the piece from start to end (in its chain direction)."""
@@ -164,7 +167,7 @@ def chain(pieces: list[Piece], where: str) -> list[Contour]:
         used = np.zeros(len(group), dtype=bool)
 
         def take(tip: np.ndarray) -> tuple[Piece, bool] | None:
-            hits = [i for i in tree.query_ball_point(tip, CHAIN_TOLERANCE_MM) if not used[i // 2]]
+            hits = [i for i in tree.query_ball_point(tip, _JOIN_MM) if not used[i // 2]]
             if not hits:
                 return None
             best = min(hits, key=lambda i: (np.linalg.norm(tree.data[i] - tip), i))
@@ -185,7 +188,7 @@ def chain(pieces: list[Piece], where: str) -> list[Contour]:
                 piece, at_its_end = hit
                 piece.reversed = at_its_end         # it must start at the tip
                 items.append(piece)
-                closed = bool(np.linalg.norm(_end(piece) - _start(items[0])) <= CHAIN_TOLERANCE_MM)
+                closed = bool(np.linalg.norm(_end(piece) - _start(items[0])) <= _JOIN_MM)
             while not closed:                       # grow at the start
                 hit = take(_start(items[0]))
                 if hit is None:
@@ -193,7 +196,7 @@ def chain(pieces: list[Piece], where: str) -> list[Contour]:
                 piece, at_its_end = hit
                 piece.reversed = not at_its_end     # it must end at the tip
                 items.insert(0, piece)
-                closed = bool(np.linalg.norm(_end(items[-1]) - _start(piece)) <= CHAIN_TOLERANCE_MM)
+                closed = bool(np.linalg.norm(_end(items[-1]) - _start(piece)) <= _JOIN_MM)
             contours.append(Contour(items, closed))
     contours.sort(key=lambda c: min(order[id(p)] for p in c.pieces))
     _check_gaps(contours, where)
@@ -220,7 +223,7 @@ def _check_gaps(contours: list[Contour], where: str) -> None:
     for a, b in sorted(tree.query_pairs(GAP_REPORT_MM)):
         (pa, na, piece_a), (pb, nb, piece_b) = free[a], free[b]
         gap = float(np.linalg.norm(pa - pb))
-        if gap <= CHAIN_TOLERANCE_MM:
+        if gap <= _JOIN_MM:
             continue
         what = (f"{contours[na].describe()} does not close" if na == nb else
                 f"{piece_a.where} and {piece_b.where} do not meet")
