@@ -31,7 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.errors import NurbsError, PathFormatError
-from fuzzyfeed.io.gcode import insert_knot
+from fuzzyfeed.io.points import pick_by_index, polyline_shape
+from fuzzyfeed.io.shape import Shape
+from fuzzyfeed.nurbs import Nurbs, insert_knot
 
 #: $INSUNITS code → factor to mm (0 = unitless, read as mm).
 INSUNITS_TO_MM = {0: 1.0, 1: 25.4, 2: 304.8, 4: 1.0, 5: 10.0, 6: 1000.0}
@@ -74,7 +76,6 @@ def _units_factor(doc, path: Path) -> tuple[float, str]:
 
 
 def _spline_curve(entity, scale: float, where: str):
-    from fuzzyfeed.nurbs import Nurbs
 
     if len(entity.control_points) > 0:
         degree = int(entity.dxf.degree)
@@ -216,8 +217,6 @@ def _describe(e) -> str:
 
 
 def _entity_shape(e, path: Path, scale: float, units: str):
-    from fuzzyfeed.io.points import polyline_shape
-    from fuzzyfeed.io.shapes import Shape
 
     where = f"{path}: {_describe(e)}"
     name = f"{path.stem}#{e.dxf.handle}"
@@ -274,7 +273,6 @@ def select_entity(path: Path, usable: list, selector: str | None):
                                   + ("pick one by handle" if hits else f"usable: {listing}"))
         return hits[0]
     if key == "path":
-        from fuzzyfeed.io.points import pick_by_index
         return usable[pick_by_index(path, selector, [_describe(e) for e in usable])]
     raise PathFormatError(f"{path}#{selector}: unknown selector {key!r}; use HANDLE, handle=H, "
                           "layer=NAME or path=N")
