@@ -7,9 +7,10 @@ import math
 
 import numpy as np
 
-from fuzzyfeed.cli._common import add_shape_argument, point_count
+from fuzzyfeed.cli._common import add_shape_argument, point_count, positive_float
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.errors import MachineLimitsError
+from fuzzyfeed.cuts import DEFAULT_STEP_MM
 from fuzzyfeed.limits import DEFAULT_FEED_MM_S
 from fuzzyfeed.sampling import DEFAULT_POINTS
 
@@ -31,8 +32,13 @@ def register(sub) -> None:
     p.add_argument("--rules", metavar="FILE", default=None,
                    help="rule table: a shipped name (see `fuzzyfeed rules show`) or a .toml file "
                         "(default: paper, seed 002's table)")
-    p.add_argument("--feed-mm-min", type=float, default=DEFAULT_FEED_MM_MIN, metavar="F",
-                   help="maximum feed F in mm/min; feed %% refers to it (default: %(default)g)")
+    p.add_argument("--feed-mm-min", type=float, default=None, metavar="F",
+                   help="maximum feed F in mm/min; feed %% refers to it (shapes: "
+                        f"default: {DEFAULT_FEED_MM_MIN:g}). For a G-code program the program's own F is "
+                        "the ceiling at every move; F, if given, only caps it")
+    p.add_argument("--step-mm", type=positive_float, default=None, metavar="MM",
+                   help="G-code programs: largest distance between the advisor's samples along a "
+                        f"cut, arcs also every 10 degrees (default: {DEFAULT_STEP_MM:g})")
     p.add_argument("--points", type=point_count, default=DEFAULT_POINTS, metavar="N",
                    help="sample points, uniform in the parameter as in seed 002 (default: %(default)s; "
                         "point-sequence shapes use their own points)")
@@ -59,7 +65,7 @@ def compute(args: argparse.Namespace):
     from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.shapes import load_shape, sample_shape
 
-    feed_mm_min = check_feed_mm_min(args.feed_mm_min)
+    feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
     samples = sample_shape(shape, args.points)
@@ -98,8 +104,13 @@ def summary(shape_name: str, advice) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from fuzzyfeed.cli._program import is_program, run_program
     from fuzzyfeed.io.csv import write_columns
 
+    if is_program(args.shape):
+        return run_program(args)
+    if args.step_mm is not None:
+        raise MachineLimitsError("--step-mm applies to G-code programs only; shapes take --points")
     shape, advice = compute(args)
     gcode = prepare_gcode(args, advice.profile, shape)  # checked before any file is written
     write_columns(args.output, advice_columns(advice, args.rule_strengths))

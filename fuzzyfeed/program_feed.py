@@ -1,0 +1,150 @@
+"""Advised feeds for a whole program: the fuzzy advice per cut, applied under the program's own F.
+
+For every cut (:mod:`fuzzyfeed.io.program`) the advisor (seed 002) runs on the cut's exact
+geometry (:func:`fuzzyfeed.cuts.sample_cut`) and gives a fraction φ = feed % / 100 at every
+sample. The feed of a segment between two samples is min(φ_i, φ_i+1) × F, with F the feed the
+program has at that move (its ceiling, also for plunges and ramps), capped by ``cap_mm_min`` if
+given; it is rounded *down* to a multiple of ``feed_step_mm_min`` (one step is the floor, but
+never above F). A move is split only where that rounded feed changes inside it; a G5.2 block, a
+move whose line also stops the program (M0/M1/M2/M30/M60) and a multi-turn arc keep one feed,
+the slowest over the move. Moves outside cuts (rapids, cycles, moves from unknown positions,
+G93/G95 moves) keep their programmed feed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzyfeed.cuts import DEFAULT_STEP_MM, CutSamples, sample_cut
+from fuzzyfeed.errors import InputError, PathFormatError
+from fuzzyfeed.fuzzy.advisor import FuzzyAdvice, advise_details
+from fuzzyfeed.fuzzy.engine import compile_table
+from fuzzyfeed.fuzzy.rules import RuleTable
+from fuzzyfeed.io.program import NURBS, Program
+
+#: Default feed quantisation for programs (mm/min).
+DEFAULT_PROGRAM_FEED_STEP_MM_MIN = 10.0
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramAdvice:
+    """Advice for a program: per advised cut its samples and fuzzy advice, and the pieces every
+    advised move is written as (move, end fraction, feed mm/min), in move order."""
+
+    program: Program
+    cuts: tuple[CutSamples, ...]
+    advice: tuple[FuzzyAdvice, ...]
+    ceiling_mm_min: tuple[np.ndarray, ...]   # per cut, per sample: the F the fraction applies to
+    piece_move: np.ndarray
+    piece_end: np.ndarray
+    piece_feed_mm_min: np.ndarray
+    feed_step_mm_min: float
+    cap_mm_min: float | None
+    table: RuleTable
+
+    def fraction(self, i: int) -> np.ndarray:
+        return self.advice[i].feed_pct / 100.0
+
+
+def quantise_down(feed_mm_min: np.ndarray, step: float, ceiling: np.ndarray) -> np.ndarray:
+    """Round down to a multiple of ``step``, at least one step, never above ``ceiling``."""
+    q = np.floor(feed_mm_min / step + 1e-9) * step
+    q = np.maximum(q, step)
+    return np.minimum(q, ceiling)
+
+
+def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None = None,
+                   step_mm: float = DEFAULT_STEP_MM, cap_mm_min: float | None = None,
+                   feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN) -> ProgramAdvice:
+    """Advise the cuts ``cuts`` (default: all) of ``program`` (see the module docstring)."""
+    if not (np.isfinite(step_mm) and step_mm > 0):
+        raise InputError(f"step_mm = {step_mm!r}; the sampling step must be finite and > 0")
+    if not (np.isfinite(feed_step_mm_min) and feed_step_mm_min > 0):
+        raise InputError(f"feed_step_mm_min = {feed_step_mm_min!r}; must be finite and > 0")
+    if program.n_cuts == 0:
+        raise PathFormatError(f"{program.path}: no feed move (G1, G2/G3 or G5.2) in G94 found; "
+                              "nothing to advise")
+    chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
+    engine = compile_table(table)
+    feed = program.feed_mm_min
+    for k in chosen:
+        moves = program.cut_moves(k)
+        bad = ~(feed[moves] > 0)
+        if bad.any():
+            line = int(program.move_line[moves[np.argmax(bad)]]) + 1
+            raise PathFormatError(f"{program.path}:{line}: feed move with no F in force (F = 0); "
+                                  "the program must give an F word before its first feed move")
+    cut_samples, advices, ceilings = [], [], []
+    pm, pe, pf = [], [], []
+    for k in chosen:
+        cs = sample_cut(program, k, step_mm)
+        adv = advise_details(cs.samples, table, 100.0, engine=engine)
+        phi = adv.feed_pct / 100.0
+        ceiling_seg = feed[cs.seg_move]
+        if cap_mm_min is not None:
+            ceiling_seg = np.minimum(ceiling_seg, cap_mm_min)
+        seg_phi = np.minimum(phi[:-1], phi[1:])
+        q = quantise_down(seg_phi * ceiling_seg, feed_step_mm_min, ceiling_seg)
+        # one feed per move where it may not be split: the slowest over the move
+        whole = program.no_split[cs.seg_move] | (program.kind[cs.seg_move] == NURBS)
+        if whole.any():
+            mv = cs.seg_move[whole]
+            lowest = {}
+            for m, v in zip(mv.tolist(), q[whole].tolist()):
+                lowest[m] = min(lowest.get(m, v), v)
+            q = q.copy()
+            q[whole] = [lowest[m] for m in mv.tolist()]
+        change = np.ones(q.size, bool)
+        change[1:] = (cs.seg_move[1:] != cs.seg_move[:-1]) | (q[1:] != q[:-1])
+        last = np.append(change[1:], True)          # last segment of each piece
+        pm.append(cs.seg_move[last])
+        pe.append(np.where(np.append(cs.seg_move[1:] != cs.seg_move[:-1], True)[last], 1.0,
+                           cs.seg_f1[last]))
+        pf.append(q[last])
+        cut_samples.append(cs)
+        advices.append(adv)
+        ceil_sample = feed[cs.sample_move]
+        if cap_mm_min is not None:
+            ceil_sample = np.minimum(ceil_sample, cap_mm_min)
+        ceilings.append(ceil_sample)
+    return ProgramAdvice(program=program, cuts=tuple(cut_samples), advice=tuple(advices),
+                         ceiling_mm_min=tuple(ceilings), piece_move=np.concatenate(pm),
+                         piece_end=np.concatenate(pe), piece_feed_mm_min=np.concatenate(pf),
+                         feed_step_mm_min=feed_step_mm_min, cap_mm_min=cap_mm_min, table=table)
+
+
+def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:
+    """CSV columns of a program's advice: one row per sample of every advised cut, with the cut
+    number (1-based) and the source line (1-based) of the move each sample lies on."""
+    cols: dict[str, list] = {}
+    for cs, adv, ceil in zip(pa.cuts, pa.advice, pa.ceiling_mm_min):
+        n = len(cs.samples)
+        part = {"cut": np.full(n, cs.cut + 1),
+                "source_line": pa.program.move_line[cs.sample_move] + 1}
+        part.update(cs.samples.columns())
+        part["curvature_window_max_1_mm"] = adv.features.window_max_1_mm
+        part["curvature_variation"] = adv.features.curvature_variation
+        part["feed_pct_controller"] = adv.controller_pct
+        part["feed_pct"] = adv.feed_pct
+        part["programmed_feed_mm_min"] = ceil
+        part["feed_mm_min"] = adv.feed_pct / 100.0 * ceil
+        for key, value in part.items():
+            cols.setdefault(key, []).append(np.asarray(value))
+    return {key: np.concatenate(parts) for key, parts in cols.items()}
+
+
+def program_times(pa: ProgramAdvice) -> tuple[float, float]:
+    """Time (s) of the advised cuts' feed moves at the programmed feeds and at the written
+    (advised, rounded) feeds, ignoring acceleration."""
+    program = pa.program
+    lengths = program.move_lengths()
+    moves = np.unique(pa.piece_move)
+    t_prog = float(np.sum(lengths[moves] / program.feed_mm_min[moves])) * 60.0
+    starts = np.concatenate([[0.0], pa.piece_end[:-1]])
+    same = np.concatenate([[False], pa.piece_move[1:] == pa.piece_move[:-1]])
+    starts = np.where(same, starts, 0.0)
+    frac = pa.piece_end - starts
+    t_adv = float(np.sum(lengths[pa.piece_move] * frac / pa.piece_feed_mm_min)) * 60.0
+    return t_prog, t_adv
