@@ -5,9 +5,10 @@ geometry (:func:`fuzzyfeed.cuts.sample_cut`) and gives a fraction φ = feed % / 
 sample. The feed of a segment between two samples is min(φ_i, φ_i+1) × F, with F the feed the
 program has at that move (its ceiling, also for plunges and ramps), capped by ``cap_mm_min`` if
 given; it is rounded *down* to a multiple of ``feed_step_mm_min`` (one step is the floor, but
-never above F). A move is split only where that rounded feed changes inside it; a G5.2 block, a
-move whose line also stops the program (M0/M1/M2/M30/M60) and a multi-turn arc keep one feed,
-the slowest over the move. Moves outside cuts (rapids, cycles, moves from unknown positions,
+never above F). A move is split only where that rounded feed changes inside it, into pieces of at
+least ``min_piece_mm`` (a shorter stretch joins its neighbour at the slower of the two feeds); a
+move shorter than 2 × ``min_piece_mm``, a G5.2 block, a move whose line also stops the program
+(M0/M1/M2/M30/M60) and a multi-turn arc keep one feed, the slowest over the move. Moves outside cuts (rapids, cycles, moves from unknown positions,
 G93/G95 moves) keep their programmed feed.
 """
 
@@ -26,6 +27,9 @@ from fuzzyfeed.io.program import NURBS, Program
 
 #: Default feed quantisation for programs (mm/min).
 DEFAULT_PROGRAM_FEED_STEP_MM_MIN = 10.0
+#: Shortest piece a move is split into (mm): a shorter stretch takes the slower neighbour's feed,
+#: and a move shorter than twice this keeps one feed (the slowest over it).
+DEFAULT_MIN_PIECE_MM = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,7 +61,8 @@ def quantise_down(feed_mm_min: np.ndarray, step: float, ceiling: np.ndarray) -> 
 
 def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None = None,
                    step_mm: float = DEFAULT_STEP_MM, cap_mm_min: float | None = None,
-                   feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN) -> ProgramAdvice:
+                   feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
+                   min_piece_mm: float = DEFAULT_MIN_PIECE_MM) -> ProgramAdvice:
     """Advise the cuts ``cuts`` (default: all) of ``program`` (see the module docstring)."""
     if not (np.isfinite(step_mm) and step_mm > 0):
         raise InputError(f"step_mm = {step_mm!r}; the sampling step must be finite and > 0")
@@ -88,21 +93,28 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         seg_phi = np.minimum(phi[:-1], phi[1:])
         q = quantise_down(seg_phi * ceiling_seg, feed_step_mm_min, ceiling_seg)
         # one feed per move where it may not be split: the slowest over the move
-        whole = program.no_split[cs.seg_move] | (program.kind[cs.seg_move] == NURBS)
-        if whole.any():
-            mv = cs.seg_move[whole]
-            lowest = {}
-            for m, v in zip(mv.tolist(), q[whole].tolist()):
-                lowest[m] = min(lowest.get(m, v), v)
-            q = q.copy()
-            q[whole] = [lowest[m] for m in mv.tolist()]
-        change = np.ones(q.size, bool)
-        change[1:] = (cs.seg_move[1:] != cs.seg_move[:-1]) | (q[1:] != q[:-1])
+        seg_len = np.diff(cs.samples.s)
+        new_move = np.ones(q.size, bool)
+        new_move[1:] = cs.seg_move[1:] != cs.seg_move[:-1]
+        first = np.flatnonzero(new_move)
+        move_len = np.add.reduceat(seg_len, first)
+        move_min = np.minimum.reduceat(q, first)
+        grp = np.cumsum(new_move) - 1
+        whole = (program.no_split[cs.seg_move] | (program.kind[cs.seg_move] == NURBS)
+                 | (move_len[grp] < 2 * min_piece_mm))
+        q = np.where(whole, move_min[grp], q)
+        change = new_move.copy()
+        change[1:] |= q[1:] != q[:-1]
         last = np.append(change[1:], True)          # last segment of each piece
-        pm.append(cs.seg_move[last])
-        pe.append(np.where(np.append(cs.seg_move[1:] != cs.seg_move[:-1], True)[last], 1.0,
-                           cs.seg_f1[last]))
-        pf.append(q[last])
+        p_move = cs.seg_move[last]
+        p_end = np.where(np.append(new_move[1:], True)[last], 1.0, cs.seg_f1[last])
+        p_feed = q[last]
+        starts = np.flatnonzero(change)
+        p_len = np.add.reduceat(seg_len, starts)
+        p_move, p_end, p_feed = _merge_short(p_move, p_end, p_feed, p_len, min_piece_mm)
+        pm.append(p_move)
+        pe.append(p_end)
+        pf.append(p_feed)
         cut_samples.append(cs)
         advices.append(adv)
         ceil_sample = feed[cs.sample_move]
@@ -113,6 +125,40 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
                          ceiling_mm_min=tuple(ceilings), piece_move=np.concatenate(pm),
                          piece_end=np.concatenate(pe), piece_feed_mm_min=np.concatenate(pf),
                          feed_step_mm_min=feed_step_mm_min, cap_mm_min=cap_mm_min, table=table)
+
+
+def _merge_short(move, end, feed, length, min_len):
+    """Join pieces shorter than ``min_len`` to a neighbour of the same move (slower feed wins)."""
+    same_next = np.append(move[1:] == move[:-1], False)
+    multi = same_next | np.insert(same_next[:-1], 0, False)
+    if not (multi & (length < min_len)).any():
+        return move, end, feed
+    keep = ~multi
+    out_m, out_e, out_f = [move[keep]], [end[keep]], [feed[keep]]
+    idx = np.flatnonzero(multi)
+    starts = idx[np.insert(move[idx][1:] != move[idx][:-1], 0, True)]
+    for i in starts.tolist():
+        j = i
+        while j + 1 < move.size and move[j + 1] == move[i]:
+            j += 1
+        ends, feeds, lens = list(end[i:j + 1]), list(feed[i:j + 1]), list(length[i:j + 1])
+        k = 0
+        while len(lens) > 1 and k < len(lens):
+            if lens[k] < min_len:
+                other = k + 1 if k + 1 < len(lens) else k - 1
+                lo, hi = min(k, other), max(k, other)
+                ends[lo:hi + 1] = [ends[hi]]
+                feeds[lo:hi + 1] = [min(feeds[lo], feeds[hi])]
+                lens[lo:hi + 1] = [lens[lo] + lens[hi]]
+                k = lo
+            else:
+                k += 1
+        out_m.append(np.full(len(ends), move[i], dtype=move.dtype))
+        out_e.append(np.array(ends))
+        out_f.append(np.array(feeds))
+    m, e, f = np.concatenate(out_m), np.concatenate(out_e), np.concatenate(out_f)
+    order = np.lexsort((e, m))
+    return m[order], e[order], f[order]
 
 
 def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:

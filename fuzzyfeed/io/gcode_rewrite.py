@@ -111,99 +111,116 @@ def format_feed_exact(value: float) -> str:
     return text or "0"
 
 
+def feed_texts_down(values: np.ndarray, inch: np.ndarray) -> list[str]:
+    """:func:`format_feed_down` for many values at once."""
+    values = np.asarray(values, dtype=float)
+    d = np.where(inch, 2, 1)
+    q = np.floor(values * 10.0 ** d + 1e-9)
+    mm = (d == 1) & (q > 0)
+    out = np.empty(values.size, dtype=object)
+    if mm.any():
+        out[mm] = np.char.mod("%.1f", q[mm] / 10.0).tolist()
+    for i in np.flatnonzero(~mm):
+        out[i] = format_feed_down(float(values[i]), bool(inch[i]))
+    return out.tolist()
+
+
+_F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
+
+
 def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
                     piece_feed_mm_min: np.ndarray) -> str:
     """The program text with the pieces' feeds (see the module docstring)."""
-    lines = list(program.lines)
+    lines = program.lines
     n_lines = len(lines)
-    scale = program.scale
     kind = program.kind
     move_line = program.move_line
     feed_value = program.feed_value
     has_f = program.has_f
+    inch = program.inch
+    # pieces per move
     n_moves = kind.size
-    # wanted feed per piece in program units, first/last piece per move
-    pieces_of = {}
+    piece_lo = np.full(n_moves, -1)
+    piece_hi = np.full(n_moves, -1)
     if piece_move.size:
         bounds = np.flatnonzero(np.diff(piece_move)) + 1
         starts = np.concatenate([[0], bounds])
         stops = np.concatenate([bounds, [piece_move.size]])
-        for a, b in zip(starts.tolist(), stops.tolist()):
-            pieces_of[int(piece_move[a])] = (a, b)
-    # per move: the F text wanted on its line (first piece) and in force after it (last piece)
-    first_f = [None] * n_moves
-    last_f = [None] * n_moves
-    for m in range(n_moves):
-        if kind[m] in (RAPID, HOME):
-            continue
+        piece_lo[piece_move[starts]] = starts
+        piece_hi[piece_move[starts]] = stops
+    p_inch = inch[move_line[piece_move]] if piece_move.size else np.zeros(0, bool)
+    p_text = feed_texts_down(piece_feed_mm_min / np.where(p_inch, 25.4, 1.0), p_inch)
+    # per feed move: the F text wanted on its line (first piece) and in force after it (last)
+    want_first = {}
+    want_last = {}
+    feed_kind = ~np.isin(kind, [RAPID, HOME])
+    advised = piece_lo >= 0
+    for m in np.flatnonzero(feed_kind & advised).tolist():
         li = int(move_line[m])
-        inch = bool(program.inch[li])
-        if m in pieces_of:
-            a, b = pieces_of[m]
-            texts = [format_feed_down(v / scale[li], inch) for v in piece_feed_mm_min[a:b]]
-            first_f[m], last_f[m] = texts[0], texts[-1]
-        else:
-            if program.feed_mode[li] == 93 and has_f[li]:
-                continue  # inverse time: its own F, already on the line
-            text = format_feed_exact(float(feed_value[li]))
-            first_f[m] = last_f[m] = text
-    # F in force in the output, line by line
+        want_first[li] = (m, p_text[piece_lo[m]])
+        want_last[li] = p_text[piece_hi[m] - 1]
+    for m in np.flatnonzero(feed_kind & ~advised).tolist():
+        li = int(move_line[m])
+        if program.feed_mode[li] == 93 and has_f[li]:
+            continue  # inverse time: its own F, already on the line
+        text = format_feed_exact(float(feed_value[li]))
+        want_first[li] = (m, text)
+        want_last[li] = text
+    mode_change = np.zeros(n_lines, bool)
+    fm = program.feed_mode
+    mode_change[1:] = fm[1:] != fm[:-1]
+    mode_change[0] = fm[0] != 94
     out_lines = []
-    feed_move_at = {}
-    for m in range(n_moves):
-        if first_f[m] is not None:
-            feed_move_at[int(move_line[m])] = m
-    f_in_force = None   # float value in program units
-    prev_mode = 94
+    f_in_force = None   # value in program units
     end = min(program.end_line + 1, n_lines)
-    for li in range(n_lines):
+    change_lines = set(np.flatnonzero(mode_change[:end]).tolist())
+    f_lines = has_f.tolist()
+    for li in range(end):
         raw = lines[li]
-        if li >= end:
-            out_lines.append(raw)
-            continue
-        mode = int(program.feed_mode[li])
-        if mode != prev_mode:
+        if li in change_lines:
             f_in_force = 0.0
-            prev_mode = mode
-        m = feed_move_at.get(li)
-        if m is None:
-            if has_f[li]:
+        hit = want_first.get(li)
+        if hit is None:
+            if f_lines[li]:
                 f_in_force = float(feed_value[li])
             out_lines.append(raw)
             continue
-        want = first_f[m]
-        want_v = float(want)
-        split = m in pieces_of and pieces_of[m][1] - pieces_of[m][0] > 1
-        if not split:
-            if has_f[li]:
+        m, want = hit
+        if piece_lo[m] >= 0 and piece_hi[m] - piece_lo[m] > 1:
+            lo, hi = piece_lo[m], piece_hi[m]
+            out_lines.extend(_split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
+        else:
+            want_v = float(want)
+            if f_lines[li]:
                 if abs(float(feed_value[li]) - want_v) > 1e-9:
-                    raw = edit_line(raw, [("F", want)])
+                    if "(" in raw or ";" in raw:
+                        raw = edit_line(raw, [("F", want)])
+                    else:
+                        raw = _F_WORD.sub("F" + want, raw, count=1)
             elif f_in_force is None or abs(f_in_force - want_v) > 1e-9:
-                raw = edit_line(raw, [("F", want)])
+                if "(" in raw or ";" in raw:
+                    raw = edit_line(raw, [("F", want)])
+                else:
+                    raw = raw.rstrip() + " F" + want
             out_lines.append(raw)
-            f_in_force = float(last_f[m])
-            continue
-        new_lines = _split_lines(program, m, raw, piece_end, piece_feed_mm_min, pieces_of[m])
-        out_lines.extend(new_lines)
-        f_in_force = float(last_f[m])
+        f_in_force = float(want_last[li])
+    out_lines.extend(lines[end:])
     text = program.newline.join(out_lines)
     return text + program.newline if out_lines else text
 
 
-def _split_lines(program: Program, m: int, raw: str, piece_end, piece_feed, span) -> list[str]:
+def _split_lines(program: Program, m: int, raw: str, fractions, feeds: list[str]) -> list[str]:
     """The move's own line as the first piece plus one new line per further piece."""
     li = int(program.move_line[m])
     inch = bool(program.inch[li])
-    scale = float(program.scale[li])
+    scale = 25.4 if inch else 1.0
     absolute = bool(program.absolute[li])
     ij_abs = bool(program.ij_absolute[li])
     words, _ = _words(raw)
     given = {w[0]: w[4] for w in words}
     d = max([5 if inch else 4] + [_decimals_of(given[c]) for c in "XYZIJKR" if c in given])
     unit = 10 ** d
-    a, b = span
-    fr = np.asarray(piece_end[a:b], dtype=float)
-    feeds = [format_feed_down(v / scale, inch) for v in piece_feed[a:b]]
+    fr = np.asarray(fractions, dtype=float)
     start_mm, end_mm = program.start[m], program.end[m]
     is_arc = program.kind[m] == ARC
     if is_arc:
