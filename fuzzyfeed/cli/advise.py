@@ -112,7 +112,9 @@ def run(args: argparse.Namespace) -> int:
     if args.step_mm is not None:
         raise MachineLimitsError("--step-mm applies to G-code programs only; shapes take --points")
     shape, advice = compute(args)
-    gcode = prepare_gcode(args, advice.profile, shape)  # checked before any file is written
+    notes = (f"rules {advice.table.name!r}; F = {advice.profile.max_feed_mm_s * 60:g} mm/min "
+             "(feed % refers to it)",)
+    gcode = prepare_gcode(args, advice.profile, shape, notes)  # checked before any file is written
     write_columns(args.output, advice_columns(advice, args.rule_strengths))
     if args.plot:
         from fuzzyfeed.plot import plot_fuzzy_advice

@@ -39,6 +39,8 @@ from fuzzyfeed.profile import FeedProfile
 DEFAULT_DECIMALS = 4
 #: Fewest decimals allowed for mm coordinates.
 MIN_DECIMALS = 3
+#: Longest comment text written (LinuxCNC's line limit is 255 characters).
+MAX_COMMENT = 200
 #: Default number of decimals of the F word (mm/min).
 DEFAULT_FEED_DECIMALS = 1
 
@@ -123,14 +125,26 @@ class _Lines:
 
 
 def _comment(text: str) -> str:
-    """A G-code comment: parentheses cannot nest, so they are replaced."""
-    return "(" + text.replace("(", "[").replace(")", "]").replace("\n", " ") + ")"
+    """A G-code comment: parentheses cannot nest, so they are replaced; LinuxCNC reads lines of
+    at most 255 characters, so a longer text is cut with '...'."""
+    text = text.replace("(", "[").replace(")", "]").replace("\n", " ")
+    if len(text) > MAX_COMMENT:
+        text = text[:MAX_COMMENT - 3] + "..."
+    return "(" + text + ")"
 
 
 def gcode_program(profile: FeedProfile, *, decimals: int = DEFAULT_DECIMALS,
                   feed_decimals: int = DEFAULT_FEED_DECIMALS, feed_step_mm_min: float | None = None,
-                  line_numbers: bool = False, title: str | None = None) -> GcodeProgram:
-    """The ``G1`` program for a feed profile (see the module docstring for the rules)."""
+                  line_numbers: bool = False, title: str | None = None,
+                  safe_z_mm: float | None = None, plunge_feed_mm_min: float | None = None,
+                  notes: tuple[str, ...] = (),
+                  segment_feed_mm_min: np.ndarray | None = None) -> GcodeProgram:
+    """The ``G1`` program for a feed profile (see the module docstring for the rules).
+
+    ``safe_z_mm``: start with ``G0 Z<safe>``, rapid over the first point, plunge to it at
+    ``plunge_feed_mm_min`` (default: the slowest segment feed) and retract to the safe height at
+    the end. ``notes``: more header comment lines (rules, F, source). ``segment_feed_mm_min``:
+    the feed of every segment (N−1 values > 0) instead of the mean of its end feeds."""
     if not isinstance(profile, FeedProfile):
         raise ExportError(f"profile: expected a FeedProfile, got {type(profile).__name__}")
     decimals = _check_decimals(decimals)
@@ -141,22 +155,46 @@ def gcode_program(profile: FeedProfile, *, decimals: int = DEFAULT_DECIMALS,
         i = int(np.argwhere(~np.isfinite(xyz))[0, 0])
         raise ExportError(f"samples.xyz[{i}] = {xyz[i].tolist()}; refusing to write a non-finite point")
     with_z = samples.dim == 3
-    feeds = quantise_feed_mm_min(segment_feeds_mm_s(profile.feed_mm_s) * 60.0, feed_step_mm_min,
-                                 feed_decimals)
+    if segment_feed_mm_min is None:
+        seg = segment_feeds_mm_s(profile.feed_mm_s) * 60.0
+    else:
+        seg = np.asarray(segment_feed_mm_min, dtype=float)
+        if seg.shape != (len(samples) - 1,) or not np.all(np.isfinite(seg) & (seg > 0)):
+            raise ExportError(f"segment_feed_mm_min: need {len(samples) - 1} finite feeds > 0")
+    feeds = quantise_feed_mm_min(seg, feed_step_mm_min, feed_decimals)
+    if safe_z_mm is not None:
+        z_top = float(xyz[:, 2].max()) if with_z else 0.0
+        if not (np.isfinite(safe_z_mm) and safe_z_mm > z_top):
+            raise ExportError(f"safe_z_mm = {safe_z_mm!r}; the safe height must be above the path "
+                              f"(highest point z = {z_top:g} mm)")
+        plunge = float(np.min(feeds)) if plunge_feed_mm_min is None else float(plunge_feed_mm_min)
+        if not (np.isfinite(plunge) and plunge > 0):
+            raise ExportError(f"plunge_feed_mm_min = {plunge_feed_mm_min!r}; must be a finite number > 0")
     text = np.array([[_fmt(c, decimals) for c in row] for row in xyz.tolist()])
 
     out = _Lines(line_numbers)
     name = title or f"{profile.method} feed profile"
     out.add(_comment(f"fuzzyfeed {__version__}: {name}; {len(samples)} samples, "
                      f"{samples.length:.3f} mm"), numbered=False)
-    out.add(_comment("units mm and mm/min; F of a move = mean of its two end-point feeds"
+    rule = ("F of a move = mean of its two end-point feeds" if segment_feed_mm_min is None
+            else "F of a move = its length / the scheduled time between its ends")
+    out.add(_comment("units mm and mm/min; " + rule
                      + (f", rounded down to {feed_step_mm_min:g} mm/min steps" if feed_step_mm_min else "")),
             numbered=False)
+    for note in notes:
+        out.add(_comment(note), numbered=False)
     out.add("G17 G21 G90 G94")
     start = text[0]
-    out.add("G0 X" + start[0] + " Y" + start[1] + (" Z" + start[2] if with_z else ""))
+    if safe_z_mm is None:
+        out.add("G0 X" + start[0] + " Y" + start[1] + (" Z" + start[2] if with_z else ""))
+    else:
+        safe = _fmt(safe_z_mm, decimals)
+        out.add("G0 Z" + safe)
+        out.add("G0 X" + start[0] + " Y" + start[1])
+        out.add("G1 Z" + (start[2] if with_z else _fmt(0.0, decimals))
+                + f" F{max(plunge, 10.0 ** -feed_decimals):.{feed_decimals}f}")
     last = start
-    last_f = None
+    last_f = None if safe_z_mm is None else "plunge"
     points, move_feeds = [], []
     n_f = 0
     pending_f = None  # feed of a dropped (zero-length after rounding) move carries forward
@@ -183,6 +221,8 @@ def gcode_program(profile: FeedProfile, *, decimals: int = DEFAULT_DECIMALS,
     if not points:
         raise ExportError(f"all {len(text)} points round to the same position at {decimals} decimals; "
                           "nothing to move")
+    if safe_z_mm is not None:
+        out.add("G0 Z" + _fmt(safe_z_mm, decimals))
     out.add("M2")
     start_mm = np.array([float(c) for c in start] if with_z else [float(start[0]), float(start[1]), 0.0])
     return GcodeProgram(lines=tuple(out.lines), start_mm=start_mm, points_mm=np.array(points),
