@@ -118,9 +118,12 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[st
         if curve is None:
             raise ExportError("--gcode-g52 needs a NURBS shape; this path is a point sequence "
                               "(write it with --gcode)")
+        where = shape.path.name if shape is not None and shape.path is not None else getattr(shape, "name", "")
         lines = nurbs_gcode_program(curve, profile, split="whole" if args.g52_whole else "spans",
                                     decimals=args.gcode_decimals,
                                     feed_step_mm_min=args.feed_step_mm_min,
-                                    line_numbers=args.line_numbers, title=title)
+                                    line_numbers=args.line_numbers, title=title,
+                                    safe_z_mm=args.safe_z_mm, plunge_feed_mm_min=args.plunge_feed_mm_min,
+                                    notes=tuple(notes) + ((f"source: {where}",) if where else ()))
         prepared.files.append((g52, "\n".join(lines) + "\n"))
     return prepared

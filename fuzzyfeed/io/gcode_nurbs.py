@@ -83,7 +83,9 @@ def _span_feeds_mm_min(curve: Nurbs, pieces: list[Nurbs], profile: FeedProfile) 
 def nurbs_gcode_program(curve: Nurbs, feed: float | FeedProfile, *, split: str = "whole",
                         decimals: int = DEFAULT_DECIMALS, feed_decimals: int = DEFAULT_FEED_DECIMALS,
                         weight_decimals: int = 6, feed_step_mm_min: float | None = None,
-                        line_numbers: bool = False, title: str | None = None) -> list[str]:
+                        line_numbers: bool = False, title: str | None = None,
+                        safe_z_mm: float | None = None, plunge_feed_mm_min: float | None = None,
+                        notes: tuple[str, ...] = ()) -> list[str]:
     """Lines of a program that runs ``curve`` as LinuxCNC ``G5.2`` blocks.
 
     ``split="whole"``: one block, only for uniform clamped knots (else :class:`ExportError`); F is
@@ -119,13 +121,26 @@ def nurbs_gcode_program(curve: Nurbs, feed: float | FeedProfile, *, split: str =
     what = ("one G5.2 block" if split == "whole" else f"{len(pieces)} G5.2 blocks, one per knot span")
     out.add(_comment(f"fuzzyfeed {__version__}: {title or 'NURBS'} as {what}, degree "
                      f"{curve.degree}, {curve.n_control_points} control points"), numbered=False)
+    for note in notes:
+        out.add(_comment(note), numbered=False)
     out.add("G17 G21 G90 G94")
     pts = curve.control_points
+    z0 = float(pts[0, 2]) if curve.dim == 3 else 0.0
     start = f"G0 X{_fmt(pts[0, 0], decimals)} Y{_fmt(pts[0, 1], decimals)}"
-    if curve.dim == 3:
-        start += f" Z{_fmt(pts[0, 2], decimals)}"
-    out.add(start)
     last_f = None
+    if safe_z_mm is None:
+        if curve.dim == 3:
+            start += f" Z{_fmt(pts[0, 2], decimals)}"
+        out.add(start)
+    else:
+        if not (np.isfinite(safe_z_mm) and safe_z_mm > z0):
+            raise ExportError(f"safe_z_mm = {safe_z_mm!r}; the safe height must be above the path "
+                              f"(z = {z0:g} mm)")
+        plunge = float(np.min(feeds)) if plunge_feed_mm_min is None else float(plunge_feed_mm_min)
+        out.add(f"G0 Z{_fmt(safe_z_mm, decimals)}")
+        out.add(start)
+        out.add(f"G1 Z{_fmt(z0, decimals)} F{plunge:.{feed_decimals}f}")
+        last_f = "plunge"
     for piece, f in zip(pieces, feeds):
         w_text = [_fmt(wi, weight_decimals) for wi in piece.weights]
         if any(float(t) <= 0 for t in w_text):
@@ -140,6 +155,8 @@ def nurbs_gcode_program(curve: Nurbs, feed: float | FeedProfile, *, split: str =
         for q, wt in zip(piece.control_points[1:], w_text[1:]):
             out.add(f"X{_fmt(q[0], decimals)} Y{_fmt(q[1], decimals)} P{wt}")
         out.add("G5.3")
+    if safe_z_mm is not None:
+        out.add(f"G0 Z{_fmt(safe_z_mm, decimals)}")
     out.add("M2")
     return out.lines
 
