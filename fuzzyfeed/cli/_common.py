@@ -32,8 +32,8 @@ def add_shape_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("shape", metavar="SHAPE",
                         help="a shipped shape's name (see `fuzzyfeed shapes`) or a file: shape "
                              "(.toml/.json), DXF (.dxf: SPLINE, LWPOLYLINE, POLYLINE), G-code "
-                             "(.ngc/.nc/.gcode/.gc/.tap/.cnc: G0/G1 chains, G5.2 blocks) or a CSV "
+                             "(.ngc/.nc/.gcode/.gc/.tap/.cnc: whole programs; each cut, a chain of feed "
+                             "moves between rapids, is one path) or a CSV "
                              "point list (.csv: x_mm,y_mm[,z_mm] or x,y[,z]). A file with several "
                              "paths needs FILE#SELECTOR: DXF FILE#HANDLE, FILE#layer=NAME or "
-                             "FILE#path=N; G-code FILE#N (one path per chain of feed moves between "
-                             "G0 rapids)")
+                             "FILE#path=N; G-code FILE#N (cut N)")

@@ -26,7 +26,12 @@ def register(sub) -> None:
                     "row per point: u, x_mm, y_mm, z_mm, s_mm, curvature_1_mm, curvature_window_max_1_mm "
                     "(Dk before normalisation), curvature_variation (the normalised Dk fed to the "
                     "controller), feed_pct_controller (before the filter), feed_pct, feed_mm_min. "
-                    "Prints min/mean/max feed and the time at the advised feeds.")
+                    "Prints min/mean/max feed and the time at the advised feeds. "
+                    "A G-code program (.ngc, .nc, ...) is advised cut by cut under its own F and, "
+                    "with --gcode, written back whole: every line kept, only F words changed or "
+                    "inserted, moves split only where the feed changes; G93/G95 moves, drilling "
+                    "cycles and moves from unknown positions keep their F. The CSV then has one "
+                    "row per sample with cut, source_line and programmed_feed_mm_min.")
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="CSV file to write (atomically)")
     p.add_argument("--rules", metavar="FILE", default=None,
