@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed.io.program import ARC, LINE, NURBS, Program, arc_geometry, arc_points
+from fuzzyfeed.io.program import ARC, LINE, Program, arc_geometry, arc_points
 from fuzzyfeed.sampling import PathSamples, three_point_curvature
 
 #: Default largest distance between samples along a cut (mm).

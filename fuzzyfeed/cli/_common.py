@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import math
 
+from fuzzyfeed.errors import MachineLimitsError
+
 
 def positive_float(text: str) -> float:
     """argparse type: a finite number > 0 (the error names the value and the rule)."""
@@ -37,3 +39,11 @@ def add_shape_argument(parser: argparse.ArgumentParser) -> None:
                              "point list (.csv: x_mm,y_mm[,z_mm] or x,y[,z]). A file with several "
                              "paths needs FILE#SELECTOR: DXF FILE#HANDLE, FILE#layer=NAME or "
                              "FILE#path=N; G-code FILE#N (cut N)")
+
+
+def check_feed_mm_min(value: float) -> float:
+    """The --feed-mm-min value, or a one-line MachineLimitsError."""
+    if not math.isfinite(value) or value <= 0:
+        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
+                                 "number > 0 mm/min")
+    return value

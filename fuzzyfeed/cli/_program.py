@@ -56,7 +56,7 @@ def _combined_advice(pa):
 
 
 def run_program(args: argparse.Namespace) -> int:
-    from fuzzyfeed.cli.advise import check_feed_mm_min
+    from fuzzyfeed.cli._common import check_feed_mm_min
     from fuzzyfeed.cuts import DEFAULT_STEP_MM
     from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.atomic import atomic_write

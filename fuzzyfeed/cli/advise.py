@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
-from fuzzyfeed.cli._common import add_shape_argument, point_count, positive_float
+from fuzzyfeed.cli._common import add_shape_argument, check_feed_mm_min, point_count, positive_float
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.errors import MachineLimitsError
 from fuzzyfeed.cuts import DEFAULT_STEP_MM
+from fuzzyfeed.errors import MachineLimitsError
 from fuzzyfeed.limits import DEFAULT_FEED_MM_S
 from fuzzyfeed.sampling import DEFAULT_POINTS
 
@@ -54,14 +53,6 @@ def register(sub) -> None:
                    help="also draw feed and curvature against arc length and the path coloured by feed")
     add_gcode_arguments(p)
     p.set_defaults(run=run)
-
-
-def check_feed_mm_min(value: float) -> float:
-    """The --feed-mm-min value, or a one-line MachineLimitsError."""
-    if not math.isfinite(value) or value <= 0:
-        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
-                                 "number > 0 mm/min")
-    return value
 
 
 def compute(args: argparse.Namespace):

@@ -339,7 +339,6 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     plane = modal("plane", 170) // 10
     feed_mode = modal("feed_mode", 940) // 10
     coord = modal("coord", 540)
-    length_mode = modal("length", 490)
     motion_col = gcol["motion"]
     motion_set = motion_col >= 0 if motion_col is not None else np.zeros(n, bool)
     motion = _ffill(motion_col, motion_set, -1) if motion_col is not None else np.full(n, -1)
@@ -395,7 +394,6 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
     g10_l, g28, g30, g53, g92 = nm(100), nm(280), nm(300), nm(530), nm(920) | nm(921) | nm(922) | nm(923)
     g52_local = nm(520)
-    g4 = nm(40)
     takes_axes = g10_l | g92 | g52_local | g28 | g30  # axis words are not a target
     arcs_words = has("I") | has("J") | has("K") | has("R")
     is_arc_mode = (motion == 20) | (motion == 30)

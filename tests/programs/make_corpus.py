@@ -10,7 +10,7 @@ programs show (no third-party file is copied):
   ``T1 M6``, ``S M3``, ``G54``/``G55``, coolant, ``G43 Z H``, modal words, trailing-dot numbers,
   ``G28 G91 Z0.``, ``M1`` between tools, ``N`` numbers, R or I/J arcs, ``M30``.
 - ``grbl_*``: sender files — ``G21 G90 G94``, ``G00/G01/G02`` with leading zeros, lower case or
-  no spaces, ``;`` comments, F on every line, R arcs, ``M3 S``/``M5``.
+  no spaces, ``;`` comments, F on every line, I/J arcs, ``M3 S``/``M5``.
 - ``lcnc_*``: LinuxCNC examples — inch programs, ``G64 P``, ``G10 L2``, ``G18``/``G19`` and
   helical arcs, full circles with P, ``G91`` blocks, drilling cycles ``G81``/``G83`` with
   ``G98``/``G99``, ``G5.2`` NURBS, ``M62``–``M65``, ``G4``, ``G61``, ``G96``/``G97``,
@@ -219,11 +219,8 @@ def grbl(ops, title, style="lower"):
             if mv[0] == "G1":
                 line = f"G01 X{plain(mv[1])} Y{plain(mv[2])} F{plain(feed)}"
             else:
-                r = math.hypot(mv[4], mv[5])
                 g = "G02" if mv[0] == "G2" else "G03"
-                # R arcs for half circles or less; I/J otherwise
                 line = f"{g} X{plain(mv[1])} Y{plain(mv[2])} I{plain(mv[4], 4)} J{plain(mv[5], 4)} F{plain(feed)}"
-                del r
             if style == "lower":
                 line = line.lower()
             elif style == "packed":
