@@ -30,7 +30,8 @@ def canon(program: Path, workdir: Path) -> list[tuple[str, str]]:
     """(name, arguments) of every canonical call rs274 prints for ``program`` (exit 0 asserted)."""
     out = workdir / (program.name + ".canon")
     done = subprocess.run([rs274_binary(), "-t", str(tool_table(workdir)), "-g", str(program), str(out)],
-                          capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=300)
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=300,
+                          cwd=workdir)  # rs274 keeps its parameter file in the working directory
     assert done.returncode == 0, f"rs274 rejected {program}: {done.stdout[-400:]} {done.stderr[-400:]}"
     calls = []
     for line in out.read_text().splitlines():

@@ -339,6 +339,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     plane = modal("plane", 170) // 10
     feed_mode = modal("feed_mode", 940) // 10
     coord = modal("coord", 540)
+    length_mode = modal("length", 490)
     motion_col = gcol["motion"]
     motion_set = motion_col >= 0 if motion_col is not None else np.zeros(n, bool)
     motion = _ffill(motion_col, motion_set, -1) if motion_col is not None else np.full(n, -1)
@@ -619,7 +620,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
                    inch=_pad(inch, len(lines)), absolute=_pad(absolute, len(lines)),
                    ij_absolute=_pad(ij_absolute, len(lines)), plane=_pad(plane, len(lines)),
                    feed_mode=_pad(feed_mode, len(lines)), feed_value=_pad(feed_value, len(lines)),
-                   tool=_pad(tool, len(lines)), has_f=_pad(has_f, len(lines), False),
+                   tool=_pad(tool, len(lines)), work_offset=_pad(coord / 10.0, len(lines)),
+                   length_offset=_pad(length_mode / 10.0, len(lines)), has_f=_pad(has_f, len(lines), False),
                    move_line=move_rows, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines)

@@ -52,6 +52,8 @@ class Program:
     feed_mode: np.ndarray             # 93, 94, 95
     feed_value: np.ndarray            # programmed F in force (program units / min; 0 if none)
     tool: np.ndarray                  # T selected (−1 if none)
+    work_offset: np.ndarray           # 54.0 … 59.3: the coordinate system in force
+    length_offset: np.ndarray         # 43.0, 43.1, 43.2 or 49.0: tool length offset mode
     has_f: np.ndarray                 # bool: the line has an F word
     # per move (M)
     move_line: np.ndarray             # 0-based line index
