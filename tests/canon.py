@@ -6,6 +6,7 @@ and length, every feed > 0 and at most the original feed at the same place."""
 from __future__ import annotations
 
 import math
+import os
 import re
 import subprocess
 from pathlib import Path
@@ -31,7 +32,9 @@ def canon(program: Path, workdir: Path) -> list[tuple[str, str]]:
     out = workdir / (program.name + ".canon")
     done = subprocess.run([rs274_binary(), "-t", str(tool_table(workdir)), "-g", str(program), str(out)],
                           capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=300,
-                          cwd=workdir)  # rs274 keeps its parameter file in the working directory
+                          cwd=workdir, env={**os.environ, "HOME": str(workdir)})
+    # rs274 keeps its parameter file in the working directory and maps the tool table into
+    # $HOME/.tool.mmap, shared by every rs274 of that HOME: each run gets its own
     assert done.returncode == 0, f"rs274 rejected {program}: {done.stdout[-400:]} {done.stderr[-400:]}"
     calls = []
     for line in out.read_text().splitlines():
