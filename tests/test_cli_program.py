@@ -119,3 +119,19 @@ def test_program_csv_and_summary(tmp_path, capsys):
     prog = np.array([float(r["programmed_feed_mm_min"]) for r in rows])
     assert np.all(feed <= prog) and set(np.unique(prog)) <= {200.0, 800.0, 1000.0}
     assert (tmp_path / "a.png").stat().st_size > 10000
+
+
+def test_program_from_a_cut_starts_above_it(tmp_path):
+    """A cut that starts at 5 mm (its approach move) is written from 10 mm; an explicit safe
+    height below the path is refused before anything is written."""
+    program = write(tmp_path, PROGRAM.replace("G1 Z-1 F200\nG1 X40", "G1 Z-1 F200\nG1 X40 Z-1"))
+    out = tmp_path / "s.ngc"
+    assert main(["schedule", str(program) + "#1", "-o", str(tmp_path / "s.csv"), "--gcode", str(out)]) == 0
+    calls = canon(out, tmp_path)
+    traverses = [c for c in calls if c[0] == "STRAIGHT_TRAVERSE"]
+    assert traverses[0][1].startswith("0.0000, 0.0000, 10.0000") and traverses[-1][1].split(", ")[2] == "10.0000"
+    bad = tmp_path / "b.ngc"
+    assert main(["advise", str(program) + "#1", "-o", str(tmp_path / "b.csv")]) == 0
+    assert main(["schedule", str(program) + "#1", "-o", str(tmp_path / "c.csv"), "--gcode", str(bad),
+                 "--safe-z-mm", "2"]) == 2
+    assert not bad.exists() and not (tmp_path / "c.csv").exists()

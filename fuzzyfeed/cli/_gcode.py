@@ -25,6 +25,18 @@ def _decimals(text: str) -> int:
     return value
 
 
+#: Default safe height (mm), and the clearance above a path that reaches it.
+DEFAULT_SAFE_Z_MM = 5.0
+
+
+def safe_z(args: argparse.Namespace, profile) -> float:
+    """--safe-z-mm, or 5 mm (5 mm above the path's highest point when that is higher)."""
+    if args.safe_z_mm is not None:
+        return args.safe_z_mm
+    top = float(profile.samples.xyz[:, 2].max()) if profile.samples.dim == 3 else 0.0
+    return max(DEFAULT_SAFE_Z_MM, top + DEFAULT_SAFE_Z_MM)
+
+
 def add_gcode_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("G-code export (LinuxCNC; checked with its rs274 interpreter)")
     g.add_argument("--gcode", metavar="OUT.ngc", default=None,
@@ -34,9 +46,10 @@ def add_gcode_arguments(parser: argparse.ArgumentParser) -> None:
                         "segment with F in mm/min written only when it changes, a retract, M2. A "
                         "G-code program (advise): the same program, every line kept, with the "
                         "advised F words")
-    g.add_argument("--safe-z-mm", type=float, default=5.0, metavar="Z",
-                   help="shapes: safe height for the rapids before and after the cut "
-                        "(default: %(default)g mm; must be above the path)")
+    g.add_argument("--safe-z-mm", type=float, default=None, metavar="Z",
+                   help="shapes: safe height for the rapids before and after the cut, above the "
+                        f"path (default: {DEFAULT_SAFE_Z_MM:g} mm, or that much above the path's "
+                        "highest point if it is higher)")
     g.add_argument("--plunge-feed-mm-min", type=positive_float, default=None, metavar="F",
                    help="shapes: feed of the plunge from the safe height to the path "
                         "(default: the slowest feed of the program)")
@@ -109,7 +122,7 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[st
         program = gcode_program(profile, decimals=args.gcode_decimals,
                                 feed_step_mm_min=args.feed_step_mm_min,
                                 line_numbers=args.line_numbers, title=title,
-                                safe_z_mm=args.safe_z_mm, plunge_feed_mm_min=args.plunge_feed_mm_min,
+                                safe_z_mm=safe_z(args, profile), plunge_feed_mm_min=args.plunge_feed_mm_min,
                                 notes=tuple(notes) + ((source,) if source else ()),
                                 segment_feed_mm_min=segment_feed_mm_min)
         prepared.files.append((gcode, program.text))
@@ -123,7 +136,7 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[st
                                     decimals=args.gcode_decimals,
                                     feed_step_mm_min=args.feed_step_mm_min,
                                     line_numbers=args.line_numbers, title=title,
-                                    safe_z_mm=args.safe_z_mm, plunge_feed_mm_min=args.plunge_feed_mm_min,
+                                    safe_z_mm=safe_z(args, profile), plunge_feed_mm_min=args.plunge_feed_mm_min,
                                     notes=tuple(notes) + ((f"source: {where}",) if where else ()))
         prepared.files.append((g52, "\n".join(lines) + "\n"))
     return prepared
