@@ -482,3 +482,39 @@ def _gl_lengths(curve: Nurbs, lo: np.ndarray, hi: np.ndarray, compiled: bool | N
             acc += speed[:, j] * _GL_WEIGHTS[j]
         out[block] = half * acc
     return out
+
+
+def insert_knot(p: int, knots: np.ndarray, pw: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
+    """Insert ``u`` once into a curve of degree ``p`` with homogeneous control points ``pw``
+    (Boehm's knot insertion, The NURBS Book A5.1 with r = 1)."""
+    k = int(np.searchsorted(knots, u, side="right")) - 1        # knots[k] <= u < knots[k+1]
+    q = np.empty((pw.shape[0] + 1, pw.shape[1]))
+    q[:k - p + 1] = pw[:k - p + 1]
+    for i in range(k - p + 1, k + 1):
+        alpha = (u - knots[i]) / (knots[i + p] - knots[i])
+        q[i] = alpha * pw[i] + (1.0 - alpha) * pw[i - 1]
+    q[k + 1:] = pw[k:]
+    return np.insert(knots, k + 1, u), q
+
+
+def bezier_segments(curve: Nurbs) -> list[Nurbs]:
+    """The curve split at every interior knot into rational Bézier pieces (degree p, p + 1
+    control points, knots a^(p+1) b^(p+1)): each interior knot is inserted until its multiplicity
+    is p (knot refinement, The NURBS Book §5.3). Each piece equals the curve on its span, and its
+    knot vector is uniform clamped (the one LinuxCNC's G5.2 builds)."""
+    p = curve.degree
+    knots = np.asarray(curve.knots, dtype=float)
+    w = np.asarray(curve.weights, dtype=float)
+    pw = np.column_stack([curve.control_points * w[:, None], w])
+    lo, hi = curve.domain
+    interior, counts = np.unique(knots[(knots > lo) & (knots < hi)], return_counts=True)
+    for u, m in zip(interior, counts):
+        for _ in range(p - int(m)):
+            knots, pw = insert_knot(p, knots, pw, float(u))
+    breaks = np.concatenate([[lo], interior, [hi]])
+    pieces = []
+    for j in range(breaks.size - 1):
+        block = pw[j * p: j * p + p + 1]
+        pieces.append(Nurbs(p, [breaks[j]] * (p + 1) + [breaks[j + 1]] * (p + 1),
+                            block[:, :-1] / block[:, -1:], block[:, -1]))
+    return pieces

@@ -408,13 +408,17 @@ def test_cli_advise_and_schedule_write_gcode_rs274_accepts(tmp_path, capsys):
     assert f"wrote {ngc}" in out and f"wrote {g52}" in out
     for program in (ngc, g52):
         run_rs274(program, tmp_path)
-    f_values = [float(f) for f in re.findall(r" F(\S+)", ngc.read_text())]
+    code = "\n".join(ln for ln in ngc.read_text().splitlines() if not ln.startswith("("))
+    f_values = [float(f) for f in re.findall(r" F(\S+)", code)]
     assert all(f > 0 and f % 100 == 0 for f in f_values)
     # the G-code feeds follow the CSV's advised feeds (mean of the segment ends, rounded down)
     import pandas as pd
 
     feed = pd.read_csv(csv)["feed_mm_min"].to_numpy()
-    _, _, per_move, _ = canon_moves(run_rs274(ngc, tmp_path))
+    traverses, _, per_move, _ = canon_moves(run_rs274(ngc, tmp_path))
+    # from the safe height (5 mm) over the first point, plunge, the path, retract
+    assert traverses[0][2] == 5.0 and traverses[-1][2] == 5.0
+    per_move = per_move[1:]   # the plunge
     seg = 0.5 * (feed[:-1] + feed[1:])
     assert np.all(per_move <= seg + 1e-9) and np.all(per_move > seg - 100 - 1e-9)
 
@@ -422,7 +426,7 @@ def test_cli_advise_and_schedule_write_gcode_rs274_accepts(tmp_path, capsys):
     assert main(["schedule", "trident2", "-o", str(tmp_path / "s.csv"), "--gcode", str(sched)]) == 0
     lines = run_rs274(sched, tmp_path)
     _, xyz, per_move, _ = canon_moves(lines)
-    assert len(xyz) == 1999 and np.all(per_move > 0)
+    assert len(xyz) == 1 + 1999 and np.all(per_move > 0)   # plunge + the path
 
 
 def test_cli_bad_gcode_options_write_nothing(tmp_path, capsys):
@@ -436,3 +440,24 @@ def test_cli_bad_gcode_options_write_nothing(tmp_path, capsys):
     assert main(["advise", "wm", "-o", str(csv), "--line-numbers"]) == 2
     assert "is a G-code option" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
+
+
+def test_schedule_gcode_takes_the_schedules_time(tmp_path, capsys):
+    """A rectangle program scheduled with the SLW: the written program, run at its own F words
+    (length / F per move, as rs274 reads them), takes the schedule's cycle time."""
+    import pandas as pd
+
+    from fuzzyfeed.cli import main
+
+    rect = tmp_path / "rect.ngc"
+    rect.write_text("G21 G90\nG0 X0 Y0\nG1 X60 F3000\nG1 Y40\nG1 X0\nG1 Y0\nM2\n")
+    out = tmp_path / "rect_sched.ngc"
+    assert main(["schedule", str(rect), "-o", str(tmp_path / "s.csv"), "--gcode", str(out)]) == 0
+    cycle = float(pd.read_csv(tmp_path / "s.csv")["t_s"].iloc[-1])
+    lines = run_rs274(out, tmp_path)
+    _, xyz, per_move, _ = canon_moves(lines)
+    pts = xyz[1:]                       # after the plunge
+    start = xyz[0]
+    lengths = np.linalg.norm(np.diff(np.vstack([start, pts]), axis=0), axis=1)
+    t_program = float(np.sum(lengths / per_move[1:])) * 60.0
+    assert t_program == pytest.approx(cycle, rel=0.01)

@@ -8,6 +8,8 @@ import math
 import sys
 import warnings
 
+from fuzzyfeed.errors import MachineLimitsError
+
 
 def positive_float(text: str) -> float:
     """argparse type: a finite number > 0 (the error names the value and the rule)."""
@@ -44,11 +46,11 @@ def add_shape_argument(parser: argparse.ArgumentParser) -> None:
                         help="a shipped shape's name (see `fuzzyfeed shapes`) or a file: shape "
                              "(.toml/.json), DXF (.dxf: contours chained from LINE, ARC, CIRCLE, "
                              "ELLIPSE, SPLINE, LWPOLYLINE, POLYLINE, also inside blocks), G-code "
-                             "(.ngc/.nc/.gcode/.gc/.tap/.cnc: G0/G1 chains, G5.2 blocks) or a CSV "
+                             "(.ngc/.nc/.gcode/.gc/.tap/.cnc: whole programs; each cut, a chain of feed "
+                             "moves between rapids, is one path) or a CSV "
                              "point list (.csv: x_mm,y_mm[,z_mm] or x,y[,z]). A file with several "
                              "paths needs FILE#SELECTOR: DXF FILE#HANDLE, FILE#layer=NAME or "
-                             "FILE#path=N; G-code FILE#N (one path per chain of feed moves between "
-                             "G0 rapids)")
+                             "FILE#path=N; G-code FILE#N (cut N)")
     parser.add_argument("--units", choices=("mm", "inch", "m"), default=None,
                         help="units of a DXF drawing's coordinates, overriding its $INSUNITS "
                              "(default: the header's $INSUNITS; a drawing without it is read as mm "
@@ -110,3 +112,16 @@ def shape_context(args: argparse.Namespace):
         TOLERANCES.reset(tolerances)
         if token is not None:
             UNITS_OVERRIDE.reset(token)
+
+
+def check_feed_mm_min(value: float) -> float:
+    """The --feed-mm-min value, or a one-line MachineLimitsError."""
+    if not math.isfinite(value) or value <= 0:
+        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
+                                 "number > 0 mm/min")
+    from fuzzyfeed.limits import MAX_LIMIT
+
+    if value > MAX_LIMIT:
+        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be at most "
+                                 f"{MAX_LIMIT:g} mm/min")
+    return value

@@ -25,12 +25,34 @@ def _decimals(text: str) -> int:
     return value
 
 
+#: Default safe height (mm), and the clearance above a path that reaches it.
+DEFAULT_SAFE_Z_MM = 5.0
+
+
+def safe_z(args: argparse.Namespace, profile) -> float:
+    """--safe-z-mm, or 5 mm (5 mm above the path's highest point when that is higher)."""
+    if args.safe_z_mm is not None:
+        return args.safe_z_mm
+    top = float(profile.samples.xyz[:, 2].max()) if profile.samples.dim == 3 else 0.0
+    return max(DEFAULT_SAFE_Z_MM, top + DEFAULT_SAFE_Z_MM)
+
+
 def add_gcode_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("G-code export (LinuxCNC; checked with its rs274 interpreter)")
     g.add_argument("--gcode", metavar="OUT.ngc", default=None,
-                   help="also write the feed as a program: G17 G21 G90 G94, G0 to the first "
-                        "point, one 'G1 X Y [Z]' per sampled segment with F in mm/min (the mean of "
-                        "the segment's two end feeds, never 0) written only when it changes, M2")
+                   help="also write the feed as a program. A shape: header comments (method, "
+                        "rules, F, source), G17 G21 G90 G94, G0 to the safe height and over the "
+                        "first point, a plunge at the plunge feed, one 'G1 X Y [Z]' per sampled "
+                        "segment with F in mm/min written only when it changes, a retract, M2. A "
+                        "G-code program (advise): the same program, every line kept, with the "
+                        "advised F words")
+    g.add_argument("--safe-z-mm", type=float, default=None, metavar="Z",
+                   help="shapes: safe height for the rapids before and after the cut, above the "
+                        f"path (default: {DEFAULT_SAFE_Z_MM:g} mm, or that much above the path's "
+                        "highest point if it is higher)")
+    g.add_argument("--plunge-feed-mm-min", type=positive_float, default=None, metavar="F",
+                   help="shapes: feed of the plunge from the safe height to the path "
+                        "(default: the slowest feed of the program)")
     g.add_argument("--feed-step-mm-min", type=positive_float, default=None, metavar="STEP",
                    help="round every F down to a multiple of STEP mm/min (floor: one STEP), so "
                         "the program has few F words and never runs faster than advised")
@@ -64,11 +86,13 @@ class PreparedGcode:
         return bool(self.files)
 
 
-def prepare_gcode(args: argparse.Namespace, profile, shape=None) -> PreparedGcode:
+def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[str, ...] = (),
+                  segment_feed_mm_min=None) -> PreparedGcode:
     """Build the programs the G-code flags ask for (none without --gcode/--gcode-g52).
 
     ``profile`` is a :class:`~fuzzyfeed.profile.FeedProfile` or a function returning one (called
-    only when a program is asked for)."""
+    only when a program is asked for); ``notes`` go into the header comment;
+    ``segment_feed_mm_min`` (or a function returning it) gives the feed of every segment."""
     from fuzzyfeed.io.gcode import gcode_program, nurbs_gcode_program
 
     gcode = getattr(args, "gcode", None)
@@ -89,18 +113,30 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None) -> PreparedGcod
     title = f"{profile.method} feed on {shape.name}" if shape is not None else None
     prepared = PreparedGcode()
     if gcode:
+        if callable(segment_feed_mm_min):
+            segment_feed_mm_min = segment_feed_mm_min()
+        source = None
+        if shape is not None:
+            where = shape.path.name if shape.path is not None else shape.name
+            source = f"source: {where}" + (f" - {shape.source}" if shape.source else "")
         program = gcode_program(profile, decimals=args.gcode_decimals,
                                 feed_step_mm_min=args.feed_step_mm_min,
-                                line_numbers=args.line_numbers, title=title)
+                                line_numbers=args.line_numbers, title=title,
+                                safe_z_mm=safe_z(args, profile), plunge_feed_mm_min=args.plunge_feed_mm_min,
+                                notes=tuple(notes) + ((source,) if source else ()),
+                                segment_feed_mm_min=segment_feed_mm_min)
         prepared.files.append((gcode, program.text))
     if g52:
         curve = profile.samples.curve if profile.samples.curve is not None else None
         if curve is None:
             raise ExportError("--gcode-g52 needs a NURBS shape; this path is a point sequence "
                               "(write it with --gcode)")
+        where = shape.path.name if shape is not None and shape.path is not None else getattr(shape, "name", "")
         lines = nurbs_gcode_program(curve, profile, split="whole" if args.g52_whole else "spans",
                                     decimals=args.gcode_decimals,
                                     feed_step_mm_min=args.feed_step_mm_min,
-                                    line_numbers=args.line_numbers, title=title)
+                                    line_numbers=args.line_numbers, title=title,
+                                    safe_z_mm=safe_z(args, profile), plunge_feed_mm_min=args.plunge_feed_mm_min,
+                                    notes=tuple(notes) + ((f"source: {where}",) if where else ()))
         prepared.files.append((g52, "\n".join(lines) + "\n"))
     return prepared

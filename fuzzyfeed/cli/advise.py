@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
-from fuzzyfeed.cli._common import add_shape_argument, point_count, positive_float
+from fuzzyfeed.cli._common import add_shape_argument, check_feed_mm_min, point_count, positive_float
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
+from fuzzyfeed.cuts import DEFAULT_STEP_MM
 from fuzzyfeed.errors import InputError, MachineLimitsError
-from fuzzyfeed.limits import DEFAULT_FEED_MM_S, MAX_LIMIT
+from fuzzyfeed.limits import DEFAULT_FEED_MM_S
 from fuzzyfeed.sampling import DEFAULT_POINTS
 
 #: Default maximum feed F (mm/min) when --feed-mm-min is not given: the machine default's feed.
@@ -25,14 +25,24 @@ def register(sub) -> None:
                     "row per point: u, x_mm, y_mm, z_mm, s_mm, curvature_1_mm, curvature_window_max_1_mm "
                     "(Dk before normalisation), curvature_variation (the normalised Dk fed to the "
                     "controller), feed_pct_controller (before the filter), feed_pct, feed_mm_min. "
-                    "Prints min/mean/max feed and the time at the advised feeds.")
+                    "Prints min/mean/max feed and the time at the advised feeds. "
+                    "A G-code program (.ngc, .nc, ...) is advised cut by cut under its own F and, "
+                    "with --gcode, written back whole: every line kept, only F words changed or "
+                    "inserted, moves split only where the feed changes; G93/G95 moves, drilling "
+                    "cycles and moves from unknown positions keep their F. The CSV then has one "
+                    "row per sample with cut, source_line and programmed_feed_mm_min.")
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="CSV file to write (atomically)")
     p.add_argument("--rules", metavar="FILE", default=None,
                    help="rule table: a shipped name (see `fuzzyfeed rules show`) or a .toml file "
                         "(default: paper, seed 002's table)")
-    p.add_argument("--feed-mm-min", type=float, default=DEFAULT_FEED_MM_MIN, metavar="F",
-                   help="maximum feed F in mm/min; feed %% refers to it (default: %(default)g)")
+    p.add_argument("--feed-mm-min", type=float, default=None, metavar="F",
+                   help="maximum feed F in mm/min; feed %% refers to it (shapes: "
+                        f"default: {DEFAULT_FEED_MM_MIN:g}). For a G-code program the program's own F is "
+                        "the ceiling at every move; F, if given, only caps it")
+    p.add_argument("--step-mm", type=positive_float, default=None, metavar="MM",
+                   help="G-code programs: largest distance between the advisor's samples along a "
+                        f"cut, arcs also every 10 degrees (default: {DEFAULT_STEP_MM:g})")
     p.add_argument("--points", type=point_count, default=DEFAULT_POINTS, metavar="N",
                    help="sample points, uniform in the parameter as in seed 002 (default: %(default)s; "
                         "point-sequence shapes use their own points)")
@@ -56,24 +66,13 @@ def register(sub) -> None:
     p.set_defaults(run=run, csv_sidecar=True)
 
 
-def check_feed_mm_min(value: float) -> float:
-    """The --feed-mm-min value, or a one-line MachineLimitsError."""
-    if not math.isfinite(value) or value <= 0:
-        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
-                                 "number > 0 mm/min")
-    if value > MAX_LIMIT:
-        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be at most "
-                                 f"{MAX_LIMIT:g} mm/min")
-    return value
-
-
 def compute(args: argparse.Namespace):
     """Shape, rules and samples in, :class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice` out (one call)."""
     from fuzzyfeed.fuzzy.advisor import advise_details
     from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.shapes import load_shape, sample_shape
 
-    feed_mm_min = check_feed_mm_min(args.feed_mm_min)
+    feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
     table = load_rule_table(args.rules)
     changes = {key: getattr(args, key) for key in ("filter", "window_mm", "filter_mm")
                if getattr(args, key, None) is not None}
@@ -175,7 +174,7 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
             option = "--" + flag.replace("_", "-")
             raise ExportError(f"{option}: {args.shape} holds {len(shapes)} paths; {option} writes "
                               f"one path, pick it with {args.shape}#path=N")
-    feed_mm_min = check_feed_mm_min(args.feed_mm_min)
+    feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
     table = load_rule_table(args.rules)
     parts, lines = [], []
     for number, shape in enumerate(shapes, start=1):
@@ -196,13 +195,20 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    from fuzzyfeed.cli._program import is_program, run_program
     from fuzzyfeed.io.csv import write_columns, write_metadata
 
+    if is_program(args.shape):
+        return run_program(args)
+    if args.step_mm is not None:
+        raise MachineLimitsError("--step-mm applies to G-code programs only; shapes take --points")
     shapes = drawing_paths(args)
     if shapes is not None:
         return run_paths(args, shapes)
     shape, advice = compute(args)
-    gcode = prepare_gcode(args, advice.profile, shape)  # checked before any file is written
+    notes = (f"rules {advice.table.name!r}; F = {advice.profile.max_feed_mm_s * 60:g} mm/min "
+             "(feed % refers to it)",)
+    gcode = prepare_gcode(args, advice.profile, shape, notes)  # checked before any file is written
     columns = advice_columns(advice, args.rule_strengths)
     write_columns(args.output, columns)
     meta = write_metadata(args.output, list(columns), advice_provenance(args, shape, advice))

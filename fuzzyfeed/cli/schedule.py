@@ -101,7 +101,25 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.shapes import sample_shape
 
     shape, traj, m, bound_profile, bound_s = compute(args)
-    gcode = prepare_gcode(args, lambda: traj.feed_at(sample_shape(shape)), shape)
+    samples = sample_shape(shape)
+
+    def segment_feeds():
+        """F of each segment = its length / the scheduled time between its ends, so the program
+        at its F words takes the schedule's time (up to the F rounding)."""
+        t = np.interp(samples.s, traj.s_mm, traj.t_s)
+        dt = np.diff(t)
+        ds = np.diff(samples.s)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            seg = np.where(dt > 0, ds / dt * 60.0, np.nan)
+        if np.isnan(seg).any():   # two samples passed within one servo period: neighbour's feed
+            ok = ~np.isnan(seg)
+            seg = np.interp(np.arange(seg.size), np.flatnonzero(ok), seg[ok])
+        return seg
+
+    lim = traj.limits
+    notes = (f"SLW schedule (seed 000): F = {lim.feed_mm_min:g} mm/min, cycle time "
+             f"{traj.cycle_time_s:.4f} s",)
+    gcode = prepare_gcode(args, lambda: traj.feed_at(samples), shape, notes, segment_feeds)
     write_columns(args.output, traj.columns())
     print(summary(shape.name, traj, m, bound_s))
     print(f"wrote {args.output}")

@@ -45,6 +45,9 @@ import numpy as np
 from fuzzyfeed.errors import FuzzyfeedNotice, NurbsError, PathFormatError
 from fuzzyfeed.io.contours import FLATTEN_ANGLE_RAD, Contour, Piece, chain
 from fuzzyfeed.io.dxf_splines import spline_curves
+from fuzzyfeed.io.points import pick_by_index, polyline_shape
+from fuzzyfeed.io.shape import Shape
+from fuzzyfeed.nurbs import Nurbs
 
 #: A bulge whose sagitta is below this (mm) is a straight segment (a bulge of 1e-300 has no arc).
 STRAIGHT_SAGITTA_MM = 1e-9
@@ -220,7 +223,6 @@ def _conic_curve(entity, scale: float, where: str):
     """ARC, CIRCLE or ELLIPSE as ezdxf's exact rational quadratic B-spline, in WCS, scaled."""
     from ezdxf.math import ConstructionEllipse, rational_bspline_from_ellipse
 
-    from fuzzyfeed.nurbs import Nurbs
 
     kind = entity.dxftype()
     if kind == "ELLIPSE":
@@ -248,7 +250,6 @@ def _describe(e, parent: str = "") -> str:
 
 
 def _pieces_of(e, scale: float, path: Path, where: str, handle: str, layer: str) -> list[Piece]:
-    from fuzzyfeed.nurbs import Nurbs
 
     kind = e.dxftype()
     full = f"{path}: {where}"
@@ -335,9 +336,6 @@ def _contours(path: Path) -> tuple[list[Contour], str]:
 
 
 def _contour_shape(contour: Contour, path: Path, units: str, name: str):
-    from fuzzyfeed.io.points import polyline_shape
-    from fuzzyfeed.io.shapes import Shape
-    from fuzzyfeed.nurbs import Nurbs
 
     first = contour.pieces[0]
     source = f"{path} ({contour.describe()}, units {units})"
@@ -403,7 +401,6 @@ def select_contour(path: Path, contours: list[Contour], selector: str | None) ->
         if not hits:
             raise PathFormatError(f"{path}#{selector}: no contour on layer {value!r}; contours: {listing}")
     elif key == "path":
-        from fuzzyfeed.io.points import pick_by_index
         return pick_by_index(path, selector, [f"{n + 1}" for n in range(len(contours))])
     else:
         raise PathFormatError(f"{path}#{selector}: unknown selector {key!r}; use HANDLE, handle=H, "

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.errors import NurbsError, PathFormatError
-from fuzzyfeed.io.gcode import insert_knot
+from fuzzyfeed.nurbs import Nurbs, insert_knot
 
 
 def _clamp_start(p: int, knots: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -61,7 +61,6 @@ def split_bezier_joints(p: int, knots: np.ndarray, points: np.ndarray, weights: 
 
 
 def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
-    from fuzzyfeed.nurbs import Nurbs
 
     if len(entity.control_points) > 0:
         degree = int(entity.dxf.degree)

@@ -25,6 +25,8 @@ import numpy as np
 
 from fuzzyfeed._files import read_text as read_file_text
 from fuzzyfeed.errors import PathFormatError
+from fuzzyfeed.io.shape import Shape
+from fuzzyfeed.nurbs import Nurbs
 
 _COLUMN_SETS = (("x_mm", "y_mm", "z_mm"), ("x", "y", "z"))
 
@@ -50,9 +52,6 @@ def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Pat
     """A polyline :class:`Shape` from (N, 2|3) points in mm (N ≥ 2, finite; a point that repeats
     the previous one is dropped with a note). With two points only the curve is kept (a straight
     line, sampled as a NURBS)."""
-    from fuzzyfeed.io.shapes import Shape
-    from fuzzyfeed.nurbs import Nurbs
-
     where = where or str(path or name)
     pts = np.asarray(points, dtype=float)
     if pts.ndim != 2 or pts.shape[1] not in (2, 3):

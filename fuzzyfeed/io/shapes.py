@@ -14,33 +14,19 @@ from __future__ import annotations
 import json
 import os
 import tomllib
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import NurbsError, ShapeFileError
-from fuzzyfeed.io.gcode import GCODE_SUFFIXES
+from fuzzyfeed.io.program import GCODE_SUFFIXES
+from fuzzyfeed.io.shape import Shape
 from fuzzyfeed.nurbs import Nurbs, non_number
 from fuzzyfeed.sampling import DEFAULT_POINTS, PathSamples, sample_uniform_u, samples_from_points
 
 #: Units a shape file may declare, with the factor that converts them to mm.
 UNIT_TO_MM = {"mm": 1.0, "inch": 25.4, "in": 25.4}
-
-
-@dataclass(frozen=True, eq=False)
-class Shape:
-    """A named tool path: the NURBS in mm plus where it came from."""
-
-    name: str
-    curve: Nurbs
-    source: str = ""
-    notes: str = ""
-    path: Path | None = None
-    #: For paths imported as point sequences (G-code/CSV/DXF polylines): the points, (N, 2|3) mm.
-    #: ``curve`` is then the degree-1 NURBS through them (chord-length knots).
-    polyline: np.ndarray | None = None
 
 
 def shapes_dir() -> Path:
@@ -204,12 +190,12 @@ SELECTOR_HELP = ("FILE#SELECTOR picks one path of a file with several: DXF FILE#
 
 
 def _load_gcode(path: Path, selector: str | None = None) -> Shape:
-    from fuzzyfeed.io.gcode import load_gcode
+    from fuzzyfeed.io.gcode_shapes import load_gcode
     return load_gcode(path, selector)
 
 
 def _load_gcode_all(path: Path) -> list[Shape]:
-    from fuzzyfeed.io.gcode import load_gcode_shapes
+    from fuzzyfeed.io.gcode_shapes import load_gcode_shapes
     return load_gcode_shapes(path)
 
 

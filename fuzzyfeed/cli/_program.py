@@ -1,0 +1,127 @@
+"""``fuzzyfeed advise PROGRAM.ngc``: advise every cut of a whole G-code program and write the
+same program back with the advised F words (``--gcode``), see :mod:`fuzzyfeed.program_feed`
+and :mod:`fuzzyfeed.io.gcode_rewrite`. ``PROGRAM.ngc#N`` advises cut N only (the other cuts keep
+their feeds)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from fuzzyfeed.errors import ExportError, MachineLimitsError
+
+
+def is_program(spec: str) -> bool:
+    """True when SHAPE names a G-code file (with or without #N)."""
+    from fuzzyfeed.io.program import GCODE_SUFFIXES
+    from fuzzyfeed.io.shapes import split_selector
+
+    base, _ = split_selector(spec)
+    return Path(str(base)).suffix.lower() in GCODE_SUFFIXES
+
+
+def _combined_advice(pa):
+    """One FuzzyAdvice over all advised cuts end to end (for the plot): arc length runs on."""
+    from fuzzyfeed.fuzzy.advisor import FuzzyAdvice
+    from fuzzyfeed.fuzzy.features import Features
+    from fuzzyfeed.profile import FeedProfile
+    from fuzzyfeed.sampling import PathSamples
+
+    parts = {k: [] for k in ("xyz", "s", "tangent", "k", "wmax", "dk", "raw", "pct", "feed")}
+    offset = 0.0
+    for cs, adv, ceil in zip(pa.cuts, pa.advice, pa.ceiling_mm_min):
+        sm = cs.samples
+        parts["xyz"].append(sm.xyz)
+        parts["s"].append(sm.s + offset)
+        offset += sm.length
+        parts["tangent"].append(sm.tangent)
+        parts["k"].append(sm.curvature)
+        parts["wmax"].append(adv.features.window_max_1_mm)
+        parts["dk"].append(adv.features.curvature_variation)
+        parts["raw"].append(adv.controller_pct)
+        parts["pct"].append(adv.feed_pct)
+        parts["feed"].append(adv.feed_pct / 100.0 * ceil / 60.0)
+    cat = {k: np.concatenate(v) for k, v in parts.items()}
+    nan = np.full_like(cat["xyz"], np.nan)
+    s = cat["s"]
+    samples = PathSamples(u=s / max(s[-1], 1e-300), xyz=cat["xyz"], s=s, tangent=cat["tangent"],
+                          curvature=cat["k"], d1=nan, d2=nan, dim=3)
+    f_max = float(np.max(np.concatenate(pa.ceiling_mm_min))) / 60.0
+    profile = FeedProfile(samples=samples, feed_mm_s=cat["feed"], method="fuzzy", max_feed_mm_s=f_max)
+    feats = Features(curvature_1_mm=cat["k"], window_max_1_mm=cat["wmax"], curvature_variation=cat["dk"])
+    return FuzzyAdvice(profile=profile, features=feats, controller_pct=cat["raw"],
+                       feed_pct=cat["pct"], table=pa.table)
+
+
+def run_program(args: argparse.Namespace) -> int:
+    from fuzzyfeed.cli._common import check_feed_mm_min
+    from fuzzyfeed.cuts import DEFAULT_STEP_MM
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.io.atomic import atomic_write
+    from fuzzyfeed.io.csv import write_columns
+    from fuzzyfeed.io.gcode_read import read_program
+    from fuzzyfeed.io.gcode_rewrite import rewrite_program
+    from fuzzyfeed.io.points import pick_by_index
+    from fuzzyfeed.io.shapes import resolve_shape_path, split_selector
+    from fuzzyfeed.program_feed import (DEFAULT_PROGRAM_FEED_STEP_MM_MIN, advice_columns,
+                                        advise_program, program_times)
+
+    cap = None if args.feed_mm_min is None else check_feed_mm_min(args.feed_mm_min)
+    if args.gcode_g52:
+        raise ExportError("--gcode-g52 writes a NURBS shape; a G-code program is written back "
+                          "with --gcode OUT.ngc")
+    if args.line_numbers or args.g52_whole:
+        flag = "--line-numbers" if args.line_numbers else "--g52-whole"
+        raise ExportError(f"{flag}: a program written back keeps its own lines and words; "
+                          "leave the flag out")
+    if args.rule_strengths:
+        raise ExportError("--rule-strengths is for shapes; a program's CSV has one row per sample "
+                          "of every cut")
+    if args.points != _default_points():
+        raise MachineLimitsError("--points is for shapes; a program is sampled every --step-mm "
+                                 "along its cuts")
+    outputs = [p for p in (args.output, args.gcode, args.plot) if p]
+    if len(set(outputs)) != len(outputs):
+        raise ExportError(f"output files must differ: {', '.join(outputs)}")
+    base, selector = split_selector(args.shape)
+    path = resolve_shape_path(base)
+    table = load_rule_table(args.rules)
+    program = read_program(path)
+    cuts = None
+    if selector is not None and program.n_cuts:
+        described = [f"{k + 1} (line {int(program.move_line[program.cut_moves(k)[0]]) + 1})"
+                     for k in range(program.n_cuts)]
+        cuts = [pick_by_index(program.path, selector, described)]
+    step = args.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
+    pa = advise_program(program, table, cuts=cuts, step_mm=args.step_mm or DEFAULT_STEP_MM,
+                        cap_mm_min=cap, feed_step_mm_min=step)
+    text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min) if args.gcode else None
+    write_columns(args.output, advice_columns(pa))
+    if args.plot:
+        from fuzzyfeed.plot import plot_fuzzy_advice
+
+        plot_fuzzy_advice(_combined_advice(pa), f"{path.name}: {len(pa.cuts)} cut(s) end to end", args.plot)
+    if text is not None:
+        with atomic_write(args.gcode, "w", newline="") as handle:
+            handle.write(text)
+    t_prog, t_adv = program_times(pa)
+    fr = np.concatenate([a.feed_pct for a in pa.advice])
+    n_split = int(np.sum(np.diff(pa.piece_move) == 0))
+    print(f"{path.name}: {len(program.lines)} lines, {program.kind.size} moves, {program.n_cuts} "
+          f"cut(s), {len(pa.cuts)} advised; rules {table.name!r}; F from the program"
+          + (f", capped at {cap:g} mm/min" if cap else ""))
+    print(f"advised fraction of the programmed F  min {fr.min():.2f} %  mean {fr.mean():.2f} %  "
+          f"max {fr.max():.2f} %   (F rounded down to {step:g} mm/min steps)")
+    print(f"feed moves of the advised cuts: {t_prog:.3f} s at the programmed F, {t_adv:.3f} s at "
+          f"the advised F (no acceleration); {n_split} split points")
+    print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
+    if text is not None:
+        print(f"wrote {args.gcode}")
+    return 0
+
+
+def _default_points() -> int:
+    from fuzzyfeed.sampling import DEFAULT_POINTS
+    return DEFAULT_POINTS

@@ -1,0 +1,106 @@
+"""The cuts of a G-code program as shapes (for plot, compare, schedule and ``advise FILE#N``).
+
+A cut (:mod:`fuzzyfeed.io.program`) becomes a polyline :class:`~fuzzyfeed.io.shape.Shape`: its
+line end points, its arcs (any plane, helical) flattened into points on the exact arc within
+:data:`ARC_TOLERANCE_MM`, and its G5.2 blocks sampled at :data:`NURBS_IMPORT_POINTS_PER_SPAN`
+points per knot span. A cut that is one G5.2 block becomes that NURBS exactly (degree L−1,
+LinuxCNC's knot vector on [0, 1]). Zero-length moves are skipped.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from fuzzyfeed.errors import PathFormatError
+from fuzzyfeed.io.gcode_read import read_program
+from fuzzyfeed.io.points import pick_by_index, polyline_shape
+from fuzzyfeed.io.program import ARC, NURBS, Program, arc_geometry, arc_points
+from fuzzyfeed.io.shape import Shape
+from fuzzyfeed.nurbs import Nurbs
+
+#: Largest distance between a G2/G3 arc and the chords it is read as (mm).
+ARC_TOLERANCE_MM = 1e-4
+#: Points per knot span when a G5.2 block is sampled into a polyline.
+NURBS_IMPORT_POINTS_PER_SPAN = 32
+
+
+def cut_points(program: Program, k: int, arc_tolerance_mm: float = ARC_TOLERANCE_MM) -> np.ndarray:
+    """The (N, 3) points of cut ``k``: move ends, arcs within ``arc_tolerance_mm`` of the exact
+    arc, G5.2 blocks sampled per knot span; consecutive repeats dropped."""
+    moves = program.cut_moves(k)
+    parts = [program.start[moves[0]][None, :]]
+    kinds = program.kind[moves]
+    if not np.isin(kinds, [ARC, NURBS]).any():
+        parts.append(program.end[moves])
+    else:
+        for m in moves:
+            if program.kind[m] == ARC:
+                g = arc_geometry(program, m)
+                r = max(g["r0"], g["r1"])
+                step = 2.0 * np.arccos(1.0 - arc_tolerance_mm / r) if arc_tolerance_mm < r else np.pi / 2
+                count = max(2, int(np.ceil(abs(g["sweep"]) / step)))
+                parts.append(arc_points(program, m, np.arange(1, count + 1) / count))
+            elif program.kind[m] == NURBS:
+                curve = program.nurbs[m]
+                spans = max(1, curve.span_breaks.size - 1)
+                u = np.linspace(*curve.domain, spans * NURBS_IMPORT_POINTS_PER_SPAN + 1)[1:]
+                c = curve(u)
+                block = np.column_stack([c[:, :2], np.full(u.size, program.start[m, 2])])
+                block[-1] = program.end[m]
+                parts.append(block)
+            else:
+                parts.append(program.end[m][None, :])
+    pts = np.concatenate(parts)
+    keep = np.concatenate([[True], np.any(pts[1:] != pts[:-1], axis=1)])
+    return pts[keep]
+
+
+def cut_shape(program: Program, k: int) -> Shape:
+    """Cut ``k`` (0-based) of a program as a :class:`Shape` (see the module docstring)."""
+    path = program.path
+    total = program.n_cuts
+    moves = program.cut_moves(k)
+    first = int(program.move_line[moves[0]]) + 1
+    name = path.stem if total == 1 else f"{path.stem}#{k + 1}"
+    source = f"{path} (G-code, cut {k + 1} of {total}, from line {first})"
+    planar = not program.has_z_words and bool(np.all(program.end[moves, 2] == 0))
+    dim = 2 if planar else 3
+    kinds = program.kind[moves]
+    if np.all(kinds == NURBS) and moves.size == 1:
+        curve = program.nurbs[int(moves[0])]
+        if dim == 2 and curve.dim == 3:
+            curve = Nurbs(curve.degree, curve.knots, curve.control_points[:, :2], curve.weights)
+        return Shape(name=name, curve=curve, source=source, path=path,
+                     notes="one G5.2 block, LinuxCNC's uniform clamped knot vector on [0, 1]")
+    pts = cut_points(program, k)
+    notes = "G1 polyline"
+    if (kinds == ARC).any():
+        notes += f" with G2/G3 arcs flattened within {ARC_TOLERANCE_MM} mm"
+    if (kinds == NURBS).any():
+        notes += f"; G5.2 block(s) sampled at {NURBS_IMPORT_POINTS_PER_SPAN} points per knot span"
+    return polyline_shape(pts[:, :dim], name=name, source=source, path=path, notes=notes)
+
+
+def _checked(path: str | os.PathLike) -> Program:
+    program = read_program(Path(path))
+    if program.n_cuts == 0:
+        raise PathFormatError(f"{program.path}: no feed move (G1, G2/G3 or G5.2) found; nothing to import")
+    return program
+
+
+def load_gcode_shapes(path: str | os.PathLike) -> list[Shape]:
+    """All cuts of a G-code file, one :class:`Shape` per cut."""
+    program = _checked(path)
+    return [cut_shape(program, k) for k in range(program.n_cuts)]
+
+
+def load_gcode(path: str | os.PathLike, selector: str | None = None) -> Shape:
+    """One cut of a G-code file: the only one, or ``selector`` = ``N`` / ``path=N`` (1-based)."""
+    program = _checked(path)
+    described = [f"{k + 1} (line {int(program.move_line[program.cut_moves(k)[0]]) + 1})"
+                 for k in range(program.n_cuts)]
+    index = pick_by_index(program.path, selector, described)
+    return cut_shape(program, index)
