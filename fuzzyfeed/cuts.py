@@ -122,6 +122,7 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
         est = _ffill_nan(est)
         at = np.isnan(kappa[key_idx])
         kappa[key_idx[at]] = est[at]
+    _line_runs_curvature(kappa, pts, moves, kinds, seg_move, exact)
     kappa = np.where(np.isnan(kappa), 0.0, kappa)
     ds = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(ds)])
@@ -138,6 +139,49 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
     sample_move = np.concatenate([[seg_move[0]], seg_move])
     return CutSamples(cut=k, samples=samples, seg_move=seg_move, seg_f0=f0, seg_f1=f1,
                       sample_move=sample_move)
+
+
+def _line_runs_curvature(kappa: np.ndarray, pts: np.ndarray, moves: np.ndarray, kinds: np.ndarray,
+                         seg_move: np.ndarray, exact: np.ndarray) -> None:
+    """Curvature along runs of consecutive G1 moves, in place: the path the vertices describe within
+    their own rounding (:func:`fuzzyfeed.polyline.polyline_curvature`: straight runs κ = 0, a circle
+    written as rounded G1 chords its one κ = 1/R, a corner the LinuxCNC G64 P blend), not the
+    three-point estimate of rounded coordinates. The run's vertices get that κ (the ends too, unless
+    an arc or a G5.2 block meets them there); a sample inside a line move gets the smaller κ of the
+    move's two ends that are not corners (0 between two corners) — a chord of a circle run has the
+    circle's κ, a side of a polygon has 0."""
+    from fuzzyfeed.polyline import polyline_curvature
+
+    is_line = kinds == LINE
+    if is_line.sum() < 2:
+        return
+    vertex_sample = np.flatnonzero(np.concatenate([[True], np.isnan(exact)]))  # cut start + move ends
+    # moves[j] ends at sample vertex_sample[j + 1] and starts at vertex_sample[j]
+    j = 0
+    while j < moves.size:
+        if not is_line[j]:
+            j += 1
+            continue
+        k = j
+        while k + 1 < moves.size and is_line[k + 1]:
+            k += 1
+        if k > j:                                   # moves j..k: at least two lines in a row
+            at = vertex_sample[j:k + 2]
+            fit = polyline_curvature(pts[at])
+            est = fit.curvature
+            # inside a move: a corner end is the blend, not the move's own curvature
+            own = np.where(fit.corner, np.inf, est)
+            first = 0 if j == 0 else 1              # an arc/NURBS end keeps the junction estimate
+            last = est.size if k == moves.size - 1 else est.size - 1
+            kappa[at[first:last]] = est[first:last]
+            inside = np.isin(seg_move, moves[j:k + 1])
+            idx = np.flatnonzero(inside)[:-1] + 1   # samples strictly inside a move (not its end)
+            idx = idx[~np.isnan(exact[idx - 1])]
+            if idx.size:
+                move_of = np.searchsorted(moves[j:k + 1], seg_move[idx - 1])
+                inner = np.minimum(own[move_of], own[move_of + 1])
+                kappa[idx] = np.where(np.isfinite(inner), inner, 0.0)    # between two corners: 0
+        j = k + 1
 
 
 def _ffill_nan(values: np.ndarray) -> np.ndarray:

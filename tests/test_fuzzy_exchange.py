@@ -24,8 +24,8 @@ from fuzzyfeed.cli import main
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.diff import table_differences
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.exchange import (FLL_RESOLUTION, export_table, numbered_rules, parse_text,
-                                      spec_to_table)
+from fuzzyfeed.fuzzy.exchange import FLL_RESOLUTION, numbered_rules, spec_to_table
+from fuzzyfeed.fuzzy.formats import export_table, parse_text
 from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable, load_rule_table, table_to_toml
 
 FORMATS = ("fcl", "fcl-fuzzylite", "fll", "fis")

@@ -211,8 +211,11 @@ def test_cli_tolerances_reach_the_curvature(tmp_path, capsys):
     write_ngc(tmp_path / "sq.ngc", np.array([[0, 0], [10, 0], [10, 10], [0, 10]], dtype=float))
     out = tmp_path / "sq.csv"
     assert main(["advise", str(tmp_path / "sq.ngc"), "-o", str(out), "--path-tolerance", "0.05"]) == 0
-    kappa = read_csv_column(out, "curvature_1_mm")
-    np.testing.assert_allclose(kappa[1:3], 1 / blend_radius(np.pi / 2, 0.05), rtol=1e-12)
+    kappa, x, y = (read_csv_column(out, c) for c in ("curvature_1_mm", "x_mm", "y_mm"))
+    corners = ((x == 10) & (y == 0)) | ((x == 10) & (y == 10))   # the program's rows at its corners
+    assert corners.sum() == 2
+    np.testing.assert_allclose(kappa[corners], 1 / blend_radius(np.pi / 2, 0.05), rtol=1e-12)
+    assert (kappa[~corners] == 0).all()                          # the sides are straight
     # a circle digitised with ±2 µm noise, written with 6 decimals: only the tolerance the user
     # gives lets the curvature see the circle
     rng = np.random.default_rng(7)
@@ -226,3 +229,19 @@ def test_cli_tolerances_reach_the_curvature(tmp_path, capsys):
     np.testing.assert_allclose(read_csv_column(out, "curvature_1_mm"), 1 / 20, rtol=1e-3)
     assert np.ptp(read_csv_column(out, "feed_pct")) < 1e-6
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("radius", [5.0, 20.0, 50.0])
+def test_rounded_circle_program_is_advised_like_the_exact_circle_through_the_cli(radius, tmp_path, capsys):
+    """The whole-program path (`advise PROGRAM.ngc`: each cut sampled on its moves) sees the same
+    circle as the shape path: every row within ±3 % of the exact NURBS circle's feed."""
+    from fuzzyfeed.cli import main
+
+    exact = advise_details(sample_uniform_u(circle_nurbs(radius)), None, F_MM_S).profile.feed_pct[0]
+    write_ngc(tmp_path / "c.ngc", rounded_circle(radius, 0.001))
+    out = tmp_path / "c.csv"
+    assert main(["advise", str(tmp_path / "c.ngc"), "-o", str(out)]) == 0
+    capsys.readouterr()
+    got = read_csv_column(out, "feed_pct")
+    assert np.all(np.abs(got[3:-3] / exact - 1) <= 0.03), (got.min(), got.max(), exact)
+    np.testing.assert_allclose(read_csv_column(out, "curvature_1_mm")[3:-3], 1 / radius, rtol=1e-3)

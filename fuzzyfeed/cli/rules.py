@@ -121,7 +121,7 @@ def run_show(args: argparse.Namespace) -> int:
         return 0
     table = load_rule_table(args.table)
     if args.format in ("fcl", "fcl-fuzzylite", "fll", "fis"):
-        from fuzzyfeed.fuzzy.exchange import export_table
+        from fuzzyfeed.fuzzy.formats import export_table
 
         print(export_table(table, args.format), end="")
     elif args.format in ("csv", "tsv"):
@@ -167,7 +167,8 @@ def run_surface(args: argparse.Namespace) -> int:
 
 def _load_any(spec: str):
     """A table from a shipped name, a .toml, or any file ``rules import`` reads."""
-    from fuzzyfeed.fuzzy.exchange import IMPORT_SUFFIXES, import_table
+    from fuzzyfeed.fuzzy.exchange import IMPORT_SUFFIXES
+    from fuzzyfeed.fuzzy.formats import import_table
     from fuzzyfeed.fuzzy.rules import load_rule_table
 
     if Path(spec).suffix.lower() in IMPORT_SUFFIXES and Path(spec).suffix.lower() != ".toml":
@@ -180,7 +181,7 @@ def _load_any(spec: str):
 def run_import(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from fuzzyfeed.fuzzy.exchange import import_table
+    from fuzzyfeed.fuzzy.formats import import_table
     from fuzzyfeed.fuzzy.rules import load_rule_table, table_to_toml
     from fuzzyfeed.io.atomic import atomic_write
 

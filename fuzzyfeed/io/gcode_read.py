@@ -221,6 +221,9 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
         at = body.find(special)
         if at >= 0:
             _malformed(path, body, at, lines)
+    if n == 0 or not body.strip():
+        raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
+                              "nothing to advise")
     tl, tc, tv = _tokenise(body, path, lines)
     return _interpret(path, lines, newline, end_line, n, tl, tc, tv)
 
@@ -312,6 +315,15 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         if m_val[k] != m_int[k] or int(m_int[k]) not in _M_ACCEPTED:
             what = " (subroutine calls are not supported)" if m_int[k] in (98, 99) else ""
             fail(m_line[k], f"M{m_val[k]:g}: unsupported M code{what}")
+    e_col = cols["E"]
+    if e_col is not None:        # LinuxCNC's rule: an E word needs a code that uses it
+        e_users = np.zeros(n, bool)
+        e_users[m_line[np.isin(m_int, [66, 67, 68])]] = True
+        stray = ~np.isnan(e_col) & ~e_users
+        if stray.any():
+            i = int(np.argmax(stray))
+            fail(i, f"E word with no M66, M67 or M68 to use it in {lines[i].strip()!r} (LinuxCNC "
+                    "refuses it; a number written as 1e6 reads as 1 E6)")
     m_stop = np.zeros(n, bool)
     m_stop[m_line[np.isin(m_int, list(_M_STOP))]] = True
     m_break = np.zeros(n, bool)
