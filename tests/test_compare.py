@@ -51,17 +51,21 @@ def test_comparison_methods_and_invariants(infinity_comparison):
     fuzzy = advise(c.samples, None, max_feed_mm_s=c.limits.feed_mm_s)
     np.testing.assert_array_equal(c.profiles["fuzzy"].feed_mm_s, fuzzy.feed_mm_s)
     safe, slw = c.profiles["fuzzy-safe"].feed_mm_s, c.profiles["slw"].feed_mm_s
-    assert np.all(safe <= fuzzy.feed_mm_s) and np.all(safe <= slw)
+    # the safe schedule is the jerk-limited one under min(advice, machine): never above the advice
+    # (1 % for reading the servo-period schedule at the samples)
+    assert np.all(safe <= fuzzy.feed_mm_s * 1.01 + 1e-9)
+    assert c.simulations["fuzzy-safe"].metrics.cycle_time_s >= c.simulations["slw"].metrics.cycle_time_s
     times = {m: s.metrics.cycle_time_s for m, s in c.simulations.items()}
     # the SLW schedule obeys every limit and is within 10 % of the bound on infinity
     slw_metrics = c.simulations["slw"].metrics
     assert all(count == 0 for count, _ in slw_metrics.violations.values())
     assert 1.0 <= slw_metrics.ratio_to_bound <= 1.10
-    assert c.simulations["bound"].metrics.ratio_to_bound == pytest.approx(1.0)
+    # the bound's feed read at the samples and simulated: the bound's time within 0.5 %
+    assert c.simulations["bound"].metrics.ratio_to_bound == pytest.approx(1.0, rel=5e-3)
     assert times["fuzzy-safe"] >= times["fuzzy"] - 1e-9  # clamping never speeds the advice up
-    # the safe advice respects every limit but the jerk (1 % for the measurement from positions)
+    # the safe advice respects every limit, jerk included: no violating tick
     safe_violations = c.simulations["fuzzy-safe"].metrics.violations
-    assert all(worst <= 1.01 for name, (_, worst) in safe_violations.items() if name != "jerk")
+    assert all(count == 0 for count, _ in safe_violations.values()), safe_violations
     assert safe[0] == 0.0 and safe[-1] == 0.0  # it starts and ends at rest
     # the constant feed breaks the axis acceleration limit in the tight loops of infinity
     const = c.simulations["constant"].metrics

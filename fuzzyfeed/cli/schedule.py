@@ -9,7 +9,7 @@ import numpy as np
 
 from fuzzyfeed.cli._common import add_shape_argument
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
+from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args
 
 
 def register(sub) -> None:
@@ -25,10 +25,7 @@ def register(sub) -> None:
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write (atomically)")
     add_limit_arguments(p)
-    p.add_argument("--approach", type=int, choices=(1, 2), default=1,
-                   help="short blocks (seed 000 Table 1, types 2-3): 1 cruises at the higher end feed "
-                        "(the paper's default, smoother), 2 rises to a peak between the transitions "
-                        "(faster on sharp shapes) (default: %(default)s)")
+    add_approach_argument(p)
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed, acceleration and jerk against time (and the feed against "
                         "arc length with the limit and the bound)")

@@ -26,8 +26,9 @@ import numpy as np
 
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.slw.preprocess import Block, Reference, evaluate_reference
-from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed,
+from fuzzyfeed.slw.preprocess import Block, FeedCap, Reference, evaluate_reference
+from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed, min_end_speed,
+                                   transition_distance,
                                    segment_state, stop_distance)
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
@@ -39,6 +40,12 @@ CRAWL = 1e-3
 SUB_TICK = 1e-3
 #: Repairs tried per window before giving up on a block (then reported in the statistics).
 MAX_REPAIRS = 400
+#: A junction added where the profile crosses the feed limit is capped this far below the limit:
+#: the next profile has room to rise, so a slowly rising limit is followed in stairs of a few per
+#: cent (a bounded number of splits) instead of a staircase of tiny steps.
+SPLIT_ROOM = 0.97
+#: Blocks at the front of the window checked at the feeds of a continuing path before a release.
+FRONT_BLOCKS = 3
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
 WINDOW_STOPS = 1.5
 
@@ -107,10 +114,12 @@ class LookaheadStats:
 class SlidingWindow:
     """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
 
-    def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 1):
+    def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 2,
+                 cap: FeedCap | None = None):
         if approach not in (1, 2):
             raise ValueError(f"approach = {approach!r}; seed 000 Table 1 has approaches 1 and 2")
         self.approach = approach
+        self.cap = cap
         self.curve = curve
         self.limits = limits
         self.jerk = limits.jerk_mm_s3
@@ -121,6 +130,7 @@ class SlidingWindow:
         self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
         self.blocks: list[_WBlock] = []
         self.stats = LookaheadStats()
+        self._front_checks = 0
 
     # ------------------------------------------------------------------ window content
     def _push(self, block: Block) -> None:
@@ -155,7 +165,12 @@ class SlidingWindow:
         v = self._backward(end_feed)
         v[0] = self.juncs[0].v  # committed
         for i, b in enumerate(self.blocks):
-            v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc, self.jerk) > b.length:
+                # a committed junction may be faster than a junction found later allows: brake as
+                # hard as the block lets (the check then repairs the block before it is released)
+                v[i + 1] = max(v[i + 1], min_end_speed(v[i], b.length, b.acc, self.jerk))
+            else:
+                v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
         for j, vj in zip(self.juncs, v):
             j.v = vj
 
@@ -218,7 +233,7 @@ class SlidingWindow:
                 b_idx += 1
             # a junction where the profile first crosses the limit, capped at the lowest limit of
             # the crossing: a ramp is then followed in few, large steps
-            cap = float(vlim[a_idx:b_idx + 1].min())
+            cap = SPLIT_ROOM * float(vlim[a_idx:b_idx + 1].min())
             self._split(i, s[a_idx], cap=cap)
             return False
         k = int(np.argmax(r))
@@ -227,17 +242,10 @@ class SlidingWindow:
         tan_ratio = abs(a[k] * tan[k, j]) / self.axis_acc[j]
         seg = segs[int(seg_id[k])]
         if cen_ratio > 0.9 or tan_ratio < 0.05:
-            # the centripetal part nearly uses the axis up: slow the nearer junction of the
-            # transition (or add one here when it is mid-block)
-            near_start = seg.v0 > seg.v1  # decelerating: towards the block's end junction
-            target = i + 1 if near_start else i
-            if target == 0 or target == len(self.juncs) - 1 and self.juncs[target].cap == 0.0:
-                self._split(i, s[k], factor=0.98)
-                return False
-            jn = self.juncs[target]
-            jn.cap = min(jn.cap, jn.v) * 0.99
+            # the centripetal part nearly uses the axis up: a junction here (zero tangential
+            # acceleration), a little slower than the profile was
+            self._split(i, s[k], cap=SPLIT_ROOM * float(v[k]))
             self.stats.caps_lowered += 1
-            self._invalidate()
             return False
         peak = max(abs(seg.v1 - seg.v0) * math.pi / (2 * seg.duration_s), 1e-9) if seg.duration_s else b.acc
         need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
@@ -259,7 +267,7 @@ class SlidingWindow:
         s_at = float(np.clip(s_at, ref.s[0] + 1e-6 * span, ref.s[-1] - 1e-6 * span))
         k = int(np.searchsorted(ref.s, s_at))
         if self.curve is not None and ref.s[k] != s_at and abs(ref.s[k] - s_at) > 1e-3 * span:
-            new = evaluate_reference(self.curve, self.limits, np.array([s_at]))
+            new = evaluate_reference(self.curve, self.limits, np.array([s_at]), cap=self.cap)
             ref = Reference.concat([ref.slice(0, k - 1), new, ref.slice(k, len(ref) - 1)])
         elif ref.s[k] != s_at:  # split at the nearest interior reference point
             if len(ref) <= 2:
@@ -269,6 +277,8 @@ class SlidingWindow:
                 k -= 1
         left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
         cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
+        if i == 0:  # the first junction is committed: the new one must be reachable from it
+            cap = max(cap, min_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, b.acc, self.jerk))
         crawl = CRAWL * self.limits.feed_mm_s
         bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, max(float(left.vlim.max()), crawl)))
         br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, max(float(right.vlim.max()), crawl)))
@@ -325,7 +335,25 @@ class SlidingWindow:
                     if pull():
                         continue
                     self._settle(0.0)
+                if not self._front_holds():
+                    continue
             yield self._release()
+
+    def _front_holds(self) -> bool:
+        """Check the first blocks with the feeds they get when the path goes on (no stop at the
+        window's end): a limit crossing that only shows at those feeds is repaired now, while the
+        junction it needs can still be reached, not after the first block is released."""
+        if self._front_checks >= MAX_REPAIRS:
+            return True
+        self._plan(math.inf)
+        for i in range(min(FRONT_BLOCKS, len(self.blocks))):
+            if not self._check(i):
+                self._front_checks += 1
+                self._settle(0.0)
+                return False
+        self._front_checks = 0
+        self._plan(0.0)
+        return True
 
     def _release(self) -> ScheduledBlock:
         b = self.blocks[0]

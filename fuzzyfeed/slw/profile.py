@@ -58,11 +58,43 @@ def _bisect(holds: Callable[[float], bool], good: float, bad: float) -> float:
     return good
 
 
+def max_rise(v: float, length: float, acc: float, jerk: float) -> float:
+    """Largest Δv ≥ 0 with transition_distance(v, v + Δv) ≤ length, in closed form.
+
+    D = max(D_A, D_J) with D_A = (2v + Δv)·πΔv/(4A) (a quadratic in Δv) and
+    D_J = (2v + Δv)·(π/2)·√(Δv/(2J)), a depressed cubic w³ + 2v·w − c = 0 in w = √Δv with
+    c = 2L√(2J)/π (one real root, hyperbolic form); Δv is the smaller of the two roots.
+    """
+    if length <= 0.0:
+        return 0.0
+    q = 4.0 * acc * length / math.pi
+    d_a = q / (v + math.sqrt(v * v + q))  # −v + √(v² + q) without cancellation
+    c = 2.0 * length * math.sqrt(2.0 * jerk) / math.pi
+    p = 2.0 * v
+    if p * p * p <= 1e-12 * c * c:
+        w = c ** (1.0 / 3.0)
+    else:
+        r = math.sqrt(p / 3.0)
+        w = 2.0 * r * math.sinh(math.asinh(1.5 * c / (p * r)) / 3.0)
+    for _ in range(2):  # Newton polish of the cubic
+        f = w * w * w + p * w - c
+        w -= f / (3.0 * w * w + p) if w > 0.0 else 0.0
+    return max(min(d_a, w * w), 0.0)
+
+
 def _bisect_speed(fixed: float, length: float, cap: float, acc: float, jerk: float) -> float:
-    """Largest v in [fixed, cap] with transition_distance(fixed, v) ≤ length (monotone in v)."""
-    if cap <= fixed or transition_distance(fixed, cap, acc, jerk) <= length:
+    """Largest v in [fixed, cap] with transition_distance(fixed, v) ≤ length (monotone in v):
+    the closed form of :func:`max_rise`, rounded down until the distance holds."""
+    if cap <= fixed:
         return cap
-    return _bisect(lambda v: transition_distance(fixed, v, acc, jerk) <= length, fixed, cap)
+    rise = max_rise(fixed, length, acc, jerk)
+    if fixed + rise >= cap:
+        return cap
+    for shrink in (0.0, 1e-9, 1e-6, 1e-3):  # v = fixed + Δv rounds; keep the distance within length
+        v = fixed + rise * (1.0 - shrink)
+        if transition_distance(fixed, v, acc, jerk) <= length:
+            return v
+    return _bisect(lambda x: transition_distance(fixed, x, acc, jerk) <= length, fixed, v)
 
 
 def max_end_speed(v_s: float, length: float, cap: float, acc: float, jerk: float) -> float:

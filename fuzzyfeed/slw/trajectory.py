@@ -21,7 +21,7 @@ from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.simulate import TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
-from fuzzyfeed.slw.preprocess import iter_blocks
+from fuzzyfeed.slw.preprocess import FeedCap, iter_blocks
 from fuzzyfeed.slw.profile import segment_state
 
 
@@ -86,6 +86,18 @@ class Trajectory:
         return FeedProfile(samples, feed, "slw", self.limits.feed_mm_s)
 
 
+def _feed_cap(feed_cap, total: float) -> FeedCap | None:
+    if feed_cap is None or isinstance(feed_cap, FeedCap):
+        return feed_cap
+    if isinstance(feed_cap, FeedProfile):
+        return FeedCap(np.asarray(feed_cap.samples.s), feed_cap.feed_mm_s, total)
+    try:
+        s, v = feed_cap
+    except (TypeError, ValueError):
+        raise InputError(f"feed_cap: {type(feed_cap).__name__}; give a FeedProfile or (s_mm, feed_mm_s)") from None
+    return FeedCap(s, v, total)
+
+
 def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
     """s, v, a, j at t_k = k·Ts for the concatenated block segments (seed 000, eq. (17)-(19))."""
     segs = [seg for b in blocks for seg in b.segments if seg.duration_s > 0.0]
@@ -120,11 +132,18 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
 
 
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
-             progress: Callable[[float], None] | None = None, approach: int = 1) -> Trajectory:
+             progress: Callable[[float], None] | None = None, approach: int = 2,
+             feed_cap=None) -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
 
-    ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 1 (default, the
-    paper's choice) cruises at the higher end feed; 2 rises to a peak between the transitions.
+    ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 2 (default)
+    rises to a peak between the two transitions (Table 1, figure (d)); 1, the paper's choice,
+    cruises at the higher end feed (smoother, slower on paths of short blocks).
+
+    ``feed_cap`` (optional) is one more pointwise feed limit in mm/s: a :class:`FeedProfile`
+    (its samples' arc lengths and feeds), a pair ``(s_mm, feed_mm_s)`` or a :class:`FeedCap`;
+    linear in s between its points. The result is the jerk-limited schedule under
+    min(cap, machine): every machine limit still holds.
 
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block.
     """
@@ -136,10 +155,11 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         raise InputError(f"path length {total!r} mm; a path to schedule must have a positive length")
     if approach not in (1, 2):
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
-    window = SlidingWindow(limits, curve, approach)
+    cap = _feed_cap(feed_cap, total)
+    window = SlidingWindow(limits, curve, approach, cap)
     blocks = []
     try:
-        for block in window.run(iter_blocks(curve, limits)):
+        for block in window.run(iter_blocks(curve, limits, cap=cap)):
             blocks.append(block)
             if progress is not None:
                 progress(block.s1)
