@@ -154,7 +154,8 @@ def feed_limit_components(samples: PathSamples, limits: MachineLimits) -> np.nda
     delta = limits.chord_tol_mm
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.where(kappa > 0, 1.0 / kappa, np.inf)
-        chord = np.where(np.isinf(rho), np.inf,
+        # a tolerance of at least the radius admits every chord of the circle (2ρδ − δ² ≥ ρ²)
+        chord = np.where(np.isinf(rho) | (delta >= rho), np.inf,
                          2.0 / limits.ts_s * np.sqrt(np.maximum(2.0 * rho * delta - delta * delta, 0.0)))
     chord = np.where(np.isnan(kappa), 0.0, chord)
     kn = np.abs(curvature_vectors(samples))

@@ -74,13 +74,15 @@ def square_passes(passes: int = 10, size: float = 20.0, stepover: float = 1.0) -
     return polyline(pts)
 
 
-def cam_polyline(segments: int, seed: int = 0, dim: int = 3) -> Nurbs:
-    """A CAM-style chain of ``segments`` short G1 moves approximating a smooth free-form curve
-    (a spiral-like curve sampled at random chord lengths, coordinates rounded to 1 µm as a post
-    processor writes them)."""
+def cam_polyline(segments: int, seed: int = 0, dim: int = 3, seg_mm: float | None = None) -> Nurbs:
+    """A CAM-style chain of ``segments`` short G1 moves approximating a smooth free-form curve: a
+    wavy spiral sampled at random chord lengths around ``seg_mm`` (default: 0.5 mm for 10³
+    segments, 0.05 mm for 10⁴, 0.01 mm for 10⁵ — a finishing pass), coordinates rounded to 1 µm
+    as a post-processor writes them."""
     rng = np.random.default_rng(seed)
-    t = np.cumsum(rng.uniform(0.5, 1.5, segments + 1))
-    t = t / t[-1] * (6.0 + segments / 400.0) * np.pi
+    seg = float(np.clip(500.0 / segments, 0.01, 0.5)) if seg_mm is None else seg_mm
+    steps = rng.uniform(0.5, 1.5, segments)
+    t = np.concatenate([[0.0], np.cumsum(steps)]) * seg / 20.0  # radius about 20 mm: arc ≈ 20·dt
     r = 20.0 + 5.0 * np.sin(0.7 * t)
     pts = np.column_stack([r * np.cos(t), r * np.sin(t), 2.0 * np.sin(0.3 * t)])[:, :dim]
     pts = np.round(pts, 3)

@@ -53,7 +53,7 @@ def _bisect(holds: Callable[[float], bool], good: float, bad: float) -> float:
             good = mid
         else:
             bad = mid
-        if abs(bad - good) <= 1e-13 * max(good, bad, 1.0):
+        if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
             break
     return good
 
@@ -108,6 +108,19 @@ def min_end_speed(v_s: float, length: float, acc: float, jerk: float) -> float:
         return 0.0
     # D(v_s, v) decreases towards v = v_s, where it is 0
     return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, v_s, 0.0)
+
+
+def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: float) -> float:
+    """Lowest end speed ≥ ``floor`` (and ≤ v_s) reachable from v_s by one transition within ``length``.
+
+    The distance of a deceleration is not monotone in its end speed (a jerk-limited stop can be
+    shorter than braking to a moderate feed: T grows with √Δv while the mean feed falls), so the
+    feasible end speeds below v_s are [0, a] ∪ [b, v_s]; this returns ``floor`` if it is feasible,
+    else b, the lowest feasible speed above it (bisection on the falling branch).
+    """
+    if floor >= v_s or transition_distance(v_s, floor, acc, jerk) <= length:
+        return min(floor, v_s)
+    return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, v_s, floor)
 
 
 def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, jerk: float) -> float:
