@@ -131,7 +131,8 @@ def _grid(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
     n = max(int(np.ceil(total / h)), 2)
     knots = np.atleast_1d(curve.arc_length(curve.span_breaks))
     corner_s, corner_cap = corners(curve, limits)
-    s = np.unique(np.clip(np.concatenate([np.linspace(0.0, total, n + 1), knots, corner_s]), 0.0, total))
+    left = knots[1:-1] - 1e-9 * max(total, 1.0)  # the left-hand limit at a curvature jump
+    s = np.unique(np.clip(np.concatenate([np.linspace(0.0, total, n + 1), knots, left, corner_s]), 0.0, total))
     x, t, k = _evaluate(curve, limits, s)
     min_ds = MIN_STEP_REL * total
     for _ in range(REFINE_LEVELS):

@@ -239,7 +239,11 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     breaks = curve.span_breaks
     u_span = (breaks[:-1, None] + np.diff(breaks)[:, None]
               * np.linspace(0.0, 1.0, SPAN_POINTS + 1)[None, :-1]).ravel()
-    grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span))]))
+    # and just before every interior knot: the curvature may jump there (a C1 join), and the
+    # left-hand limit is where the feed limit is lowest
+    s_knots = np.atleast_1d(curve.arc_length(breaks[1:-1]))
+    left = s_knots - 1e-9 * max(total, 1.0)
+    grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span)), left]))
     grid = grid[(grid >= 0.0) & (grid <= total)]
     grid[0], grid[-1] = 0.0, total
     command = limits.feed_mm_s

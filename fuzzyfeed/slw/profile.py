@@ -111,15 +111,18 @@ def min_end_speed(v_s: float, length: float, acc: float, jerk: float) -> float:
 
 
 def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: float) -> float:
-    """Lowest end speed ≥ ``floor`` (and ≤ v_s) reachable from v_s by one transition within ``length``.
+    """An end speed near ``floor`` (≤ v_s) reachable from v_s by one transition within ``length``.
 
     The distance of a deceleration is not monotone in its end speed (a jerk-limited stop can be
     shorter than braking to a moderate feed: T grows with √Δv while the mean feed falls), so the
-    feasible end speeds below v_s are [0, a] ∪ [b, v_s]; this returns ``floor`` if it is feasible,
-    else b, the lowest feasible speed above it (bisection on the falling branch).
+    feasible end speeds below v_s are [0, a] ∪ [b, v_s]. Returns ``floor`` if it is feasible, else
+    the largest feasible speed below it (a, on the rising branch) when a stop fits, else b, the
+    lowest feasible speed above it (bisection on the falling branch).
     """
     if floor >= v_s or transition_distance(v_s, floor, acc, jerk) <= length:
         return min(floor, v_s)
+    if transition_distance(v_s, 0.0, acc, jerk) <= length:
+        return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, 0.0, floor)
     return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, v_s, floor)
 
 
