@@ -404,7 +404,12 @@ class SlidingWindow:
         if self._front_checks >= MAX_REPAIRS:
             return True
         self._plan(math.inf)
-        for i in range(min(n_final + FRONT_BLOCKS, len(self.blocks))):
+        # every block a full stop beyond the released ones: a repair there (a junction with zero
+        # acceleration) could otherwise need a lower feed than the released one can reach
+        reach = self.juncs[n_final].s + 1.05 * self.stop
+        for i in range(len(self.blocks)):
+            if i >= n_final + FRONT_BLOCKS and self.blocks[i].s0 > reach:
+                break
             if not self._check(i):
                 self._front_checks += 1
                 return False
