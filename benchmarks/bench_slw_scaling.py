@@ -4,7 +4,8 @@ Random smooth NURBS (degree 3, 2-D, legs of about 2 mm, turning up to ±0.6 rad)
 10⁴ knot spans on the default machine. Each measurement runs in a fresh process, so the peak
 resident memory (ru_maxrss) is that run's; the anchor is the same process importing fuzzyfeed and
 numba and scheduling a 10-span curve (the interpreter's own footprint), subtracted from every
-figure. The growth exponent is the slope of log CPU over log spans (1.0 = linear).
+figure. Each child schedules a small curve first (numba's cache, first calls), then times the
+run. The growth exponent is the slope of log CPU over log spans (1.0 = linear).
 
 Run: python benchmarks/bench_slw_scaling.py
 Last line: growth_exponent=E peak_mb_per_1e6_ticks=M compare_over_schedule=R
@@ -32,6 +33,7 @@ pts = np.cumsum(np.column_stack([np.cos(ang), np.sin(ang)]) * rng.uniform(1.5, 2
 knots = np.concatenate([[0.0] * 4, np.linspace(0, 1, spans + 1)[1:-1], [1.0] * 4])
 curve = Nurbs(3, knots, pts)
 lim = MachineLimits()
+schedule(Nurbs(3, [0, 0, 0, 0, 1, 1, 1, 1], [[0, 0], [5, 5], [10, -5], [15, 0]]), lim)  # warm-up
 t0 = time.process_time()
 if what == "schedule":
     traj = schedule(curve, lim)

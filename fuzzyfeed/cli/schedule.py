@@ -37,7 +37,7 @@ def _progress_bar(total_mm: float):
     """A tqdm bar over arc length on a terminal, else a no-op."""
     if not sys.stderr.isatty():
         return None, lambda s: None
-    from tqdm import tqdm
+    from tqdm.auto import tqdm
 
     bar = tqdm(total=round(total_mm, 3), unit="mm", desc="scheduling", leave=False,
                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm")

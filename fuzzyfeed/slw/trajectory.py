@@ -145,7 +145,9 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     linear in s between its points. The result is the jerk-limited schedule under
     min(cap, machine): every machine limit still holds.
 
-    ``progress``, if given, is called with the arc length scheduled so far (mm) after each block.
+    ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
+    ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal or a
+    notebook widget).
     """
     limits = MachineLimits.default() if limits is None else limits
     if not isinstance(limits, MachineLimits):
@@ -156,6 +158,16 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if approach not in (1, 2):
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
     cap = _feed_cap(feed_cap, total)
+    bar = None
+    if progress is True:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=round(total, 3), unit="mm", desc="scheduling", leave=False)
+        done = [0.0]
+
+        def progress(s_mm: float) -> None:
+            bar.update(round(s_mm - done[0], 3))
+            done[0] = round(s_mm, 3)
     window = SlidingWindow(limits, curve, approach, cap)
     blocks = []
     try:
@@ -164,12 +176,16 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
             if progress is not None:
                 progress(block.s1)
     except (ValueError, RuntimeError) as exc:
+        if bar is not None:
+            bar.close()
         if isinstance(exc, InputError):
             raise
         where = blocks[-1].s1 if blocks else 0.0
         raise InputError(f"SLW scheduling failed after s = {where:.6g} mm of {total:.6g} mm: {exc}; the "
                          "path has a (near-)stationary point or a corner the look-ahead cannot "
                          "resolve under these limits") from None
+    if bar is not None:
+        bar.close()
     t, s, v, a, j = _sample_profile(blocks, limits.ts_s, total)
     if t.size < 2:
         raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")
