@@ -9,7 +9,7 @@ import pytest
 from fuzzyfeed.cli import main
 from fuzzyfeed.compare import METHODS, compare
 from fuzzyfeed.fuzzy.advisor import advise
-from fuzzyfeed.io.shapes import load_shape, sample_shape
+from fuzzyfeed.io.shapes import load_shape, sample_shape, shape_names
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.simulate import simulate
 from fuzzyfeed.slw import schedule
@@ -142,3 +142,13 @@ def test_cli_compare_on_an_imported_polyline(tmp_path, capsys):
     assert df["method"].tolist() == list(METHODS)
     assert (df.loc[df["method"] == "slw", [c for c in df.columns if c.startswith("violations_")]] == 0).all(axis=None)
     assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", shape_names())
+def test_fuzzy_safe_breaks_no_limit_on_every_shipped_shape(name):
+    # the jerk-limited schedule under min(advice, machine): 0 violating ticks, jerk included
+    shape = load_shape(name)
+    c = compare(sample_shape(shape), MachineLimits(), name=name)
+    for method in ("fuzzy-safe", "slw"):
+        violations = c.simulations[method].metrics.violations
+        assert all(count == 0 for count, _ in violations.values()), (method, violations)
