@@ -3,13 +3,14 @@
 Methods compared (each executed by :mod:`fuzzyfeed.simulate` and measured the same way):
 
 ``fuzzy``       the advisor's feed (seed 002) with the user's maximum feed F;
-``fuzzy-safe``  the advice clamped, point by point, by the SLW schedule's feed (the envelope the
-                machine can really follow), then made acceleration-feasible by the bound's
-                forward/backward pass under that clamp: it respects every limit but the jerk
-                (only the SLW schedule is jerk-limited);
+``fuzzy-safe``  the jerk-limited SLW schedule under min(advice, machine): the advice as a feed
+                cap per sample (:func:`fuzzyfeed.slw.schedule` with ``feed_cap``), so every
+                machine limit holds, jerk included, and the feed never exceeds the advice;
 ``slw``         the jerk-limited look-ahead schedule (seed 000), its own time law;
 ``constant``    the command feed F everywhere (what a program without feed planning asks for);
-``bound``       the acceleration-limited time-optimal bound (phase-plane pass, no jerk limit).
+``bound``       the acceleration-limited time-optimal bound (phase-plane pass, no jerk limit) on
+                its own adaptive grid (:func:`fuzzyfeed.slw.path_bound`), the same as
+                ``fuzzyfeed schedule`` reports; its feed is shown at the samples.
 
 This module imports both planners and the simulator; nothing imports it but the edges.
 """
@@ -28,7 +29,7 @@ from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.servo import ServoModel
 from fuzzyfeed.simulate import Simulation, simulate, simulate_profile
-from fuzzyfeed.slw import schedule, time_optimal_bound
+from fuzzyfeed.slw import path_bound, schedule
 
 METHODS = ("fuzzy", "fuzzy-safe", "slw", "constant", "bound")
 
@@ -105,28 +106,32 @@ def _cross_check(samples: PathSamples, fuzzy: FeedProfile, slw: FeedProfile,
 
 
 def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None = None,
-            name: str = "path", progress=None, servo: ServoModel | None = None) -> Comparison:
+            name: str = "path", progress=None, servo: ServoModel | None = None,
+            approach: int = 2) -> Comparison:
     """Run every method of :data:`METHODS` on ``samples`` and simulate each (DESIGN §3).
 
     ``servo`` is the axis model every method's contour error is measured with (default
     ``ServoModel()``: first order, Kv = 30 1/s, no feed-forward).
-    The fuzzy advisor's maximum feed is the command feed F of ``limits``. ``progress``, if given,
-    is called with the name of each step as it starts (the CLI hooks a progress bar on it).
+    The fuzzy advisor's maximum feed is the command feed F of ``limits``; ``approach`` is the SLW
+    scheduler's (seed 000 Table 1) for ``slw`` and ``fuzzy-safe``. ``progress``, if given, is
+    called with the name of each step as it starts (the CLI hooks a progress bar on it).
     """
     expect(samples, PathSamples, "samples", "PathSamples")
     expect(limits, MachineLimits, "limits", "MachineLimits")
     curve = samples.curve
     step = progress or (lambda _name: None)
     step("bound")
-    bound_profile, bound_time = time_optimal_bound(samples, limits)
+    bound = path_bound(curve, limits, halve=False)
+    bound_profile, bound_time = bound.profile_at(samples, limits), bound.time_s
     step("slw")
-    trajectory = schedule(curve, limits)
+    trajectory = schedule(curve, limits, approach=approach)
     slw_profile = trajectory.feed_at(samples)
     step("fuzzy")
     fuzzy = advise(samples, table, max_feed_mm_s=limits.feed_mm_s)
-    clamped, _ = time_optimal_bound(samples, limits,
-                                    feed_cap=np.minimum(fuzzy.feed_mm_s, slw_profile.feed_mm_s))
-    safe = FeedProfile(samples, clamped.feed_mm_s, "fuzzy-safe", limits.feed_mm_s)
+    step("fuzzy-safe")
+    safe_trajectory = schedule(curve, limits, approach=approach, feed_cap=fuzzy)
+    safe_at = safe_trajectory.feed_at(samples)
+    safe = FeedProfile(samples, safe_at.feed_mm_s, "fuzzy-safe", limits.feed_mm_s)
     constant = FeedProfile(samples, np.full(len(samples), limits.feed_mm_s), "constant",
                            limits.feed_mm_s)
     profiles = {"fuzzy": fuzzy, "fuzzy-safe": safe, "slw": slw_profile, "constant": constant,
@@ -137,6 +142,9 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
         if method == "slw":
             sims[method] = simulate(curve, trajectory.time_law(), limits, "slw", bound_time_s=bound_time,
                                     servo=servo)
+        elif method == "fuzzy-safe":
+            sims[method] = simulate(curve, safe_trajectory.time_law(), limits, "fuzzy-safe",
+                                    bound_time_s=bound_time, servo=servo)
         else:
             sims[method] = simulate_profile(profiles[method], limits, bound_time_s=bound_time, servo=servo)
     check = _cross_check(samples, fuzzy, slw_profile, sims["fuzzy"].metrics.cycle_time_s,

@@ -69,6 +69,11 @@ def interpolate_u(curve: Nurbs, s_mm: np.ndarray, method: str = "best") -> np.nd
     return np.maximum.accumulate(u)
 
 
+
+def _pad3(a: np.ndarray) -> np.ndarray:
+    return a if a.shape[1] == 3 else np.hstack([a, np.zeros((a.shape[0], 3 - a.shape[1]))])
+
+
 def _chords(curve: Nurbs, u: np.ndarray) -> np.ndarray:
     pts = curve.evaluate(u, order=0)[0]
     return np.linalg.norm(np.diff(pts, axis=0), axis=1)
@@ -91,6 +96,14 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 12) -> np.ndarra
         pts, d1, d2 = curve.evaluate(u, order=2)
         chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
         deficit = np.maximum(np.diff(target) - chords, 0.0)
+        # only the deficit the curvature explains (ΔL³κ²/24, with margin): across a true corner
+        # (a tangent break) the chord cuts the corner and retargeting would make the tick jump
+        d1n = np.linalg.norm(d1, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kap = np.linalg.norm(np.cross(_pad3(d1), _pad3(d2)), axis=1) / d1n ** 3
+        kap = np.nan_to_num(kap, nan=0.0, posinf=0.0)
+        dl = np.diff(target)
+        deficit = np.minimum(deficit, dl ** 3 * np.maximum(kap[:-1], kap[1:]) ** 2 / 12.0 + 1e-3 * deficit)
         mu = (total - deficit.sum()) / total if total > 0 else 1.0
         with np.errstate(divide="ignore", invalid="ignore"):
             err = np.abs(chords - mu * steps) / np.where(steps > 0, steps, np.inf)

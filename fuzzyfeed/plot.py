@@ -192,8 +192,11 @@ def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike |
     ax = axes[0]
     samples = sample_by_arc_length(traj.curve, n=min(20000, max(2000, int(traj.s_mm[-1] / 0.05))))
     ax.plot(samples.s, feed_limits(samples, lim) * 60, color="0.6", lw=1.0, label="feed limit")
-    if bound is not None:
-        ax.plot(bound.samples.s, bound.feed_mm_min, color="tab:green", lw=1.0, ls="--",
+    if bound is not None:  # a Bound (its own grid) or a FeedProfile
+        b_s, b_v = ((bound.s_mm, bound.feed_mm_s) if hasattr(bound, "s_mm")
+                    else (bound.samples.s, bound.feed_mm_s))
+        b_time = bound.time_s if hasattr(bound, "time_s") else bound.travel_time_s()
+        ax.plot(b_s, b_v * 60, color="tab:green", lw=1.0, ls="--",
                 label="time-optimal bound (no jerk limit)")
     ax.plot(traj.s_mm, traj.feed_mm_s * 60, color="tab:blue", lw=1.2, label="SLW feed")
     crit = traj.critical_s_mm
@@ -203,7 +206,7 @@ def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike |
     ax.set_xlabel("arc length s (mm)")
     ax.set_ylabel("feed (mm/min)")
     ax.set_title(f"{title}: SLW schedule, cycle time {traj.cycle_time_s:.3f} s"
-                 + (f", bound {bound.travel_time_s():.3f} s" if bound is not None else ""))
+                 + (f", bound {b_time:.3f} s" if bound is not None else ""))
     ax.legend(loc="lower right", fontsize=8)
     t = traj.t_s
     for ax, y, limit, label in ((axes[1], traj.feed_mm_s * 60, lim.feed_mm_min, "feed (mm/min)"),

@@ -226,7 +226,11 @@ def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
     dt[-1] = max(law.duration_s - (dt.size - 1) * law.ts_s, 1e-12 * law.ts_s)
     step = np.diff(pts, axis=0)
     vel = step / dt[:, None]                                  # per tick, per axis
-    acc = np.diff(vel, axis=0) / (0.5 * (dt[:-1] + dt[1:]))[:, None]  # per tick boundary
+    # per tick boundary, including the start from rest and the stop at rest (a jump from rest to
+    # full feed in the first tick is an acceleration like any other)
+    rest = np.zeros((1, vel.shape[1]))
+    dt_b = np.concatenate([[law.ts_s], 0.5 * (dt[:-1] + dt[1:]), [law.ts_s]])
+    acc = np.diff(np.vstack([rest, vel, rest]), axis=0) / dt_b[:, None]
     feed = np.linalg.norm(vel, axis=1)
     chord = chord_errors(curve, u)
     fluct = feed_fluctuation(curve, u, law.s_mm)

@@ -9,7 +9,7 @@ import pytest
 from fuzzyfeed.cli import main
 from fuzzyfeed.compare import METHODS, compare
 from fuzzyfeed.fuzzy.advisor import advise
-from fuzzyfeed.io.shapes import load_shape, sample_shape
+from fuzzyfeed.io.shapes import load_shape, sample_shape, shape_names
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.simulate import simulate
 from fuzzyfeed.slw import schedule
@@ -51,17 +51,21 @@ def test_comparison_methods_and_invariants(infinity_comparison):
     fuzzy = advise(c.samples, None, max_feed_mm_s=c.limits.feed_mm_s)
     np.testing.assert_array_equal(c.profiles["fuzzy"].feed_mm_s, fuzzy.feed_mm_s)
     safe, slw = c.profiles["fuzzy-safe"].feed_mm_s, c.profiles["slw"].feed_mm_s
-    assert np.all(safe <= fuzzy.feed_mm_s) and np.all(safe <= slw)
+    # the safe schedule is the jerk-limited one under min(advice, machine): never above the advice
+    # (1 % for reading the servo-period schedule at the samples)
+    assert np.all(safe <= fuzzy.feed_mm_s * 1.01 + 1e-9)
+    assert c.simulations["fuzzy-safe"].metrics.cycle_time_s >= c.simulations["slw"].metrics.cycle_time_s
     times = {m: s.metrics.cycle_time_s for m, s in c.simulations.items()}
     # the SLW schedule obeys every limit and is within 10 % of the bound on infinity
     slw_metrics = c.simulations["slw"].metrics
     assert all(count == 0 for count, _ in slw_metrics.violations.values())
     assert 1.0 <= slw_metrics.ratio_to_bound <= 1.10
-    assert c.simulations["bound"].metrics.ratio_to_bound == pytest.approx(1.0)
+    # the bound's feed read at the samples and simulated: the bound's time within 0.5 %
+    assert c.simulations["bound"].metrics.ratio_to_bound == pytest.approx(1.0, rel=5e-3)
     assert times["fuzzy-safe"] >= times["fuzzy"] - 1e-9  # clamping never speeds the advice up
-    # the safe advice respects every limit but the jerk (1 % for the measurement from positions)
+    # the safe advice respects every limit, jerk included: no violating tick
     safe_violations = c.simulations["fuzzy-safe"].metrics.violations
-    assert all(worst <= 1.01 for name, (_, worst) in safe_violations.items() if name != "jerk")
+    assert all(count == 0 for count, _ in safe_violations.values()), safe_violations
     assert safe[0] == 0.0 and safe[-1] == 0.0  # it starts and ends at rest
     # the constant feed breaks the axis acceleration limit in the tight loops of infinity
     const = c.simulations["constant"].metrics
@@ -169,3 +173,13 @@ def test_cli_compare_on_an_imported_polyline(tmp_path, capsys):
     assert df["method"].tolist() == list(METHODS)
     assert (df.loc[df["method"] == "slw", [c for c in df.columns if c.startswith("violations_")]] == 0).all(axis=None)
     assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", shape_names())
+def test_fuzzy_safe_breaks_no_limit_on_every_shipped_shape(name):
+    # the jerk-limited schedule under min(advice, machine): 0 violating ticks, jerk included
+    shape = load_shape(name)
+    c = compare(sample_shape(shape), MachineLimits(), name=name)
+    for method in ("fuzzy-safe", "slw"):
+        violations = c.simulations[method].metrics.violations
+        assert all(count == 0 for count, _ in violations.values()), (method, violations)

@@ -17,8 +17,9 @@ from fuzzyfeed.simulate import simulate_profile, time_law_from_profile
 def test_constant_feed_on_circle_matches_analytic(radius, feed):
     samples = sample_uniform_u(circle_nurbs(radius), 400)
     profile = FeedProfile(samples, np.full(len(samples), feed), "constant", feed)
-    limits = MachineLimits(feed_mm_s=100.0, axis_acc_mm_s2=1e5, ts_s=0.001)
-    m = simulate_profile(profile, limits).metrics
+    limits = MachineLimits(feed_mm_s=100.0, axis_acc_mm_s2=1e6, ts_s=0.001)
+    sim = simulate_profile(profile, limits)
+    m = sim.metrics
     length = 2 * np.pi * radius
     assert m.cycle_time_s == pytest.approx(length / feed, rel=1e-12)
     chord = feed * limits.ts_s
@@ -27,8 +28,11 @@ def test_constant_feed_on_circle_matches_analytic(radius, feed):
     assert m.chord_err_mean_um == pytest.approx(sagitta_um, rel=1e-2)
     assert m.feed_max_mm_s == pytest.approx(feed, rel=1e-5)
     assert m.feed_fluct_max_pct < 1e-3
-    # centripetal acceleration v²/r shows on the axes, with the speed on x and y
-    assert max(m.axis_acc_max_mm_s2[:2]) == pytest.approx(feed**2 / radius, rel=1e-3)
+    # centripetal acceleration v²/r shows on the axes between the ticks, with the speed on x and y
+    inner = np.diff(sim.xyz[:-1], 2, axis=0) / limits.ts_s**2
+    assert np.abs(inner[:, :2]).max() == pytest.approx(feed**2 / radius, rel=1e-3)
+    # the start from rest and the stop at rest count too: a jump to F within one servo period
+    assert max(m.axis_acc_max_mm_s2[:2]) == pytest.approx(feed / limits.ts_s, rel=1e-3)
     assert max(m.axis_vel_max_mm_s[:2]) == pytest.approx(feed, rel=1e-5)
     assert m.axis_vel_max_mm_s[2] == 0.0
     assert m.tan_acc_max_mm_s2 == 0.0 and m.tan_jerk_max_mm_s3 == 0.0

@@ -35,6 +35,14 @@ def add_limit_arguments(parser: argparse.ArgumentParser) -> None:
                    help="servo (interpolation) period in s (default: %(default)g)")
 
 
+def add_approach_argument(parser: argparse.ArgumentParser) -> None:
+    """``--approach`` (the SLW scheduler's short-block profile), the same on schedule and compare."""
+    parser.add_argument("--approach", type=int, choices=(1, 2), default=2,
+                        help="SLW short blocks (seed 000 Table 1, types 2-3): 2 rises to a peak "
+                             "between the two transitions (faster); 1 cruises at the higher end feed "
+                             "(the paper's choice, smoother) (default: %(default)s)")
+
+
 def limits_from_args(args: argparse.Namespace) -> MachineLimits:
     """The validated :class:`MachineLimits` of parsed limit flags (MachineLimitsError if invalid)."""
     return MachineLimits(feed_mm_s=args.feed_mm_min / 60.0, axis_vel_mm_s=args.axis_vel_mm_s,

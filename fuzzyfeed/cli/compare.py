@@ -6,13 +6,13 @@ import argparse
 import sys
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
-from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
+from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args
 from fuzzyfeed.cli._servo import add_servo_arguments, servo_from_args
 
 DESCRIPTION = """\
 Simulate every method on the same samples with the same interpolator at Ts and print one metric
-table: fuzzy (the advice at the command feed F), fuzzy-safe (the advice clamped by the SLW
-schedule), slw (the jerk-limited look-ahead schedule), constant (F everywhere) and bound (the
+table: fuzzy (the advice at the command feed F), fuzzy-safe (the jerk-limited SLW schedule
+under min(advice, machine): every limit held), slw (the jerk-limited look-ahead schedule), constant (F everywhere) and bound (the
 acceleration-limited time-optimal bound, no jerk limit). Violations count servo ticks over a limit.
 The contour error is the distance of the tool from the curve when each axis follows its set-points
 through a position loop (default Kv = 30 1/s, no feed-forward; see the servo flags).
@@ -29,6 +29,7 @@ def register(sub) -> None:
                    help="sample points, uniform in u (default: %(default)s, as in seed 002)")
     add_limit_arguments(p)
     add_servo_arguments(p)
+    add_approach_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="REPORT.csv",
                    help="CSV with one row per method (column method) and one column per metric")
     p.add_argument("--plot", metavar="FIG.png", default=None,
@@ -74,14 +75,15 @@ def run(args: argparse.Namespace) -> int:
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
     samples = sample_shape(shape, args.points)
-    steps = 3 + len(METHODS)
+    steps = 4 + len(METHODS)
     with tqdm(total=steps, desc=f"compare {shape.name}", unit="step", disable=not sys.stderr.isatty(),
               leave=False) as bar:
         def progress(name: str) -> None:
             bar.set_postfix_str(name)
             bar.update(1)
 
-        result = compare(samples, limits, table, name=shape.name, progress=progress, servo=servo)
+        result = compare(samples, limits, table, name=shape.name, progress=progress, servo=servo,
+                         approach=args.approach)
     rows = result.rows()
     columns = {key: np.array([row[key] for row in rows]) for key in rows[0]}
     write_columns(args.output, columns, allow_nan=("ratio_to_bound",))

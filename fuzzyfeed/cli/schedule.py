@@ -9,11 +9,8 @@ import numpy as np
 
 from fuzzyfeed.cli._common import add_shape_argument
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
+from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args
 from fuzzyfeed.errors import InputError
-
-#: Arc-length step (mm) of the samples the time-optimal bound is computed on.
-BOUND_STEP_MM = 0.05
 
 
 def register(sub) -> None:
@@ -29,10 +26,7 @@ def register(sub) -> None:
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write (atomically)")
     add_limit_arguments(p)
-    p.add_argument("--approach", type=int, choices=(1, 2), default=1,
-                   help="short blocks (seed 000 Table 1, types 2-3): 1 cruises at the higher end feed "
-                        "(the paper's default, smoother), 2 rises to a peak between the transitions "
-                        "(faster on sharp shapes) (default: %(default)s)")
+    add_approach_argument(p)
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed, acceleration and jerk against time (and the feed against "
                         "arc length with the limit and the bound)")
@@ -44,7 +38,7 @@ def _progress_bar(total_mm: float):
     """A tqdm bar over arc length on a terminal, else a no-op."""
     if not sys.stderr.isatty():
         return None, lambda s: None
-    from tqdm import tqdm
+    from tqdm.auto import tqdm
 
     bar = tqdm(total=round(total_mm, 3), unit="mm", desc="scheduling", leave=False,
                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm")
@@ -60,8 +54,7 @@ def _progress_bar(total_mm: float):
 def compute(args: argparse.Namespace):
     """Shape, trajectory, measurements and bound for parsed arguments."""
     from fuzzyfeed.io.shapes import load_shape
-    from fuzzyfeed.sampling import sample_by_arc_length
-    from fuzzyfeed.slw import measure, schedule, time_optimal_bound
+    from fuzzyfeed.slw import measure, path_bound, schedule
 
     limits = limits_from_args(args)
     shape = load_shape(args.shape)
@@ -73,17 +66,19 @@ def compute(args: argparse.Namespace):
     finally:
         if bar is not None:
             bar.close()
-    step = min(BOUND_STEP_MM, shape.curve.length / 200)
-    bound_profile, bound_s = time_optimal_bound(sample_by_arc_length(shape.curve, step_mm=step), limits)
-    return shape, traj, measure(traj), bound_profile, bound_s
+    bound = path_bound(shape.curve, limits)
+    return shape, traj, measure(traj), bound, bound.time_s
 
 
-def summary(shape_name: str, traj, m: dict, bound_s: float) -> str:
+def summary(shape_name: str, traj, m: dict, bound) -> str:
+    bound_s = bound.time_s
     lim = traj.limits
     lines = [
         f"{shape_name}: length {traj.s_mm[-1]:.3f} mm, {traj.t_s.size} servo periods of {lim.ts_s:g} s",
         f"cycle time        {traj.cycle_time_s:.4f} s  (time-optimal bound {bound_s:.4f} s, "
         f"ratio {traj.cycle_time_s / bound_s:.4f})",
+        f"bound grid        {bound.s_mm.size} points, time changes {100 * bound.grid_change:.3f} % "
+        "when the grid is halved",
         f"critical points   {traj.n_critical}   blocks {traj.n_blocks}",
         f"max feed          {m['feed'] * lim.feed_mm_min:.1f} mm/min ({100 * m['feed']:.2f} % of command)",
         f"max chord error   {1000 * m['chord'] * lim.chord_tol_mm:.4f} um ({100 * m['chord']:.2f} % of limit)",
@@ -121,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
              f"{traj.cycle_time_s:.4f} s",)
     gcode = prepare_gcode(args, lambda: traj.feed_at(samples), shape, notes, segment_feeds)
     write_columns(args.output, traj.columns())
-    print(summary(shape.name, traj, m, bound_s))
+    print(summary(shape.name, traj, m, bound_profile))
     print(f"wrote {args.output}")
     if args.plot:
         from fuzzyfeed.plot import plot_schedule

@@ -5,7 +5,7 @@ limits)`` the acceleration-limited reference every comparison uses. This package
 (nurbs, sampling, profile, limits, interpolate, errors) and never the fuzzy advisor.
 """
 
-from fuzzyfeed.slw.bound import time_optimal_bound
+from fuzzyfeed.slw.bound import Bound, path_bound, time_optimal_bound
 from fuzzyfeed.slw.trajectory import Trajectory, measure, schedule
 
-__all__ = ["Trajectory", "measure", "schedule", "time_optimal_bound"]
+__all__ = ["Bound", "Trajectory", "measure", "path_bound", "schedule", "time_optimal_bound"]

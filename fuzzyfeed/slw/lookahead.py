@@ -26,8 +26,9 @@ import numpy as np
 
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.slw.preprocess import Block, Reference, evaluate_reference
-from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed,
+from fuzzyfeed.slw.preprocess import Block, FeedCap, Reference, corners, evaluate_reference
+from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, lowest_end_speed, max_start_speed,
+                                   transition_distance,
                                    segment_state, stop_distance)
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
@@ -39,6 +40,16 @@ CRAWL = 1e-3
 SUB_TICK = 1e-3
 #: Repairs tried per window before giving up on a block (then reported in the statistics).
 MAX_REPAIRS = 400
+#: A junction added where the profile crosses the feed limit is capped this far below the limit:
+#: the next profile has room to rise, so a slowly rising limit is followed in stairs of a few per
+#: cent (a bounded number of splits) instead of a staircase of tiny steps.
+SPLIT_ROOM = 0.97
+#: Share of each axis's acceleration a true corner passed inside a merged block may use (the rest
+#: is the tangential acceleration's); the preprocessor's corner caps use CORNER_MARGIN of it.
+CORNER_SHARE = 0.45
+CORNER_MARGIN = 0.9
+#: Blocks at the front of the window checked at the feeds of a continuing path before a release.
+FRONT_BLOCKS = 3
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
 WINDOW_STOPS = 1.5
 
@@ -48,6 +59,7 @@ class _Junction:
     s: float
     cap: float
     v: float = 0.0
+    critical: bool = False  # a critical point of the preprocessor (not a repair's junction)
 
 
 @dataclass
@@ -101,16 +113,19 @@ class LookaheadStats:
     unresolved: int = 0
     max_window_blocks: int = 0
     max_window_mm: float = 0.0
+    merged: int = 0
     critical_s: list[float] = field(default_factory=list)
 
 
 class SlidingWindow:
     """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
 
-    def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 1):
+    def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 2,
+                 cap: FeedCap | None = None):
         if approach not in (1, 2):
             raise ValueError(f"approach = {approach!r}; seed 000 Table 1 has approaches 1 and 2")
         self.approach = approach
+        self.cap = cap
         self.curve = curve
         self.limits = limits
         self.jerk = limits.jerk_mm_s3
@@ -119,21 +134,56 @@ class SlidingWindow:
         self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk)
         self.window_mm = WINDOW_STOPS * self.stop
         self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
+        self._corner_s = corners(curve, limits)[0] if curve is not None else np.empty(0)
         self.blocks: list[_WBlock] = []
         self.stats = LookaheadStats()
+        self._front_checks = 0
 
     # ------------------------------------------------------------------ window content
     def _push(self, block: Block) -> None:
         self.stats.blocks_in += 1
+        if self._merge(block):
+            return
         # a stretch with a zero limit everywhere (a micro-kink between two near-stationary
         # points) is crawled through at a tiny feed rather than being impassable
         vmax = min(self.limits.feed_mm_s, max(block.peak_limit, CRAWL * self.limits.feed_mm_s))
         self.blocks.append(_WBlock(block.ref, self.acc, vmax))
-        self.juncs.append(_Junction(block.s1, block.cap1))
-        if block.cap1 > 0 or block.s1 < block.ref.s[-1]:
-            pass
+        self.juncs.append(_Junction(block.s1, block.cap1, critical=True))
         self.stats.max_window_blocks = max(self.stats.max_window_blocks, len(self.blocks))
         self.stats.max_window_mm = max(self.stats.max_window_mm, self.blocks[-1].s1 - self.blocks[0].s0)
+
+    def _merge(self, block: Block) -> bool:
+        """Merge ``block`` into the last block when the junction between them is no local minimum
+        of the junction caps (cap ≥ the caps on both sides) and the last block is shorter than the
+        transition between their caps needs: critical points closer than a transition needs
+        (the vertices of a fine polyline) would otherwise each force a zero acceleration. The
+        dropped point's limit stays in the block's reference points (the check holds it)."""
+        if len(self.blocks) < 2:
+            return False
+        last, prev = self.juncs[-1], self.juncs[-2]
+        if not (last.critical and prev.critical) or len(self.juncs) - 1 <= 1:
+            return False
+        if last.cap < prev.cap or last.cap < block.cap1:
+            return False
+        lo = min(prev.cap, block.cap1)
+        if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk):
+            return False
+        b = self.blocks[-1]
+        head, acc = b.ref, b.acc
+        if self._corner_s.size and np.isin(last.s, self._corner_s):
+            # a true corner passed inside a block, not at rest on its tangential acceleration:
+            # the corner's turn may use CORNER_SHARE of each axis, the tangential acceleration
+            # the rest
+            vlim = head.vlim.copy()
+            vlim[-1] *= CORNER_SHARE / CORNER_MARGIN
+            head = Reference(head.s, head.u, vlim, head.tangent, head.kn)
+            acc = min(acc, (1.0 - CORNER_SHARE) * self.acc)
+        ref = Reference.concat([head, block.ref.slice(1, len(block.ref) - 1)]) if len(block.ref) > 1 else head
+        vmax = min(self.limits.feed_mm_s, max(float(ref.vlim.max()), CRAWL * self.limits.feed_mm_s))
+        self.blocks[-1] = _WBlock(ref, acc, vmax)
+        last.s, last.cap, last.v = block.s1, block.cap1, 0.0
+        self.stats.merged += 1
+        return True
 
     def _ahead_mm(self) -> float:
         """Look-ahead beyond the first block's end."""
@@ -155,7 +205,12 @@ class SlidingWindow:
         v = self._backward(end_feed)
         v[0] = self.juncs[0].v  # committed
         for i, b in enumerate(self.blocks):
-            v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc, self.jerk) > b.length:
+                # a committed junction may be faster than a junction found later allows: brake as
+                # hard as the block lets (the check then repairs the block before it is released)
+                v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+            else:
+                v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
         for j, vj in zip(self.juncs, v):
             j.v = vj
 
@@ -218,7 +273,7 @@ class SlidingWindow:
                 b_idx += 1
             # a junction where the profile first crosses the limit, capped at the lowest limit of
             # the crossing: a ramp is then followed in few, large steps
-            cap = float(vlim[a_idx:b_idx + 1].min())
+            cap = SPLIT_ROOM * float(vlim[a_idx:b_idx + 1].min())
             self._split(i, s[a_idx], cap=cap)
             return False
         k = int(np.argmax(r))
@@ -227,17 +282,10 @@ class SlidingWindow:
         tan_ratio = abs(a[k] * tan[k, j]) / self.axis_acc[j]
         seg = segs[int(seg_id[k])]
         if cen_ratio > 0.9 or tan_ratio < 0.05:
-            # the centripetal part nearly uses the axis up: slow the nearer junction of the
-            # transition (or add one here when it is mid-block)
-            near_start = seg.v0 > seg.v1  # decelerating: towards the block's end junction
-            target = i + 1 if near_start else i
-            if target == 0 or target == len(self.juncs) - 1 and self.juncs[target].cap == 0.0:
-                self._split(i, s[k], factor=0.98)
-                return False
-            jn = self.juncs[target]
-            jn.cap = min(jn.cap, jn.v) * 0.99
+            # the centripetal part nearly uses the axis up: a junction here (zero tangential
+            # acceleration), a little slower than the profile was
+            self._split(i, s[k], cap=SPLIT_ROOM * float(v[k]))
             self.stats.caps_lowered += 1
-            self._invalidate()
             return False
         peak = max(abs(seg.v1 - seg.v0) * math.pi / (2 * seg.duration_s), 1e-9) if seg.duration_s else b.acc
         need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
@@ -259,7 +307,7 @@ class SlidingWindow:
         s_at = float(np.clip(s_at, ref.s[0] + 1e-6 * span, ref.s[-1] - 1e-6 * span))
         k = int(np.searchsorted(ref.s, s_at))
         if self.curve is not None and ref.s[k] != s_at and abs(ref.s[k] - s_at) > 1e-3 * span:
-            new = evaluate_reference(self.curve, self.limits, np.array([s_at]))
+            new = evaluate_reference(self.curve, self.limits, np.array([s_at]), cap=self.cap)
             ref = Reference.concat([ref.slice(0, k - 1), new, ref.slice(k, len(ref) - 1)])
         elif ref.s[k] != s_at:  # split at the nearest interior reference point
             if len(ref) <= 2:
@@ -269,6 +317,8 @@ class SlidingWindow:
                 k -= 1
         left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
         cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
+        if i == 0 and cap < self.juncs[0].v:  # the first junction is committed: reachable from it
+            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc, self.jerk)
         crawl = CRAWL * self.limits.feed_mm_s
         bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, max(float(left.vlim.max()), crawl)))
         br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, max(float(right.vlim.max()), crawl)))
@@ -277,12 +327,17 @@ class SlidingWindow:
         self.stats.junctions_added += 1
         self._invalidate()
 
-    def _settle(self, end_feed: float) -> None:
+    def _settle(self, end_feed: float, full: bool = False) -> None:
         """Plan and repair until every block in the window passes its check."""
+        # only blocks within a full stop of the first junction ahead can lower it: the others
+        # are checked when they come to the front (bounded work per released block)
+        reach = self.blocks[0].s1 + 1.05 * self.stop if self.blocks and not full else math.inf
         for _ in range(MAX_REPAIRS):
             self._plan(end_feed)
             ok = True
             for i in range(len(self.blocks)):
+                if i > FRONT_BLOCKS and self.blocks[i].s0 > reach:
+                    break
                 if not self._check(i):
                     ok = False
                     break
@@ -313,19 +368,54 @@ class SlidingWindow:
                 pull()
             if not self.blocks:
                 return
-            if exhausted:
-                self._settle(0.0)
+            self._settle(0.0, full=exhausted)
+            if exhausted:  # the stop at the window's end is the path's end: everything is final
+                n_final = len(self.blocks)
             else:
-                self._settle(0.0)
-                v_stop = self.juncs[1].v
-                free = self._backward(math.inf)
-                v0 = self.juncs[0].v
-                v_free = max_end_speed(v0, self.blocks[0].length, free[1], self.blocks[0].acc, self.jerk)
-                if v_free > v_stop * (1 + 1e-12) + 1e-12:
-                    if pull():
-                        continue
-                    self._settle(0.0)
-            yield self._release()
+                n_final = self._final_blocks()
+                if n_final == 0:  # look further: a quarter of a full stop more (bounded re-plans)
+                    goal = self._ahead_mm() + 0.25 * self.stop
+                    while pull() and self._ahead_mm() < goal:
+                        pass
+                    continue
+                if not self._front_holds(n_final):
+                    continue
+            for _ in range(n_final):
+                yield self._release()
+
+    def _final_blocks(self) -> int:
+        """How many leading blocks have the same junction feeds whether or not the window's end is
+        a stop: those are final (what the whole path would give) and are released together."""
+        stop = [j.v for j in self.juncs]
+        self._plan(math.inf)
+        n = 0
+        for k in range(1, len(self.juncs)):
+            if self.juncs[k].v > stop[k] * (1 + 1e-12) + 1e-12:
+                break
+            n = k
+        for j, v in zip(self.juncs, stop):
+            j.v = v
+        return n
+
+    def _front_holds(self, n_final: int) -> bool:
+        """Check the blocks to release and a few after them with the feeds they get when the path
+        goes on (no stop at the window's end): a limit crossing that only shows at those feeds is
+        repaired now, while the junction it needs can still be reached."""
+        if self._front_checks >= MAX_REPAIRS:
+            return True
+        self._plan(math.inf)
+        # every block a full stop beyond the released ones: a repair there (a junction with zero
+        # acceleration) could otherwise need a lower feed than the released one can reach
+        reach = self.juncs[n_final].s + 1.05 * self.stop
+        for i in range(len(self.blocks)):
+            if i >= n_final + FRONT_BLOCKS and self.blocks[i].s0 > reach:
+                break
+            if not self._check(i):
+                self._front_checks += 1
+                return False
+        self._front_checks = 0
+        self._plan(0.0)
+        return True
 
     def _release(self) -> ScheduledBlock:
         b = self.blocks[0]

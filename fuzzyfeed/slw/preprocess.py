@@ -37,6 +37,35 @@ MIN_POINTS, MAX_POINTS = 200, 400_000
 
 
 @dataclass(frozen=True, eq=False)
+class FeedCap:
+    """One more pointwise feed limit (mm/s) given at arc lengths (mm), linear in between — e.g.
+    a planner's advice, so that the schedule is the jerk-limited one under min(advice, machine).
+    The arc lengths are rescaled to the path's length (samples and curve may differ by rounding)."""
+
+    s_mm: np.ndarray
+    feed_mm_s: np.ndarray
+    length_mm: float
+
+    def __post_init__(self) -> None:
+        s = np.asarray(self.s_mm, dtype=float)
+        v = np.asarray(self.feed_mm_s, dtype=float)
+        if s.ndim != 1 or s.shape != v.shape or s.size < 2:
+            raise InputError(f"feed_cap: {s.size} arc lengths and {v.size} feeds; need the same number, ≥ 2")
+        if not (np.isfinite(s).all() and np.isfinite(v).all()):
+            raise InputError("feed_cap: a value is not finite; a feed cap must be finite")
+        if (v <= 0).any():
+            i = int(np.argmax(v <= 0))
+            raise InputError(f"feed_cap[{i}] = {v[i]!r} mm/s; a feed cap must be > 0")
+        if (np.diff(s) < 0).any() or s[-1] <= s[0]:
+            raise InputError("feed_cap: arc lengths must be non-decreasing and span the path")
+        object.__setattr__(self, "s_mm", (s - s[0]) * (self.length_mm / (s[-1] - s[0])))
+        object.__setattr__(self, "feed_mm_s", v)
+
+    def __call__(self, s: np.ndarray) -> np.ndarray:
+        return np.interp(s, self.s_mm, self.feed_mm_s)
+
+
+@dataclass(frozen=True, eq=False)
 class Reference:
     """Reference points (sorted by s): s, u, feed limit, unit tangent (n, 3), κN (n, 3)."""
 
@@ -99,15 +128,16 @@ def reference_step(curve: Nurbs, limits: MachineLimits) -> float:
 
 
 def evaluate_reference(curve: Nurbs, limits: MachineLimits, s: np.ndarray,
-                       resolve: bool = False) -> Reference:
+                       resolve: bool = False, cap: FeedCap | None = None) -> Reference:
     """Reference data at arc lengths ``s`` (sorted).
 
     With ``resolve``, intervals where the tangent turns by more than the sampled curvature
     explains (a feature narrower than the step: a near-cusp, a tight spike) are subdivided until
-    the turn is resolved (at most RESOLVE_LEVELS halvings of the step).
+    the turn is resolved (at most RESOLVE_LEVELS halvings of the step). ``cap``, if given, is one
+    more pointwise feed limit.
     """
     s = np.asarray(s, dtype=float)
-    ref = _evaluate(curve, limits, s)
+    ref = _evaluate(curve, limits, s, cap)
     if not resolve or s.size < 2:
         return ref
     for _ in range(RESOLVE_LEVELS):
@@ -123,19 +153,22 @@ def evaluate_reference(curve: Nurbs, limits: MachineLimits, s: np.ndarray,
         lo, hi = ref.s[:-1][bad], ref.s[1:][bad]
         frac = np.array([0.25, 0.5, 0.75])
         extra = (lo[:, None] + (hi - lo)[:, None] * frac[None, :]).ravel()
-        ref = Reference.concat([ref, _evaluate(curve, limits, extra)]).sorted_unique()
+        ref = Reference.concat([ref, _evaluate(curve, limits, extra, cap)]).sorted_unique()
     return ref
 
 
-def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray) -> Reference:
+def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: FeedCap | None = None) -> Reference:
     u = np.asarray(curve.param_at_length(s), dtype=float)
     smp = samples_at(curve, u, s=np.asarray(s, dtype=float))
     tangent = np.nan_to_num(np.asarray(smp.tangent), nan=0.0)
     kn = np.nan_to_num(curvature_vectors(smp), nan=np.inf)
-    return Reference(np.asarray(s, dtype=float), u, feed_limits(smp, limits), tangent, kn)
+    vlim = feed_limits(smp, limits)
+    if cap is not None:
+        vlim = np.minimum(vlim, cap(np.asarray(s, dtype=float)))
+    return Reference(np.asarray(s, dtype=float), u, vlim, tangent, kn)
 
 
-def _refine(curve: Nurbs, limits: MachineLimits, lo: np.ndarray, hi: np.ndarray):
+def _refine(curve: Nurbs, limits: MachineLimits, lo: np.ndarray, hi: np.ndarray, cap: FeedCap | None = None):
     """Local fine pre-interpolation of critical regions [lo, hi] (Algorithm 1): returns the extra
     reference points visited and, per region, the arc length of the located minimum."""
     extras = []
@@ -143,7 +176,7 @@ def _refine(curve: Nurbs, limits: MachineLimits, lo: np.ndarray, hi: np.ndarray)
     for _ in range(FINE_LEVELS):
         frac = np.linspace(0.0, 1.0, FINE_POINTS)
         grid = lo[:, None] + (hi - lo)[:, None] * frac[None, :]
-        ref = evaluate_reference(curve, limits, grid.ravel())
+        ref = evaluate_reference(curve, limits, grid.ravel(), cap=cap)
         extras.append(ref)
         v = ref.vlim.reshape(grid.shape)
         k = np.argmin(v, axis=1)
@@ -193,8 +226,10 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     return s_b[sel], cap[sel]
 
 
-def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = None) -> Iterator[Block]:
-    """Blocks between critical points, in path order, produced chunk by chunk (seed 000)."""
+def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = None,
+                cap: FeedCap | None = None) -> Iterator[Block]:
+    """Blocks between critical points, in path order, produced chunk by chunk (seed 000);
+    ``cap`` is an optional extra pointwise feed limit (:class:`FeedCap`)."""
     total = curve.length
     if not np.isfinite(total) or total <= 0.0:
         raise InputError(f"path length {total!r} mm; a path to schedule must have a positive length")
@@ -204,7 +239,11 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     breaks = curve.span_breaks
     u_span = (breaks[:-1, None] + np.diff(breaks)[:, None]
               * np.linspace(0.0, 1.0, SPAN_POINTS + 1)[None, :-1]).ravel()
-    grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span))]))
+    # and just before every interior knot: the curvature may jump there (a C1 join), and the
+    # left-hand limit is where the feed limit is lowest
+    s_knots = np.atleast_1d(curve.arc_length(breaks[1:-1]))
+    left = s_knots - 1e-9 * max(total, 1.0)
+    grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span)), left]))
     grid = grid[(grid >= 0.0) & (grid <= total)]
     grid[0], grid[-1] = 0.0, total
     command = limits.feed_mm_s
@@ -215,14 +254,14 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     corner_s, corner_cap = corners(curve, limits)
     for c0 in range(0, grid.size, CHUNK_POINTS):
         chunk = evaluate_reference(curve, limits, grid[c0:min(c0 + CHUNK_POINTS + 1, grid.size)],
-                                   resolve=True)
+                                   resolve=True, cap=cap)
         if c0 + CHUNK_POINTS + 1 <= grid.size:  # the next chunk starts with the shared point
             chunk = chunk.slice(0, int(np.searchsorted(chunk.s, grid[c0 + CHUNK_POINTS])) - 1)
         last_chunk = c0 + CHUNK_POINTS >= grid.size
         hi_s = grid[min(c0 + CHUNK_POINTS, grid.size - 1)]
         in_chunk = (corner_s >= grid[c0]) & ((corner_s < hi_s) | last_chunk)
         if in_chunk.any():
-            cref = evaluate_reference(curve, limits, corner_s[in_chunk])
+            cref = evaluate_reference(curve, limits, corner_s[in_chunk], cap=cap)
             cref = Reference(cref.s, cref.u, np.minimum(cref.vlim, corner_cap[in_chunk]),
                              cref.tangent, cref.kn)
             chunk = Reference.concat([chunk, cref]).sorted_unique()
@@ -243,7 +282,7 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
         extras_by_region: list[Reference] = []
         located = np.empty(0)
         if crit.size:
-            extras, located = _refine(curve, limits, ctx.s[crit - 1], ctx.s[crit + 1])
+            extras, located = _refine(curve, limits, ctx.s[crit - 1], ctx.s[crit + 1], cap)
             extras_by_region = extras
         fine = Reference.concat(extras_by_region) if extras_by_region else None
         # new coarse points of this chunk (context minus the carried tail)

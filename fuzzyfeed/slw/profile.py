@@ -53,16 +53,48 @@ def _bisect(holds: Callable[[float], bool], good: float, bad: float) -> float:
             good = mid
         else:
             bad = mid
-        if abs(bad - good) <= 1e-13 * max(good, bad, 1.0):
+        if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
             break
     return good
 
 
+def max_rise(v: float, length: float, acc: float, jerk: float) -> float:
+    """Largest Δv ≥ 0 with transition_distance(v, v + Δv) ≤ length, in closed form.
+
+    D = max(D_A, D_J) with D_A = (2v + Δv)·πΔv/(4A) (a quadratic in Δv) and
+    D_J = (2v + Δv)·(π/2)·√(Δv/(2J)), a depressed cubic w³ + 2v·w − c = 0 in w = √Δv with
+    c = 2L√(2J)/π (one real root, hyperbolic form); Δv is the smaller of the two roots.
+    """
+    if length <= 0.0:
+        return 0.0
+    q = 4.0 * acc * length / math.pi
+    d_a = q / (v + math.sqrt(v * v + q))  # −v + √(v² + q) without cancellation
+    c = 2.0 * length * math.sqrt(2.0 * jerk) / math.pi
+    p = 2.0 * v
+    if p * p * p <= 1e-12 * c * c:
+        w = c ** (1.0 / 3.0)
+    else:
+        r = math.sqrt(p / 3.0)
+        w = 2.0 * r * math.sinh(math.asinh(1.5 * c / (p * r)) / 3.0)
+    for _ in range(2):  # Newton polish of the cubic
+        f = w * w * w + p * w - c
+        w -= f / (3.0 * w * w + p) if w > 0.0 else 0.0
+    return max(min(d_a, w * w), 0.0)
+
+
 def _bisect_speed(fixed: float, length: float, cap: float, acc: float, jerk: float) -> float:
-    """Largest v in [fixed, cap] with transition_distance(fixed, v) ≤ length (monotone in v)."""
-    if cap <= fixed or transition_distance(fixed, cap, acc, jerk) <= length:
+    """Largest v in [fixed, cap] with transition_distance(fixed, v) ≤ length (monotone in v):
+    the closed form of :func:`max_rise`, rounded down until the distance holds."""
+    if cap <= fixed:
         return cap
-    return _bisect(lambda v: transition_distance(fixed, v, acc, jerk) <= length, fixed, cap)
+    rise = max_rise(fixed, length, acc, jerk)
+    if fixed + rise >= cap:
+        return cap
+    for shrink in (0.0, 1e-9, 1e-6, 1e-3):  # v = fixed + Δv rounds; keep the distance within length
+        v = fixed + rise * (1.0 - shrink)
+        if transition_distance(fixed, v, acc, jerk) <= length:
+            return v
+    return _bisect(lambda x: transition_distance(fixed, x, acc, jerk) <= length, fixed, v)
 
 
 def max_end_speed(v_s: float, length: float, cap: float, acc: float, jerk: float) -> float:
@@ -76,6 +108,22 @@ def min_end_speed(v_s: float, length: float, acc: float, jerk: float) -> float:
         return 0.0
     # D(v_s, v) decreases towards v = v_s, where it is 0
     return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, v_s, 0.0)
+
+
+def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: float) -> float:
+    """An end speed near ``floor`` (≤ v_s) reachable from v_s by one transition within ``length``.
+
+    The distance of a deceleration is not monotone in its end speed (a jerk-limited stop can be
+    shorter than braking to a moderate feed: T grows with √Δv while the mean feed falls), so the
+    feasible end speeds below v_s are [0, a] ∪ [b, v_s]. Returns ``floor`` if it is feasible, else
+    the largest feasible speed below it (a, on the rising branch) when a stop fits, else b, the
+    lowest feasible speed above it (bisection on the falling branch).
+    """
+    if floor >= v_s or transition_distance(v_s, floor, acc, jerk) <= length:
+        return min(floor, v_s)
+    if transition_distance(v_s, 0.0, acc, jerk) <= length:
+        return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, 0.0, floor)
+    return _bisect(lambda v: transition_distance(v_s, v, acc, jerk) <= length, v_s, floor)
 
 
 def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, jerk: float) -> float:

@@ -22,7 +22,7 @@ from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.simulate import TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
-from fuzzyfeed.slw.preprocess import iter_blocks
+from fuzzyfeed.slw.preprocess import FeedCap, iter_blocks
 from fuzzyfeed.slw.profile import segment_state
 
 
@@ -87,6 +87,18 @@ class Trajectory:
         return FeedProfile(samples, feed, "slw", self.limits.feed_mm_s)
 
 
+def _feed_cap(feed_cap, total: float) -> FeedCap | None:
+    if feed_cap is None or isinstance(feed_cap, FeedCap):
+        return feed_cap
+    if isinstance(feed_cap, FeedProfile):
+        return FeedCap(np.asarray(feed_cap.samples.s), feed_cap.feed_mm_s, total)
+    try:
+        s, v = feed_cap
+    except (TypeError, ValueError):
+        raise InputError(f"feed_cap: {type(feed_cap).__name__}; give a FeedProfile or (s_mm, feed_mm_s)") from None
+    return FeedCap(s, v, total)
+
+
 def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
     """s, v, a, j at t_k = k·Ts for the concatenated block segments (seed 000, eq. (17)-(19))."""
     segs = [seg for b in blocks for seg in b.segments if seg.duration_s > 0.0]
@@ -131,13 +143,22 @@ def check_work(total_mm: float, limits: MachineLimits) -> None:
 
 
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
-             progress: Callable[[float], None] | None = None, approach: int = 1) -> Trajectory:
+             progress: Callable[[float], None] | None = None, approach: int = 2,
+             feed_cap=None) -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
 
-    ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 1 (default, the
-    paper's choice) cruises at the higher end feed; 2 rises to a peak between the transitions.
+    ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 2 (default)
+    rises to a peak between the two transitions (Table 1, figure (d)); 1, the paper's choice,
+    cruises at the higher end feed (smoother, slower on paths of short blocks).
 
-    ``progress``, if given, is called with the arc length scheduled so far (mm) after each block.
+    ``feed_cap`` (optional) is one more pointwise feed limit in mm/s: a :class:`FeedProfile`
+    (its samples' arc lengths and feeds), a pair ``(s_mm, feed_mm_s)`` or a :class:`FeedCap`;
+    linear in s between its points. The result is the jerk-limited schedule under
+    min(cap, machine): every machine limit still holds.
+
+    ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
+    ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal or a
+    notebook widget).
     """
     expect(curve, Nurbs, "curve", "a Nurbs")
     limits = MachineLimits.default() if limits is None else limits
@@ -149,20 +170,35 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if approach not in (1, 2):
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
     check_work(total, limits)
-    window = SlidingWindow(limits, curve, approach)
+    cap = _feed_cap(feed_cap, total)
+    bar = None
+    if progress is True:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=round(total, 3), unit="mm", desc="scheduling", leave=False)
+        done = [0.0]
+
+        def progress(s_mm: float) -> None:
+            bar.update(round(s_mm - done[0], 3))
+            done[0] = round(s_mm, 3)
+    window = SlidingWindow(limits, curve, approach, cap)
     blocks = []
     try:
-        for block in window.run(iter_blocks(curve, limits)):
+        for block in window.run(iter_blocks(curve, limits, cap=cap)):
             blocks.append(block)
             if progress is not None:
                 progress(block.s1)
     except (ValueError, RuntimeError) as exc:
+        if bar is not None:
+            bar.close()
         if isinstance(exc, InputError):
             raise
         where = blocks[-1].s1 if blocks else 0.0
         raise InputError(f"SLW scheduling failed after s = {where:.6g} mm of {total:.6g} mm: {exc}; the "
                          "path has a (near-)stationary point or a corner the look-ahead cannot "
                          "resolve under these limits") from None
+    if bar is not None:
+        bar.close()
     t, s, v, a, j = _sample_profile(blocks, limits.ts_s, total)
     if t.size < 2:
         raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")

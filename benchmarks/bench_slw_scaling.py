@@ -1,0 +1,84 @@
+"""How the SLW schedule and the comparison scale with the path: CPU time, peak memory, growth.
+
+Random smooth NURBS (degree 3, 2-D, legs of about 2 mm, turning up to ±0.6 rad) with 10², 10³ and
+10⁴ knot spans on the default machine. Each measurement runs in a fresh process, so the peak
+resident memory (ru_maxrss) is that run's; the anchor is the same process importing fuzzyfeed and
+numba and scheduling a 10-span curve (the interpreter's own footprint), subtracted from every
+figure. Each child schedules a small curve first (numba's cache, first calls), then times the
+run. The growth exponent is the slope of log CPU over log spans (1.0 = linear).
+
+Run: python benchmarks/bench_slw_scaling.py
+Last line: growth_exponent=E peak_mb_per_1e6_ticks=M compare_over_schedule=R
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+
+CHILD = r"""
+import json, resource, sys, time
+import numpy as np
+from fuzzyfeed.limits import MachineLimits
+from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.slw import schedule
+spans, what = int(sys.argv[1]), sys.argv[2]
+rng = np.random.default_rng(spans)
+n = spans + 3
+ang = np.cumsum(rng.uniform(-0.6, 0.6, n))
+pts = np.cumsum(np.column_stack([np.cos(ang), np.sin(ang)]) * rng.uniform(1.5, 2.5, n)[:, None], axis=0)
+knots = np.concatenate([[0.0] * 4, np.linspace(0, 1, spans + 1)[1:-1], [1.0] * 4])
+curve = Nurbs(3, knots, pts)
+lim = MachineLimits()
+schedule(Nurbs(3, [0, 0, 0, 0, 1, 1, 1, 1], [[0, 0], [5, 5], [10, -5], [15, 0]]), lim)  # warm-up
+t0 = time.process_time()
+if what == "schedule":
+    traj = schedule(curve, lim)
+    ticks = traj.t_s.size
+else:
+    from fuzzyfeed.compare import compare
+    from fuzzyfeed.sampling import sample_uniform_u
+    c = compare(sample_uniform_u(curve, 2000), lim)
+    ticks = c.simulations["slw"].law.s_mm.size
+cpu = time.process_time() - t0
+print(json.dumps({"spans": spans, "what": what, "cpu": cpu, "ticks": ticks, "length": curve.length,
+                  "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+"""
+
+
+def run(spans: int, what: str) -> dict:
+    out = subprocess.run([sys.executable, "-c", CHILD, str(spans), what], capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    base = run(10, "schedule")
+    print(f"anchor: 10 spans, {base['length']:.0f} mm, peak {base['rss_mb']:.0f} MB (the interpreter, "
+          f"numpy, numba and fuzzyfeed), {base['cpu']:.2f} s CPU")
+    print(f"{'spans':>6} {'length mm':>10} {'ticks':>9} {'CPU s':>8} {'peak MB':>8} {'MB over anchor':>15} "
+          f"{'MB per 1e6 ticks':>17}")
+    rows = []
+    for spans in (100, 1000, 10_000):
+        r = run(spans, "schedule")
+        extra = max(r["rss_mb"] - base["rss_mb"], 0.0)
+        r["per_1e6"] = extra / r["ticks"] * 1e6
+        rows.append(r)
+        print(f"{spans:6d} {r['length']:10.0f} {r['ticks']:9d} {r['cpu']:8.2f} {r['rss_mb']:8.0f} "
+              f"{extra:15.0f} {r['per_1e6']:17.0f}", flush=True)
+    slope = np.polyfit(np.log([r["spans"] for r in rows]), np.log([r["cpu"] for r in rows]), 1)[0]
+    cmp_ = run(1000, "compare")
+    one = next(r for r in rows if r["spans"] == 1000)
+    print(f"compare on 1000 spans: {cmp_['cpu']:.2f} s CPU, peak {cmp_['rss_mb']:.0f} MB "
+          f"({cmp_['cpu'] / one['cpu']:.2f}x one schedule: it runs two schedules, the bound and five "
+          "simulations)")
+    print()
+    print(f"growth_exponent={slope:.3f} peak_mb_per_1e6_ticks={max(r['per_1e6'] for r in rows):.0f} "
+          f"compare_over_schedule={cmp_['cpu'] / one['cpu']:.2f}")
+
+
+if __name__ == "__main__":
+    main()

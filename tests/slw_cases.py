@@ -1,0 +1,103 @@
+"""Paths and machines the SLW scheduler must handle (shared by the tests and benchmarks/bench_slw.py).
+
+Random smooth NURBS (degree 2-5, 2-D and 3-D, random weights, random and unequal per-axis limits)
+and polylines as CAM programs make them: rectangles, zig-zags, square passes, and long chains of
+short segments approximating a curve (10³-10⁵ segments).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fuzzyfeed.limits import MachineLimits
+from fuzzyfeed.nurbs import Nurbs
+
+
+def random_limits(rng: np.random.Generator) -> MachineLimits:
+    """Random limits spanning an order of magnitude, every axis different."""
+    return MachineLimits(feed_mm_s=rng.uniform(10, 200), axis_vel_mm_s=tuple(rng.uniform(20, 200, 3)),
+                         axis_acc_mm_s2=tuple(rng.uniform(200, 3000, 3)),
+                         jerk_mm_s3=rng.uniform(2000, 50000), chord_tol_mm=10 ** rng.uniform(-4, -2),
+                         ts_s=float(rng.choice([0.0005, 0.001, 0.002])))
+
+
+def random_nurbs(seed: int) -> tuple[Nurbs, MachineLimits]:
+    """A random smooth NURBS and random unequal limits (the same for the same seed)."""
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(2, 6))
+    n = int(rng.integers(p + 2, p + 10))
+    dim = int(rng.integers(2, 4))
+    pts = [np.zeros(dim)]
+    d = rng.normal(size=dim)
+    d /= np.linalg.norm(d)
+    for _ in range(n - 1):
+        r = rng.normal(size=dim)
+        r -= (r @ d) * d
+        r /= np.linalg.norm(r) + 1e-12
+        ang = rng.uniform(-1.5, 1.5)
+        d = np.cos(ang) * d + np.sin(ang) * r
+        d /= np.linalg.norm(d)
+        pts.append(pts[-1] + d * rng.uniform(2, 25))
+    inner = np.sort(rng.uniform(0.02, 0.98, n - p - 1))
+    knots = np.concatenate([[0] * (p + 1), inner, [1] * (p + 1)])
+    return Nurbs(p, knots, np.array(pts), rng.uniform(0.5, 2.0, n)), random_limits(rng)
+
+
+def polyline(points) -> Nurbs:
+    """The degree-1 NURBS through ``points`` with chord-length knots (as the G-code/CSV readers)."""
+    pts = np.asarray(points, dtype=float)
+    chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    t = np.concatenate([[0.0], np.cumsum(chords)]) / chords.sum()
+    t[-1] = 1.0
+    return Nurbs(1, np.concatenate([[0.0], t, [1.0]]), pts)
+
+
+def rectangle(w: float = 40.0, h: float = 25.0) -> Nurbs:
+    return polyline([[0, 0], [w, 0], [w, h], [0, h], [0, 0]])
+
+
+def zigzag(teeth: int = 20, pitch: float = 2.0, height: float = 10.0) -> Nurbs:
+    xs = np.arange(teeth + 1) * pitch
+    ys = np.where(np.arange(teeth + 1) % 2 == 0, 0.0, height)
+    return polyline(np.column_stack([xs, ys]))
+
+
+def square_passes(passes: int = 10, size: float = 20.0, stepover: float = 1.0) -> Nurbs:
+    """Concentric square passes of a pocket, stepping in between passes (a CAM roughing path)."""
+    pts = []
+    for k in range(passes):
+        a = k * stepover
+        b = size - k * stepover
+        if b - a <= stepover:
+            break
+        pts += [[a, a], [b, a], [b, b], [a, b], [a, a + stepover]]
+    return polyline(pts)
+
+
+def cam_polyline(segments: int, seed: int = 0, dim: int = 3, seg_mm: float | None = None) -> Nurbs:
+    """A CAM-style chain of ``segments`` short G1 moves approximating a smooth free-form curve: a
+    wavy spiral sampled at random chord lengths around ``seg_mm`` (default: 0.5 mm for 10³
+    segments, 0.05 mm for 10⁴, 0.01 mm for 10⁵ — a finishing pass), coordinates rounded to 1 µm
+    as a post-processor writes them."""
+    rng = np.random.default_rng(seed)
+    seg = float(np.clip(500.0 / segments, 0.01, 0.5)) if seg_mm is None else seg_mm
+    steps = rng.uniform(0.5, 1.5, segments)
+    t = np.concatenate([[0.0], np.cumsum(steps)]) * seg / 20.0  # radius about 20 mm: arc ≈ 20·dt
+    r = 20.0 + 5.0 * np.sin(0.7 * t)
+    pts = np.column_stack([r * np.cos(t), r * np.sin(t), 2.0 * np.sin(0.3 * t)])[:, :dim]
+    pts = np.round(pts, 3)
+    keep = np.concatenate([[True], np.any(np.diff(pts, axis=0) != 0, axis=1)])
+    return polyline(pts[keep])
+
+
+def polyline_cases() -> list[tuple[str, Nurbs, MachineLimits]]:
+    """Named polylines with the default machine and with unequal axes."""
+    unequal = MachineLimits(feed_mm_s=80, axis_vel_mm_s=(100, 50, 30), axis_acc_mm_s2=(1500, 600, 400),
+                            jerk_mm_s3=20000)
+    out = []
+    for lim_name, lim in (("default", MachineLimits()), ("unequal", unequal)):
+        out += [(f"rectangle/{lim_name}", rectangle(), lim),
+                (f"zigzag/{lim_name}", zigzag(), lim),
+                (f"square_passes/{lim_name}", square_passes(), lim),
+                (f"cam1000/{lim_name}", cam_polyline(1000), lim)]
+    return out
