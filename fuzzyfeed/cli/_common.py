@@ -125,3 +125,16 @@ def check_feed_mm_min(value: float) -> float:
         raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be at most "
                                  f"{MAX_LIMIT:g} mm/min")
     return value
+
+
+def table_from_args(args: argparse.Namespace):
+    """The rule table of ``--rules`` with ``--filter``, ``--window-mm`` and ``--filter-mm`` applied
+    (one place for every path of ``advise``: a shape, a drawing's contours, a program's cuts)."""
+    from dataclasses import replace
+
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+
+    table = load_rule_table(getattr(args, "rules", None))
+    changes = {key: getattr(args, key) for key in ("filter", "window_mm", "filter_mm")
+               if getattr(args, key, None) is not None}
+    return replace(table, **changes) if changes else table

@@ -56,9 +56,8 @@ def _combined_advice(pa):
 
 
 def run_program(args: argparse.Namespace) -> int:
-    from fuzzyfeed.cli._common import check_feed_mm_min
+    from fuzzyfeed.cli._common import check_feed_mm_min, table_from_args
     from fuzzyfeed.cuts import DEFAULT_STEP_MM
-    from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.atomic import atomic_write
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.gcode_read import read_program
@@ -87,7 +86,7 @@ def run_program(args: argparse.Namespace) -> int:
         raise ExportError(f"output files must differ: {', '.join(outputs)}")
     base, selector = split_selector(args.shape)
     path = resolve_shape_path(base)
-    table = load_rule_table(args.rules)
+    table = table_from_args(args)
     program = read_program(path)
     cuts = None
     if selector is not None and program.n_cuts:
@@ -98,7 +97,15 @@ def run_program(args: argparse.Namespace) -> int:
     pa = advise_program(program, table, cuts=cuts, step_mm=args.step_mm or DEFAULT_STEP_MM,
                         cap_mm_min=cap, feed_step_mm_min=step)
     text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min) if args.gcode else None
-    write_columns(args.output, advice_columns(pa))
+    columns = advice_columns(pa)
+    write_columns(args.output, columns)
+    from fuzzyfeed.fuzzy.provenance import provenance
+    from fuzzyfeed.io.csv import write_metadata
+
+    feed_note = "the program's own F" + (f", capped at {cap:g} mm/min" if cap else "")
+    record = provenance(table, cap or 0.0, str(path), len(columns["s_mm"]))
+    record["F_mm_min"] = feed_note
+    write_metadata(args.output, list(columns), record)
     if args.plot:
         from fuzzyfeed.plot import plot_fuzzy_advice
 

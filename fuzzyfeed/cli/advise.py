@@ -6,7 +6,8 @@ import argparse
 
 import numpy as np
 
-from fuzzyfeed.cli._common import add_shape_argument, check_feed_mm_min, point_count, positive_float
+from fuzzyfeed.cli._common import (add_shape_argument, check_feed_mm_min, point_count, positive_float,
+                                   table_from_args)
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.cuts import DEFAULT_STEP_MM
 from fuzzyfeed.errors import InputError, MachineLimitsError
@@ -69,17 +70,10 @@ def register(sub) -> None:
 def compute(args: argparse.Namespace):
     """Shape, rules and samples in, :class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice` out (one call)."""
     from fuzzyfeed.fuzzy.advisor import advise_details
-    from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.shapes import load_shape, sample_shape
 
     feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
-    table = load_rule_table(args.rules)
-    changes = {key: getattr(args, key) for key in ("filter", "window_mm", "filter_mm")
-               if getattr(args, key, None) is not None}
-    if changes:
-        from dataclasses import replace
-
-        table = replace(table, **changes)
+    table = table_from_args(args)
     shape = load_shape(args.shape)
     try:
         samples = sample_shape(shape, args.points)
@@ -165,7 +159,6 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
     the one-path columns) and one summary line per path."""
     from fuzzyfeed.errors import ExportError
     from fuzzyfeed.fuzzy.advisor import advise_details
-    from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import sample_shape
 
@@ -175,7 +168,7 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
             raise ExportError(f"{option}: {args.shape} holds {len(shapes)} paths; {option} writes "
                               f"one path, pick it with {args.shape}#path=N")
     feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
-    table = load_rule_table(args.rules)
+    table = table_from_args(args)
     parts, lines = [], []
     for number, shape in enumerate(shapes, start=1):
         advice = advise_details(sample_shape(shape, args.points), table, feed_mm_min / 60.0)
@@ -188,6 +181,11 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
                      f"{p.travel_time_s():.4f} s")
     columns = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
     write_columns(args.output, columns)
+    from fuzzyfeed.fuzzy.provenance import provenance
+    from fuzzyfeed.io.csv import write_metadata
+
+    write_metadata(args.output, list(columns),
+                   provenance(table, feed_mm_min, f"{args.shape} ({len(shapes)} paths)", columns["path"].size))
     print(f"{args.shape}: {len(shapes)} paths, rules {table.name!r}, F = {feed_mm_min:g} mm/min")
     print("\n".join(lines))
     print(f"wrote {args.output}")
