@@ -27,6 +27,7 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.advisor import advise
 from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable
 from fuzzyfeed.limits import MachineLimits
+from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.servo import ServoModel
 from fuzzyfeed.simulate import Metrics, simulate_profile
@@ -96,10 +97,23 @@ def excess(m: Metrics, tol_um: float) -> float:
 
 def evaluate(table: RuleTable, shapes: dict[str, PathSamples], limits: MachineLimits,
              servo: ServoModel) -> dict[str, Metrics]:
-    """Simulate the advice of ``table`` at the command feed of ``limits`` on every shape."""
-    return {name: simulate_profile(advise(samples, table, max_feed_mm_s=limits.feed_mm_s), limits,
-                                   servo=servo).metrics
+    """Simulate the advice of ``table`` at the command feed of ``limits`` on every shape, started
+    from and stopped at rest (:func:`from_rest`)."""
+    return {name: simulate_profile(from_rest(advise(samples, table, max_feed_mm_s=limits.feed_mm_s),
+                                             limits), limits, servo=servo).metrics
             for name, samples in shapes.items()}
+
+
+def from_rest(profile: FeedProfile, limits: MachineLimits) -> FeedProfile:
+    """The advice capped by v ≤ √(2·a·d) with d the distance from the start or to the end and
+    a = half the smallest axis acceleration: the machine starts from rest and stops at rest within
+    its limits whatever the table asks there (the simulator counts the jump from rest), so the
+    tuning judges the table where it acts, not the path's two ends."""
+    s = np.asarray(profile.samples.s, dtype=float)
+    a = 0.5 * float(np.min(limits.axis_acc_mm_s2))
+    ramp = np.sqrt(2.0 * a * np.minimum(s - s[0], s[-1] - s))
+    return FeedProfile(profile.samples, np.minimum(profile.feed_mm_s, ramp), profile.method,
+                       profile.max_feed_mm_s)
 
 
 def tune_output_terms(table: RuleTable, shapes: dict[str, PathSamples], limits: MachineLimits,

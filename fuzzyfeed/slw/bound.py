@@ -47,7 +47,7 @@ def pointwise_limit(samples: PathSamples, limits: MachineLimits) -> tuple[np.nda
     """x = v² allowed at every sample by the command, axial velocity, chord error and the
     maximum-velocity curve of the axial accelerations; with the unit tangents and κN (both
     finite, (n, 3)) that the passes need."""
-    from fuzzyfeed.slw import _kernels
+    import fuzzyfeed.slw._kernels as _kernels
 
     comp = feed_limit_components(samples, limits)
     v = comp[:3].min(axis=0)  # command, axial velocity, chord error (not the centripetal row)
@@ -64,7 +64,7 @@ def pointwise_limit(samples: PathSamples, limits: MachineLimits) -> tuple[np.nda
 
 def _passes(s: np.ndarray, x_lim: np.ndarray, tangent: np.ndarray, kn: np.ndarray,
             limits: MachineLimits) -> tuple[np.ndarray, float]:
-    from fuzzyfeed.slw import _kernels
+    import fuzzyfeed.slw._kernels as _kernels
 
     ds = np.diff(s)
     x = _kernels.phase_plane_passes(ds, np.ascontiguousarray(x_lim), tangent, kn,
