@@ -21,6 +21,19 @@ when no candidate met the constraints (the least infeasible table is written, an
 """
 
 
+def evaluation_count(text: str) -> int:
+    """argparse type: a number of simulated evaluations, an integer >= 3 (Nelder-Mead's simplex)."""
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 3:
+        raise argparse.ArgumentTypeError(f"{value} is too few; use at least 3 evaluations")
+    return value
+
+
 def register(sub) -> None:
     p = sub.add_parser("tune", help="tune a rule table's feed terms for cycle time under a contour tolerance",
                        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -29,7 +42,7 @@ def register(sub) -> None:
                    help="rule table to start from (default: the paper's table, rules/paper.toml)")
     p.add_argument("--contour-tol-um", type=positive_float, required=True, metavar="EPS",
                    help="largest max contour error allowed on every shape, in um")
-    p.add_argument("--evaluations", type=point_count, default=120, metavar="N",
+    p.add_argument("--evaluations", type=evaluation_count, default=120, metavar="N",
                    help="simulation rounds (all shapes each) the search may use (default: %(default)s)")
     p.add_argument("--points", type=point_count, default=2000,
                    help="sample points per shape, uniform in u (default: %(default)s)")
