@@ -117,9 +117,12 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
     a = np.zeros(t.size)
     j = np.zeros(t.size)
     which = np.clip(np.searchsorted(starts_t, t, side="right") - 1, 0, max(len(segs) - 1, 0))
+    # ticks are in time order, so each segment's ticks are one contiguous run: linear, not
+    # segments × ticks
+    bounds = np.searchsorted(which, np.arange(len(segs) + 1), side="left")
     for i, seg in enumerate(segs):
-        m = which == i
-        if not m.any():
+        m = slice(int(bounds[i]), int(bounds[i + 1]))
+        if m.start == m.stop:
             continue
         tau = np.minimum(t[m] - starts_t[i], seg.duration_s)
         pos, vel, acc, jerk = segment_state(seg, tau)
