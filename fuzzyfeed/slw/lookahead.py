@@ -68,7 +68,6 @@ class _WBlock:
     acc: float
     vmax: float
     checked: tuple | None = None
-    cruise_low: bool = False
 
     @property
     def s0(self) -> float:
@@ -218,12 +217,12 @@ class SlidingWindow:
     def _segments(self, i: int):
         b = self.blocks[i]
         return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
-                              b.cruise_low, self.approach)
+                              self.approach)
 
     def _check(self, i: int) -> bool:
         """Check block i; repair it and return False if it broke a limit."""
         b = self.blocks[i]
-        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length, b.cruise_low)
+        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length)
         if b.checked == key:
             return True
         if b.length < SUB_TICK * self.limits.feed_mm_s * self.limits.ts_s:
@@ -260,9 +259,6 @@ class SlidingWindow:
             b.checked = key
             return True
         if over_v.max() > 0.0:
-            if kind in (2, 3) and not b.cruise_low and min(self.juncs[i].v, self.juncs[i + 1].v) > 0:
-                b.cruise_low = True  # the limit keeps falling (rising): cruise at the lower end
-                return False
             k = int(np.argmax(over_v / np.maximum(vlim, 1e-12)))
             bad = over_v > 0.0
             a_idx = k
@@ -296,7 +292,7 @@ class SlidingWindow:
 
     def _invalidate(self) -> None:
         """Nothing to do: a block's check is keyed by everything its profile depends on (junction
-        feeds, acceleration, cruise cap, length, cruise placement), so only changed blocks are
+        feeds, acceleration, cruise cap, length), so only changed blocks are
         checked again."""
 
     def _split(self, i: int, s_at: float, factor: float = 1.0, cap: float | None = None) -> None:

@@ -172,15 +172,13 @@ def _rise_cruise_fall(v_s: float, v_top: float, v_e: float, cruise: float, acc: 
 
 
 def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: float,
-                   jerk: float, cruise_low: bool = False, approach: int = 1) -> tuple[int, list[Segment]]:
+                   jerk: float, approach: int = 1) -> tuple[int, list[Segment]]:
     """Block type (1-3) and its segments covering exactly ``length`` mm (seed 000, Table 1).
 
     ``approach`` 2 replaces approach 1 for types 2-3 by Table 1's figure (d): a peak feed between
-    the two transitions instead of a cruise at the higher end feed (shorter, less smooth).
-    ``cruise_low`` puts the cruise of a type-2/3 block at its lower-speed end instead (transition
-    first when decelerating, last when accelerating): the look-ahead uses it where the feed limit
-    keeps falling (rising) through the block and approach 1's cruise at the higher end would
-    cross it.
+    the two transitions instead of a cruise at the higher end feed (shorter, less smooth). Where
+    either profile crosses a falling (rising) feed limit inside the block, the look-ahead splits
+    the block there (a junction just under the limit) rather than flattening it.
 
     Raises ValueError for a type-4 block (v_e not reachable from v_s within ``length``): the
     look-ahead corrects junction speeds so that this does not happen.
@@ -199,20 +197,12 @@ def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: flo
     if d_up + d_down <= length:  # type 1
         return 1, _rise_cruise_fall(v_s, v_max, v_e, length - d_up - d_down, acc, jerk)
     cruise = max(length - d_se, 0.0)
-    if (approach == 2 or max(v_s, v_e) <= SLOW_CRUISE * v_max) and cruise > 0.0 and not cruise_low:
+    if (approach == 2 or max(v_s, v_e) <= SLOW_CRUISE * v_max) and cruise > 0.0:
         # approach 1 would crawl (or stand still) at the higher end speed: approach 2 instead,
         # a peak v_p between the two transitions (Table 1, figure (d))
         v_p = peak_speed(v_s, v_e, length, v_max, acc, jerk)
         rest = length - transition_distance(v_s, v_p, acc, jerk) - transition_distance(v_p, v_e, acc, jerk)
         return 2 if v_e > v_s else 3, _rise_cruise_fall(v_s, v_p, v_e, rest, acc, jerk)
-    if cruise_low and cruise > 0.0 and min(v_s, v_e) > 0.0:
-        low = min(v_s, v_e)
-        if v_s > v_e:
-            segs.append(Segment(v_s, v_e, transition_time(v_s, v_e, acc, jerk)))
-        segs.append(Segment(low, low, cruise / low))
-        if v_e > v_s:
-            segs.append(Segment(v_s, v_e, transition_time(v_s, v_e, acc, jerk)))
-        return (2 if v_e > v_s else 3), segs
     if v_s < v_e:  # type 2: accelerate, then cruise at the higher (end) speed
         segs.append(Segment(v_s, v_e, transition_time(v_s, v_e, acc, jerk)))
         if cruise > 0.0:
