@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import contextvars
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -56,6 +57,10 @@ MIN_RUN = 5
 #: A run's fit may miss a point by this factor times the rounding tolerance (least squares is not
 #: the minimax fit).
 FIT_SLACK = 1.5
+#: Vertices (after merging tiny moves) from which the run search runs numba-compiled: importing
+#: numba and loading the cached kernel costs ~0.5 s of CPU, what the numpy form spends on ~2000
+#: vertices of a finely cut curve (a few ms on a few hundred).
+COMPILED_MIN_VERTICES = 2048
 #: Share of coordinates that must be multiples of a quantum for it to be taken as the rounding.
 QUANTUM_SHARE = 0.9
 #: (point tolerance, path tolerance P) in mm used where a caller passes None (the CLI's
@@ -192,15 +197,14 @@ def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
     return _Fit(1.0 / radius, c0 + center[0] * vt[0] + center[1] * vt[1], normal)
 
 
-def _tangent_of(fit: _Fit, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
-    """Unit tangent of a fitted run at ``point``, oriented along ``toward``."""
-    if fit.center is None:
-        t = fit.axis
-    else:
-        t = np.cross(fit.axis, point - fit.center)
-    n = np.linalg.norm(t)
-    t = t / n if n > 0 else toward
-    return t if t @ toward >= 0 else -t
+def _tangent_of(axis: np.ndarray, center: np.ndarray, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
+    """Unit tangents (row-wise) of fitted runs (line direction or circle normal ``axis``, circle
+    ``center``, NaN for a line) at ``point``, oriented along ``toward``."""
+    line = np.isnan(center[:, :1])
+    t = np.where(line, axis, np.cross(axis, point - np.where(line, 0.0, center)))
+    n = np.linalg.norm(t, axis=1)[:, None]
+    t = np.where(n > 0, t / np.where(n > 0, n, 1.0), toward)
+    return np.where(np.einsum("ij,ij->i", t, toward)[:, None] >= 0, t, -t)
 
 
 def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
@@ -228,10 +232,46 @@ def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
     return out
 
 
-def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float) -> list[tuple[int, int, _Fit]]:
+def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float,
+          compiled: bool | None = None) -> list[tuple[int, int, _Fit]]:
     """Maximal runs [i, j] (inclusive vertex indices, consecutive runs may share an end vertex)
     fitted by one line or circle: greedy from the start, galloping then bisecting on j, then
-    neighbours merged where one fit covers both."""
+    neighbours merged where one fit covers both. From :data:`COMPILED_MIN_VERTICES` vertices on
+    (``compiled`` forces a form) the same search runs as numba-compiled loops
+    (:mod:`fuzzyfeed._polyline_jit`); below, in numpy (no numba import)."""
+    maybe = _run_candidates(pts, tol)
+    if compiled is None:
+        compiled = len(pts) >= COMPILED_MIN_VERTICES
+    if compiled:
+        return _runs_compiled(pts, turn, maybe, tol, path_tol)
+    return _runs_numpy(pts, turn, maybe, tol, path_tol)
+
+
+@cache
+def _runs_kernel():
+    """The compiled run search (numba, cached on disk; see :func:`fuzzyfeed._kernels.compile_once`)."""
+    import numba
+
+    from fuzzyfeed._kernels import compile_once
+    from fuzzyfeed._polyline_jit import find_runs
+
+    f8, i8 = numba.float64, numba.int64
+    sig = i8(f8[:, ::1], f8[::1], numba.boolean[::1], f8, f8, i8[:, ::1], i8[::1], f8[:, ::1])
+    return compile_once(find_runs, sig, "the polyline run search", 10)
+
+
+def _runs_compiled(pts, turn, maybe, tol, path_tol) -> list[tuple[int, int, _Fit]]:
+    n = len(pts)
+    ij = np.zeros((n, 2), dtype=np.int64)
+    kind = np.zeros(n, dtype=np.int64)
+    fit = np.zeros((n, 7))
+    count = _runs_kernel()(np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(turn, dtype=float),
+                           np.ascontiguousarray(maybe, dtype=bool), float(tol), float(path_tol), ij, kind, fit)
+    return [(int(i), int(j), _Fit(float(f[0]), None if k == 1 else f[1:4].copy(), f[4:7].copy()))
+            for (i, j), k, f in zip(ij[:count].tolist(), kind[:count].tolist(), fit[:count])]
+
+
+def _runs_numpy(pts, turn, maybe, tol, path_tol) -> list[tuple[int, int, _Fit]]:
     n = len(pts)
 
     def fits(i: int, j: int) -> _Fit | None:
@@ -241,7 +281,6 @@ def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float) -> lis
             return None
         return _fit_run(pts[i:j + 1], tol, path_tol)
 
-    maybe = _run_candidates(pts, tol)
     runs: list[tuple[int, int, _Fit]] = []
     i = 0
     while i + MIN_RUN - 1 < n:
@@ -429,23 +468,29 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
     run_kappa_left = np.zeros(m)    # κ of a run ending at the vertex
     run_kappa_right = np.zeros(m)   # κ of a run starting at the vertex
     theta = turn.copy()
-    ends_left: dict[int, _Fit] = {}
-    for i, j, fit in runs:
-        kappa[i + 1:j] = fit.kappa
-        run_kappa_right[i] = max(run_kappa_right[i], fit.kappa)
-        run_kappa_left[j] = max(run_kappa_left[j], fit.kappa)
-        ends_left[j] = fit
-        if i in ends_left:   # two runs meet: the break between their fitted tangents
-            t_in = _tangent_of(ends_left[i], reduced[i], unit[i - 1])
-            t_out = _tangent_of(fit, reduced[i], unit[i])
-            theta[i] = float(_angle(t_in, t_out))
-    if closed and runs and runs[0][0] == 0 and runs[-1][1] == m - 1:   # the seam joins two runs
-        t_in = _tangent_of(runs[-1][2], reduced[-1], unit[-1])
-        t_out = _tangent_of(runs[0][2], reduced[0], unit[0])
-        theta[0] = theta[-1] = float(_angle(t_in, t_out))
-        seam = max(runs[0][2].kappa, runs[-1][2].kappa)
-        run_kappa_left[0] = run_kappa_right[-1] = seam
-        run_kappa_left[-1] = run_kappa_right[0] = seam
+    if runs:
+        # runs are ordered, their interiors disjoint; a run may start where the previous one ends
+        first, last = (np.array([r[k] for r in runs], dtype=int) for k in (0, 1))
+        run_k = np.array([r[2].kappa for r in runs])
+        axis = np.array([r[2].axis for r in runs])
+        center = np.array([np.full(3, np.nan) if r[2].center is None else r[2].center for r in runs])
+        inner = last - first - 1
+        at = np.repeat(first + 1 - np.cumsum(inner) + inner, inner) + np.arange(inner.sum())
+        kappa[at] = np.repeat(run_k, inner)
+        run_kappa_right[first] = run_k
+        run_kappa_left[last] = run_k
+        meet = np.flatnonzero(last[:-1] == first[1:])     # two runs meet: the break between their tangents
+        v = first[meet + 1]
+        t_in = _tangent_of(axis[meet], center[meet], reduced[v], unit[v - 1])
+        t_out = _tangent_of(axis[meet + 1], center[meet + 1], reduced[v], unit[v])
+        theta[v] = _angle(t_in, t_out)
+        if closed and first[0] == 0 and last[-1] == m - 1:   # the seam joins two runs
+            t_in = _tangent_of(axis[-1:], center[-1:], reduced[-1:], unit[-1:])
+            t_out = _tangent_of(axis[:1], center[:1], reduced[:1], unit[:1])
+            theta[0] = theta[-1] = float(_angle(t_in, t_out)[0])
+            seam = max(run_k[0], run_k[-1])
+            run_kappa_left[0] = run_kappa_right[-1] = seam
+            run_kappa_left[-1] = run_kappa_right[0] = seam
     noise_angle = tol * FIT_SLACK * (1.0 / a + 1.0 / b)
     theta = np.where(theta > noise_angle, theta, 0.0)
     k_blend, corner = blend_curvature(theta, a, b, path_tol)
