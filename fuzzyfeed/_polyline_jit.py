@@ -20,10 +20,9 @@ _HALF_PI = np.pi / 2
 
 
 @numba.njit(cache=True, nogil=True)
-def _solve3(a, b, out):
-    """Gaussian elimination with partial pivoting (LAPACK dgesv's pivoting); False if singular."""
-    m = a.copy()
-    r = b.copy()
+def _solve3(m, r, out):
+    """Gaussian elimination with partial pivoting (LAPACK dgesv's pivoting), overwriting ``m`` and
+    ``r``; False if singular."""
     for c in range(3):
         p = c
         for k in range(c + 1, 3):
@@ -49,8 +48,8 @@ def _solve3(a, b, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _circle_fit_2d(xs, ys):
-    """polyline._circle_fit_2d: (ok, cx, cy, radius)."""
+def _circle_fit_2d(xs, ys, x, y, a, b, sol):
+    """polyline._circle_fit_2d on xs[:n], ys[:n] (x, y, a, b, sol: work arrays): (ok, cx, cy, radius)."""
     n = xs.size
     mx = 0.0
     my = 0.0
@@ -64,8 +63,9 @@ def _circle_fit_2d(xs, ys):
         scale = max(scale, abs(xs[k] - mx), abs(ys[k] - my))
     if scale == 0.0:
         return False, 0.0, 0.0, 0.0
-    x = (xs - mx) / scale
-    y = (ys - my) / scale
+    for k in range(n):
+        x[k] = (xs[k] - mx) / scale
+        y[k] = (ys[k] - my) / scale
     sxx = sxy = syy = sx = sy = sxz = syz = sz = 0.0
     for k in range(n):
         z = x[k] * x[k] + y[k] * y[k]
@@ -77,9 +77,6 @@ def _circle_fit_2d(xs, ys):
         sxz += x[k] * z
         syz += y[k] * z
         sz += z
-    a = np.empty((3, 3))
-    b = np.empty(3)
-    sol = np.empty(3)
     a[0, 0], a[0, 1], a[0, 2] = sxx, sxy, sx
     a[1, 0], a[1, 1], a[1, 2] = sxy, syy, sy
     a[2, 0], a[2, 1], a[2, 2] = sx, sy, float(n)
@@ -126,41 +123,60 @@ def _circle_fit_2d(xs, ys):
 
 
 @numba.njit(cache=True, nogil=True)
-def _fit_run(pts, i, j, tol, path_tol, fit):
+def _fit_run(pts, i, j, tol, path_tol, fit, work, cov, a, b, sol):
     """polyline._fit_run on pts[i..j]: 0 none, 1 line, 2 circle; ``fit`` gets
-    (κ, centre xyz, axis xyz) — the line direction, or the circle plane's normal."""
+    (κ, centre xyz, axis xyz) — the line direction, or the circle plane's normal. ``work`` (4, N),
+    ``cov`` (3, 3), ``a`` (3, 3), ``b`` and ``sol`` (3): work arrays."""
     n = j - i + 1
-    c0 = np.zeros(3)
+    m0 = m1 = m2 = 0.0
     for k in range(i, j + 1):
-        for d in range(3):
-            c0[d] += pts[k, d]
-    c0 /= n
-    q = pts[i:j + 1] - c0
-    cov = q.T @ q
-    _, vecs = np.linalg.eigh(cov)
-    axis = vecs[:, 2].copy()
-    second = vecs[:, 1].copy()
-    normal = vecs[:, 0].copy()
-    along = np.empty(n)
-    across = np.empty(n)
+        m0 += pts[k, 0]
+        m1 += pts[k, 1]
+        m2 += pts[k, 2]
+    m0 /= n
+    m1 /= n
+    m2 /= n
+    c00 = c01 = c02 = c11 = c12 = c22 = 0.0
+    for k in range(i, j + 1):
+        q0 = pts[k, 0] - m0
+        q1 = pts[k, 1] - m1
+        q2 = pts[k, 2] - m2
+        c00 += q0 * q0
+        c01 += q0 * q1
+        c02 += q0 * q2
+        c11 += q1 * q1
+        c12 += q1 * q2
+        c22 += q2 * q2
+    cov[0, 0], cov[0, 1], cov[0, 2] = c00, c01, c02
+    cov[1, 0], cov[1, 1], cov[1, 2] = c01, c11, c12
+    cov[2, 0], cov[2, 1], cov[2, 2] = c02, c12, c22
+    _, vecs = np.linalg.eigh(cov)           # principal axes, ascending variance
+    a0, a1, a2 = vecs[0, 2], vecs[1, 2], vecs[2, 2]
+    s0, s1, s2 = vecs[0, 1], vecs[1, 1], vecs[2, 1]
+    n0, n1, n2 = vecs[0, 0], vecs[1, 0], vecs[2, 0]
+    along = work[0, :n]
+    across = work[1, :n]
     off_max = 0.0
     out_max = 0.0
     for k in range(n):
-        a = q[k, 0] * axis[0] + q[k, 1] * axis[1] + q[k, 2] * axis[2]
-        along[k] = a
-        across[k] = q[k, 0] * second[0] + q[k, 1] * second[1] + q[k, 2] * second[2]
-        r0 = q[k, 0] - a * axis[0]
-        r1 = q[k, 1] - a * axis[1]
-        r2 = q[k, 2] - a * axis[2]
+        q0 = pts[i + k, 0] - m0
+        q1 = pts[i + k, 1] - m1
+        q2 = pts[i + k, 2] - m2
+        t = q0 * a0 + q1 * a1 + q2 * a2
+        along[k] = t
+        across[k] = q0 * s0 + q1 * s1 + q2 * s2
+        r0 = q0 - t * a0
+        r1 = q1 - t * a1
+        r2 = q2 - t * a2
         off_max = max(off_max, np.sqrt(r0 * r0 + r1 * r1 + r2 * r2))
-        out_max = max(out_max, abs(q[k, 0] * normal[0] + q[k, 1] * normal[1] + q[k, 2] * normal[2]))
+        out_max = max(out_max, abs(q0 * n0 + q1 * n1 + q2 * n2))
     if off_max <= tol:
         fit[0] = 0.0
-        fit[4:7] = axis
+        fit[4], fit[5], fit[6] = a0, a1, a2
         return 1
     if out_max > tol:
         return 0
-    ok, cx, cy, radius = _circle_fit_2d(along, across)
+    ok, cx, cy, radius = _circle_fit_2d(along, across, work[2, :n], work[3, :n], a, b, sol)
     if not ok:
         return 0
     chord_max = 0.0
@@ -178,20 +194,21 @@ def _fit_run(pts, i, j, tol, path_tol, fit):
     if radius - np.sqrt(radius * radius - 0.25 * chord_max * chord_max) > path_tol:
         return 0
     fit[0] = 1.0 / radius
-    for d in range(3):
-        fit[1 + d] = c0[d] + cx * axis[d] + cy * second[d]
-    fit[4:7] = normal
+    fit[1] = m0 + cx * a0 + cy * s0
+    fit[2] = m1 + cx * a1 + cy * s1
+    fit[3] = m2 + cx * a2 + cy * s2
+    fit[4], fit[5], fit[6] = n0, n1, n2
     return 2
 
 
 @numba.njit(cache=True, nogil=True)
-def _fits(pts, next_sharp, i, j, tol, path_tol, fit):
+def _fits(pts, next_sharp, i, j, tol, path_tol, fit, work, cov, a, b, sol):
     """polyline._runs.fits: the run i..j (no vertex strictly inside turning by ≥ 90°)."""
     if j - i + 1 < MIN_RUN or j >= pts.shape[0]:
         return 0
     if j - i >= 2 and next_sharp[i + 1] < j:
         return 0
-    return _fit_run(pts, i, j, tol, path_tol, fit)
+    return _fit_run(pts, i, j, tol, path_tol, fit, work, cov, a, b, sol)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -204,11 +221,16 @@ def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit):
         next_sharp[k] = k if turn[k] >= _HALF_PI else next_sharp[k + 1]
     fit = np.empty(7)
     trial = np.empty(7)
+    work = np.empty((4, n))
+    cov = np.empty((3, 3))
+    a = np.empty((3, 3))
+    b = np.empty(3)
+    sol = np.empty(3)
     count = 0
     i = 0
     while i + MIN_RUN - 1 < n:
         good_j = i + MIN_RUN - 1
-        kind = _fits(pts, next_sharp, i, good_j, tol, path_tol, fit) if maybe[i] else 0
+        kind = _fits(pts, next_sharp, i, good_j, tol, path_tol, fit, work, cov, a, b, sol) if maybe[i] else 0
         if kind == 0:
             i += 1
             continue
@@ -216,7 +238,7 @@ def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit):
         bad_j = -1
         while good_j < n - 1:
             j = min(good_j + step, n - 1)
-            k2 = _fits(pts, next_sharp, i, j, tol, path_tol, trial)
+            k2 = _fits(pts, next_sharp, i, j, tol, path_tol, trial, work, cov, a, b, sol)
             if k2 == 0:
                 bad_j = j
                 break
@@ -229,7 +251,7 @@ def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit):
             hi = bad_j
             while hi - lo > 1:
                 mid = (lo + hi) // 2
-                k2 = _fits(pts, next_sharp, i, mid, tol, path_tol, trial)
+                k2 = _fits(pts, next_sharp, i, mid, tol, path_tol, trial, work, cov, a, b, sol)
                 if k2 == 0:
                     hi = mid
                 else:
@@ -240,7 +262,7 @@ def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit):
         # merge with the previous run where one fit covers both (polyline._runs, second loop)
         merged = False
         if count > 0 and out_ij[count - 1, 1] == i:
-            k2 = _fits(pts, next_sharp, out_ij[count - 1, 0], good_j, tol, path_tol, trial)
+            k2 = _fits(pts, next_sharp, out_ij[count - 1, 0], good_j, tol, path_tol, trial, work, cov, a, b, sol)
             if k2 != 0:
                 out_ij[count - 1, 1] = good_j
                 out_kind[count - 1] = k2

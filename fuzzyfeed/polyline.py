@@ -224,9 +224,13 @@ def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
         slack = 4.0 * 8.0 * tol / np.minimum(la, lb) ** 2
     k3 = np.nan_to_num(k3, nan=np.inf, posinf=np.inf)
     w = MIN_RUN - 2                      # circumcurvatures inside a window of MIN_RUN vertices
-    win = np.lib.stride_tricks.sliding_window_view
-    spread = win(k3, w).max(axis=1) - win(k3, w).min(axis=1)
-    allowed = win(slack, w).min(axis=1)
+    size = k3.size - w + 1
+    hi, lo, allowed = k3[:size].copy(), k3[:size].copy(), slack[:size].copy()
+    for s in range(1, w):                # window max/min by shifted copies (exact, no strided reduce)
+        np.maximum(hi, k3[s:s + size], out=hi)
+        np.minimum(lo, k3[s:s + size], out=lo)
+        np.minimum(allowed, slack[s:s + size], out=allowed)
+    spread = hi - lo
     ok = (spread <= allowed) | ~np.isfinite(spread)      # inf - inf: let the full fit decide
     out[:ok.size] = ok
     return out
