@@ -36,6 +36,16 @@ blend within P where that is tighter; runs of equal circles get one κ (:func:`_
 
 Ends of an open path take the κ of their run, or 0 on a free end segment. A closed path (last
 point = first) blends its seam like any vertex.
+
+The run search of step 3 is greedy: from a start vertex (screened by the spread of its
+circumcurvatures, :func:`_run_candidates`) the run's end is found by galloping then bisecting
+on the vertex count, and neighbouring runs are merged where one fit covers both. Each candidate
+run costs one line/circle fit; from :data:`COMPILED_MIN_VERTICES` vertices on these fits run as
+numba-compiled scalar loops (:mod:`fuzzyfeed._polyline_jit`, cached on disk like the other
+kernels, :mod:`fuzzyfeed._kernels`), below in numpy without importing numba. Both forms run the
+same search; their sums run in another order, so on a near-straight stretch whose fit residual
+equals the tolerance to the last bits they can cut the runs differently (both within the
+tolerance of the points).
 """
 
 from __future__ import annotations
@@ -57,10 +67,10 @@ MIN_RUN = 5
 #: A run's fit may miss a point by this factor times the rounding tolerance (least squares is not
 #: the minimax fit).
 FIT_SLACK = 1.5
-#: Vertices (after merging tiny moves) from which the run search runs numba-compiled: importing
-#: numba and loading the cached kernel costs ~0.5 s of CPU, what the numpy form spends on ~2000
-#: vertices of a finely cut curve (a few ms on a few hundred).
-COMPILED_MIN_VERTICES = 2048
+#: Vertices (after merging tiny moves) from which the run search runs numba-compiled (~0.1 s per
+#: 10⁵ vertices): importing numba and LAPACK and loading the cached kernel costs ~1 s of CPU once
+#: per process, what the numpy form (~0.3 ms per vertex on short runs) spends on ~4000 vertices.
+COMPILED_MIN_VERTICES = 4096
 #: Share of coordinates that must be multiples of a quantum for it to be taken as the rounding.
 QUANTUM_SHARE = 0.9
 #: (point tolerance, path tolerance P) in mm used where a caller passes None (the CLI's
