@@ -53,6 +53,7 @@ from __future__ import annotations
 import contextvars
 from dataclasses import dataclass
 from functools import cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -207,6 +208,18 @@ def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
     return _Fit(1.0 / radius, c0 + center[0] * vt[0] + center[1] * vt[1], normal)
 
 
+class _Runs(NamedTuple):
+    """Runs in order (arrays, one entry per run): vertices first..last (inclusive; interiors
+    disjoint, a run may start where the previous one ends), κ, circle centre (NaN for a line),
+    axis (a line's direction, a circle plane's normal)."""
+
+    first: np.ndarray
+    last: np.ndarray
+    kappa: np.ndarray
+    center: np.ndarray
+    axis: np.ndarray
+
+
 def _tangent_of(axis: np.ndarray, center: np.ndarray, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
     """Unit tangents (row-wise) of fitted runs (line direction or circle normal ``axis``, circle
     ``center``, NaN for a line) at ``point``, oriented along ``toward``."""
@@ -240,14 +253,15 @@ def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
         np.maximum(hi, k3[s:s + size], out=hi)
         np.minimum(lo, k3[s:s + size], out=lo)
         np.minimum(allowed, slack[s:s + size], out=allowed)
-    spread = hi - lo
+    with np.errstate(invalid="ignore"):
+        spread = hi - lo                 # inf - inf (a reversal): NaN, the full fit decides
     ok = (spread <= allowed) | ~np.isfinite(spread)      # inf - inf: let the full fit decide
     out[:ok.size] = ok
     return out
 
 
 def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float,
-          compiled: bool | None = None) -> list[tuple[int, int, _Fit]]:
+          compiled: bool | None = None) -> _Runs:
     """Maximal runs [i, j] (inclusive vertex indices, consecutive runs may share an end vertex)
     fitted by one line or circle: greedy from the start, galloping then bisecting on j, then
     neighbours merged where one fit covers both. From :data:`COMPILED_MIN_VERTICES` vertices on
@@ -274,18 +288,20 @@ def _runs_kernel():
     return compile_once(find_runs, sig, "the polyline run search", 10)
 
 
-def _runs_compiled(pts, turn, maybe, tol, path_tol) -> list[tuple[int, int, _Fit]]:
+def _runs_compiled(pts, turn, maybe, tol, path_tol) -> _Runs:
     n = len(pts)
     ij = np.zeros((n, 2), dtype=np.int64)
     kind = np.zeros(n, dtype=np.int64)
     fit = np.zeros((n, 7))
     count = _runs_kernel()(np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(turn, dtype=float),
                            np.ascontiguousarray(maybe, dtype=bool), float(tol), float(path_tol), ij, kind, fit)
-    return [(int(i), int(j), _Fit(float(f[0]), None if k == 1 else f[1:4].copy(), f[4:7].copy()))
-            for (i, j), k, f in zip(ij[:count].tolist(), kind[:count].tolist(), fit[:count])]
+    fit = fit[:count]
+    center = np.where(kind[:count, None] == 1, np.nan, fit[:, 1:4])
+    return _Runs(ij[:count, 0].astype(int), ij[:count, 1].astype(int), fit[:, 0].copy(), center,
+                 fit[:, 4:7].copy())
 
 
-def _runs_numpy(pts, turn, maybe, tol, path_tol) -> list[tuple[int, int, _Fit]]:
+def _runs_numpy(pts, turn, maybe, tol, path_tol) -> _Runs:
     n = len(pts)
 
     def fits(i: int, j: int) -> _Fit | None:
@@ -334,7 +350,11 @@ def _runs_numpy(pts, turn, maybe, tol, path_tol) -> list[tuple[int, int, _Fit]]:
                 merged[-1] = (merged[-1][0], run[1], f)
                 continue
         merged.append(run)
-    return merged
+    return _Runs(np.array([r[0] for r in merged], dtype=int), np.array([r[1] for r in merged], dtype=int),
+                 np.array([r[2].kappa for r in merged], dtype=float),
+                 np.array([np.full(3, np.nan) if r[2].center is None else r[2].center for r in merged],
+                          dtype=float).reshape(-1, 3),
+                 np.array([r[2].axis for r in merged], dtype=float).reshape(-1, 3))
 
 
 def blend_curvature(theta: np.ndarray, a: np.ndarray, b: np.ndarray, path_tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -361,25 +381,23 @@ def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum("...i,...i->...", u, v))
 
 
-def _interpolate_smooth_chains(kappa: np.ndarray, runs: list, theta: np.ndarray, s: np.ndarray) -> None:
+def _interpolate_smooth_chains(kappa: np.ndarray, runs: _Runs, theta: np.ndarray, s: np.ndarray) -> None:
     """Where arc runs of similar κ (ratio ≤ 2) meet without a tangent break (a free-form curve cut
     into arcs), κ varies linearly in arc length between the runs' middles instead of in steps.
     One circle is one run and keeps its constant κ; lines and corners are left alone."""
-    def smooth(r0, r1) -> bool:
-        k0, k1 = r0[2].kappa, r1[2].kappa
-        return r0[1] == r1[0] and theta[r0[1]] == 0 and min(k0, k1) > 0 and max(k0, k1) <= 2 * min(k0, k1)
-
-    start = 0
-    for end in range(1, len(runs) + 1):
-        if end < len(runs) and smooth(runs[end - 1], runs[end]):
-            continue
-        chain = runs[start:end]
-        if len(chain) > 1:
-            mids = np.array([(s[i] + s[j]) / 2 for i, j, _ in chain])
-            values = np.array([f.kappa for _, _, f in chain])
-            lo, hi = chain[0][0] + 1, chain[-1][1]
-            kappa[lo:hi] = np.interp(s[lo:hi], mids, values)
-        start = end
+    first, last, k = runs.first, runs.last, runs.kappa
+    if first.size < 2:
+        return
+    k0, k1 = k[:-1], k[1:]
+    lo_k, hi_k = np.minimum(k0, k1), np.maximum(k0, k1)
+    smooth = (last[:-1] == first[1:]) & (theta[last[:-1]] == 0) & (lo_k > 0) & (hi_k <= 2 * lo_k)
+    ends = np.flatnonzero(~smooth) + 1                      # chain c: runs starts[c] .. ends[c] - 1
+    starts = np.concatenate([[0], ends])
+    ends = np.concatenate([ends, [first.size]])
+    mids = (s[first] + s[last]) / 2
+    for c0, c1 in zip(starts[ends - starts > 1].tolist(), ends[ends - starts > 1].tolist()):
+        lo, hi = first[c0] + 1, last[c1 - 1]
+        kappa[lo:hi] = np.interp(s[lo:hi], mids[c0:c1], k[c0:c1])
 
 
 def _circumcurvature(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
@@ -482,12 +500,8 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
     run_kappa_left = np.zeros(m)    # κ of a run ending at the vertex
     run_kappa_right = np.zeros(m)   # κ of a run starting at the vertex
     theta = turn.copy()
-    if runs:
-        # runs are ordered, their interiors disjoint; a run may start where the previous one ends
-        first, last = (np.array([r[k] for r in runs], dtype=int) for k in (0, 1))
-        run_k = np.array([r[2].kappa for r in runs])
-        axis = np.array([r[2].axis for r in runs])
-        center = np.array([np.full(3, np.nan) if r[2].center is None else r[2].center for r in runs])
+    if runs.first.size:
+        first, last, run_k, center, axis = runs
         inner = last - first - 1
         at = np.repeat(first + 1 - np.cumsum(inner) + inner, inner) + np.arange(inner.sum())
         kappa[at] = np.repeat(run_k, inner)

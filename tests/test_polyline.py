@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from conftest import circle_nurbs
@@ -190,6 +190,7 @@ points_strategy = st.lists(st.tuples(st.integers(-50, 50), st.integers(-50, 50))
 
 @settings(max_examples=150, deadline=None)
 @given(points_strategy, st.sampled_from([1.0, 0.01, 1e-4]))
+@example([(1, 0), (0, 0), (1, 0), (0, 0), (1, 0)], 1.0)   # reversals: inf - inf in the run screen
 def test_property_curvature_is_finite_bounded_and_tangents_unit(raw, scale):
     pts = np.array(raw, dtype=float) * scale
     if np.all(pts == pts[0]):
