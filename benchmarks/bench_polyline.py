@@ -5,8 +5,11 @@ uniformly in arc length, rounded to 3 decimals (what a CAM post writes) and at f
     python benchmarks/bench_polyline.py [--points 20000] [--repeat 3]
 
 Prints points/s of both and their ratio, plus the error of both against the NURBS curvature
-(max and 95th percentile, relative to the largest κ). The last line is
-slowdown_vs_three_point=X (rounded points).
+(max and 95th percentile, relative to the largest κ). The first call is timed on its own line
+(``first call``: from :data:`fuzzyfeed.polyline.COMPILED_MIN_VERTICES` vertices on it includes
+importing numba and loading, or once after an install compiling, the run search), the figures
+after it are the best of --repeat later calls. The last line is slowdown_vs_three_point=X
+(rounded points).
 """
 
 from __future__ import annotations
@@ -40,6 +43,8 @@ def main() -> None:
     ratio = None
     for label, pts in (("3 decimals", np.round(samples.xyz[:, :2], 3)),
                        ("full precision", samples.xyz[:, :2].copy())):
+        t_first = best(lambda: polyline_curvature(pts), 1)
+        print(f"{label}: first call {t_first:.3f} s")
         t_ours = best(lambda: polyline_curvature(pts), args.repeat)
         t_three = best(lambda: three_point_curvature(pts), args.repeat)
         scale = samples.curvature.max()

@@ -36,12 +36,24 @@ blend within P where that is tighter; runs of equal circles get one κ (:func:`_
 
 Ends of an open path take the κ of their run, or 0 on a free end segment. A closed path (last
 point = first) blends its seam like any vertex.
+
+The run search of step 3 is greedy: from a start vertex (screened by the spread of its
+circumcurvatures, :func:`_run_candidates`) the run's end is found by galloping then bisecting
+on the vertex count, and neighbouring runs are merged where one fit covers both. Each candidate
+run costs one line/circle fit; from :data:`COMPILED_MIN_VERTICES` vertices on these fits run as
+numba-compiled scalar loops (:mod:`fuzzyfeed._polyline_jit`, cached on disk like the other
+kernels, :mod:`fuzzyfeed._kernels`), below in numpy without importing numba. Both forms run the
+same search; their sums run in another order, so on a near-straight stretch whose fit residual
+equals the tolerance to the last bits they can cut the runs differently (both within the
+tolerance of the points).
 """
 
 from __future__ import annotations
 
 import contextvars
 from dataclasses import dataclass
+from functools import cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -56,6 +68,10 @@ MIN_RUN = 5
 #: A run's fit may miss a point by this factor times the rounding tolerance (least squares is not
 #: the minimax fit).
 FIT_SLACK = 1.5
+#: Vertices (after merging tiny moves) from which the run search runs numba-compiled (~0.1 s per
+#: 10⁵ vertices): importing numba and LAPACK and loading the cached kernel costs ~1 s of CPU once
+#: per process, what the numpy form (~0.3 ms per vertex on short runs) spends on ~4000 vertices.
+COMPILED_MIN_VERTICES = 4096
 #: Share of coordinates that must be multiples of a quantum for it to be taken as the rounding.
 QUANTUM_SHARE = 0.9
 #: (point tolerance, path tolerance P) in mm used where a caller passes None (the CLI's
@@ -192,15 +208,26 @@ def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
     return _Fit(1.0 / radius, c0 + center[0] * vt[0] + center[1] * vt[1], normal)
 
 
-def _tangent_of(fit: _Fit, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
-    """Unit tangent of a fitted run at ``point``, oriented along ``toward``."""
-    if fit.center is None:
-        t = fit.axis
-    else:
-        t = np.cross(fit.axis, point - fit.center)
-    n = np.linalg.norm(t)
-    t = t / n if n > 0 else toward
-    return t if t @ toward >= 0 else -t
+class _Runs(NamedTuple):
+    """Runs in order (arrays, one entry per run): vertices first..last (inclusive; interiors
+    disjoint, a run may start where the previous one ends), κ, circle centre (NaN for a line),
+    axis (a line's direction, a circle plane's normal)."""
+
+    first: np.ndarray
+    last: np.ndarray
+    kappa: np.ndarray
+    center: np.ndarray
+    axis: np.ndarray
+
+
+def _tangent_of(axis: np.ndarray, center: np.ndarray, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
+    """Unit tangents (row-wise) of fitted runs (line direction or circle normal ``axis``, circle
+    ``center``, NaN for a line) at ``point``, oriented along ``toward``."""
+    line = np.isnan(center[:, :1])
+    t = np.where(line, axis, np.cross(axis, point - np.where(line, 0.0, center)))
+    n = np.linalg.norm(t, axis=1)[:, None]
+    t = np.where(n > 0, t / np.where(n > 0, n, 1.0), toward)
+    return np.where(np.einsum("ij,ij->i", t, toward)[:, None] >= 0, t, -t)
 
 
 def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
@@ -220,18 +247,61 @@ def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
         slack = 4.0 * 8.0 * tol / np.minimum(la, lb) ** 2
     k3 = np.nan_to_num(k3, nan=np.inf, posinf=np.inf)
     w = MIN_RUN - 2                      # circumcurvatures inside a window of MIN_RUN vertices
-    win = np.lib.stride_tricks.sliding_window_view
-    spread = win(k3, w).max(axis=1) - win(k3, w).min(axis=1)
-    allowed = win(slack, w).min(axis=1)
+    size = k3.size - w + 1
+    hi, lo, allowed = k3[:size].copy(), k3[:size].copy(), slack[:size].copy()
+    for s in range(1, w):                # window max/min by shifted copies (exact, no strided reduce)
+        np.maximum(hi, k3[s:s + size], out=hi)
+        np.minimum(lo, k3[s:s + size], out=lo)
+        np.minimum(allowed, slack[s:s + size], out=allowed)
+    with np.errstate(invalid="ignore"):
+        spread = hi - lo                 # inf - inf (a reversal): NaN, the full fit decides
     ok = (spread <= allowed) | ~np.isfinite(spread)      # inf - inf: let the full fit decide
     out[:ok.size] = ok
     return out
 
 
-def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float) -> list[tuple[int, int, _Fit]]:
+def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float,
+          compiled: bool | None = None) -> _Runs:
     """Maximal runs [i, j] (inclusive vertex indices, consecutive runs may share an end vertex)
     fitted by one line or circle: greedy from the start, galloping then bisecting on j, then
-    neighbours merged where one fit covers both."""
+    neighbours merged where one fit covers both. From :data:`COMPILED_MIN_VERTICES` vertices on
+    (``compiled`` forces a form) the same search runs as numba-compiled loops
+    (:mod:`fuzzyfeed._polyline_jit`); below, in numpy (no numba import)."""
+    maybe = _run_candidates(pts, tol)
+    if compiled is None:
+        compiled = len(pts) >= COMPILED_MIN_VERTICES
+    if compiled:
+        return _runs_compiled(pts, turn, maybe, tol, path_tol)
+    return _runs_numpy(pts, turn, maybe, tol, path_tol)
+
+
+@cache
+def _runs_kernel():
+    """The compiled run search (numba, cached on disk; see :func:`fuzzyfeed._kernels.compile_once`)."""
+    import numba
+
+    from fuzzyfeed._kernels import compile_once
+    from fuzzyfeed._polyline_jit import find_runs
+
+    f8, i8 = numba.float64, numba.int64
+    sig = i8(f8[:, ::1], f8[::1], numba.boolean[::1], f8, f8, i8[:, ::1], i8[::1], f8[:, ::1])
+    return compile_once(find_runs, sig, "the polyline run search", 10)
+
+
+def _runs_compiled(pts, turn, maybe, tol, path_tol) -> _Runs:
+    n = len(pts)
+    ij = np.zeros((n, 2), dtype=np.int64)
+    kind = np.zeros(n, dtype=np.int64)
+    fit = np.zeros((n, 7))
+    count = _runs_kernel()(np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(turn, dtype=float),
+                           np.ascontiguousarray(maybe, dtype=bool), float(tol), float(path_tol), ij, kind, fit)
+    fit = fit[:count]
+    center = np.where(kind[:count, None] == 1, np.nan, fit[:, 1:4])
+    return _Runs(ij[:count, 0].astype(int), ij[:count, 1].astype(int), fit[:, 0].copy(), center,
+                 fit[:, 4:7].copy())
+
+
+def _runs_numpy(pts, turn, maybe, tol, path_tol) -> _Runs:
     n = len(pts)
 
     def fits(i: int, j: int) -> _Fit | None:
@@ -241,7 +311,6 @@ def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float) -> lis
             return None
         return _fit_run(pts[i:j + 1], tol, path_tol)
 
-    maybe = _run_candidates(pts, tol)
     runs: list[tuple[int, int, _Fit]] = []
     i = 0
     while i + MIN_RUN - 1 < n:
@@ -281,7 +350,11 @@ def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float) -> lis
                 merged[-1] = (merged[-1][0], run[1], f)
                 continue
         merged.append(run)
-    return merged
+    return _Runs(np.array([r[0] for r in merged], dtype=int), np.array([r[1] for r in merged], dtype=int),
+                 np.array([r[2].kappa for r in merged], dtype=float),
+                 np.array([np.full(3, np.nan) if r[2].center is None else r[2].center for r in merged],
+                          dtype=float).reshape(-1, 3),
+                 np.array([r[2].axis for r in merged], dtype=float).reshape(-1, 3))
 
 
 def blend_curvature(theta: np.ndarray, a: np.ndarray, b: np.ndarray, path_tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -308,25 +381,23 @@ def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum("...i,...i->...", u, v))
 
 
-def _interpolate_smooth_chains(kappa: np.ndarray, runs: list, theta: np.ndarray, s: np.ndarray) -> None:
+def _interpolate_smooth_chains(kappa: np.ndarray, runs: _Runs, theta: np.ndarray, s: np.ndarray) -> None:
     """Where arc runs of similar κ (ratio ≤ 2) meet without a tangent break (a free-form curve cut
     into arcs), κ varies linearly in arc length between the runs' middles instead of in steps.
     One circle is one run and keeps its constant κ; lines and corners are left alone."""
-    def smooth(r0, r1) -> bool:
-        k0, k1 = r0[2].kappa, r1[2].kappa
-        return r0[1] == r1[0] and theta[r0[1]] == 0 and min(k0, k1) > 0 and max(k0, k1) <= 2 * min(k0, k1)
-
-    start = 0
-    for end in range(1, len(runs) + 1):
-        if end < len(runs) and smooth(runs[end - 1], runs[end]):
-            continue
-        chain = runs[start:end]
-        if len(chain) > 1:
-            mids = np.array([(s[i] + s[j]) / 2 for i, j, _ in chain])
-            values = np.array([f.kappa for _, _, f in chain])
-            lo, hi = chain[0][0] + 1, chain[-1][1]
-            kappa[lo:hi] = np.interp(s[lo:hi], mids, values)
-        start = end
+    first, last, k = runs.first, runs.last, runs.kappa
+    if first.size < 2:
+        return
+    k0, k1 = k[:-1], k[1:]
+    lo_k, hi_k = np.minimum(k0, k1), np.maximum(k0, k1)
+    smooth = (last[:-1] == first[1:]) & (theta[last[:-1]] == 0) & (lo_k > 0) & (hi_k <= 2 * lo_k)
+    ends = np.flatnonzero(~smooth) + 1                      # chain c: runs starts[c] .. ends[c] - 1
+    starts = np.concatenate([[0], ends])
+    ends = np.concatenate([ends, [first.size]])
+    mids = (s[first] + s[last]) / 2
+    for c0, c1 in zip(starts[ends - starts > 1].tolist(), ends[ends - starts > 1].tolist()):
+        lo, hi = first[c0] + 1, last[c1 - 1]
+        kappa[lo:hi] = np.interp(s[lo:hi], mids[c0:c1], k[c0:c1])
 
 
 def _circumcurvature(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
@@ -429,23 +500,25 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
     run_kappa_left = np.zeros(m)    # κ of a run ending at the vertex
     run_kappa_right = np.zeros(m)   # κ of a run starting at the vertex
     theta = turn.copy()
-    ends_left: dict[int, _Fit] = {}
-    for i, j, fit in runs:
-        kappa[i + 1:j] = fit.kappa
-        run_kappa_right[i] = max(run_kappa_right[i], fit.kappa)
-        run_kappa_left[j] = max(run_kappa_left[j], fit.kappa)
-        ends_left[j] = fit
-        if i in ends_left:   # two runs meet: the break between their fitted tangents
-            t_in = _tangent_of(ends_left[i], reduced[i], unit[i - 1])
-            t_out = _tangent_of(fit, reduced[i], unit[i])
-            theta[i] = float(_angle(t_in, t_out))
-    if closed and runs and runs[0][0] == 0 and runs[-1][1] == m - 1:   # the seam joins two runs
-        t_in = _tangent_of(runs[-1][2], reduced[-1], unit[-1])
-        t_out = _tangent_of(runs[0][2], reduced[0], unit[0])
-        theta[0] = theta[-1] = float(_angle(t_in, t_out))
-        seam = max(runs[0][2].kappa, runs[-1][2].kappa)
-        run_kappa_left[0] = run_kappa_right[-1] = seam
-        run_kappa_left[-1] = run_kappa_right[0] = seam
+    if runs.first.size:
+        first, last, run_k, center, axis = runs
+        inner = last - first - 1
+        at = np.repeat(first + 1 - np.cumsum(inner) + inner, inner) + np.arange(inner.sum())
+        kappa[at] = np.repeat(run_k, inner)
+        run_kappa_right[first] = run_k
+        run_kappa_left[last] = run_k
+        meet = np.flatnonzero(last[:-1] == first[1:])     # two runs meet: the break between their tangents
+        v = first[meet + 1]
+        t_in = _tangent_of(axis[meet], center[meet], reduced[v], unit[v - 1])
+        t_out = _tangent_of(axis[meet + 1], center[meet + 1], reduced[v], unit[v])
+        theta[v] = _angle(t_in, t_out)
+        if closed and first[0] == 0 and last[-1] == m - 1:   # the seam joins two runs
+            t_in = _tangent_of(axis[-1:], center[-1:], reduced[-1:], unit[-1:])
+            t_out = _tangent_of(axis[:1], center[:1], reduced[:1], unit[:1])
+            theta[0] = theta[-1] = float(_angle(t_in, t_out)[0])
+            seam = max(run_k[0], run_k[-1])
+            run_kappa_left[0] = run_kappa_right[-1] = seam
+            run_kappa_left[-1] = run_kappa_right[0] = seam
     noise_angle = tol * FIT_SLACK * (1.0 / a + 1.0 / b)
     theta = np.where(theta > noise_angle, theta, 0.0)
     k_blend, corner = blend_curvature(theta, a, b, path_tol)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from conftest import circle_nurbs
@@ -190,6 +190,7 @@ points_strategy = st.lists(st.tuples(st.integers(-50, 50), st.integers(-50, 50))
 
 @settings(max_examples=150, deadline=None)
 @given(points_strategy, st.sampled_from([1.0, 0.01, 1e-4]))
+@example([(1, 0), (0, 0), (1, 0), (0, 0), (1, 0)], 1.0)   # reversals: inf - inf in the run screen
 def test_property_curvature_is_finite_bounded_and_tangents_unit(raw, scale):
     pts = np.array(raw, dtype=float) * scale
     if np.all(pts == pts[0]):
@@ -245,3 +246,82 @@ def test_rounded_circle_program_is_advised_like_the_exact_circle_through_the_cli
     got = read_csv_column(out, "feed_pct")
     assert np.all(np.abs(got[3:-3] / exact - 1) <= 0.03), (got.min(), got.max(), exact)
     np.testing.assert_allclose(read_csv_column(out, "curvature_1_mm")[3:-3], 1 / radius, rtol=1e-3)
+
+
+def wavy_spiral(n: int, decimals: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """The whole-program benchmark's path (benchmarks/bench_program.py) rounded as its post writes
+    it, with its curvature in closed form (κ = |x'y'' − y'x''| / |r'|³ of the parametric curve)."""
+    t = np.linspace(0, 60 * np.pi, n)
+    c = 30 / t[-1]
+    r, dr = 20 + c * t, c
+    w, dw, ddw = 1 + 0.1 * np.sin(9 * t), 0.9 * np.cos(9 * t), -8.1 * np.sin(9 * t)
+    f, df, ddf = r * w, dr * w + r * dw, 2 * dr * dw + r * ddw        # x = f cos t
+    x, y = f * np.cos(t), r * np.sin(t)
+    dx, ddx = df * np.cos(t) - f * np.sin(t), ddf * np.cos(t) - 2 * df * np.sin(t) - f * np.cos(t)
+    dy, ddy = dr * np.sin(t) + r * np.cos(t), 2 * dr * np.cos(t) - r * np.sin(t)
+    kappa = np.abs(dx * ddy - dy * ddx) / (dx * dx + dy * dy) ** 1.5
+    return np.round(np.column_stack([x, y]), decimals), kappa
+
+
+def test_compiled_run_search_constants_match():
+    pytest.importorskip("numba")
+    from fuzzyfeed import _polyline_jit, polyline
+
+    assert _polyline_jit.MIN_RUN == polyline.MIN_RUN
+
+
+@pytest.mark.parametrize("case", ["circle", "open-arc", "squares", "polygon", "walk-3d"])
+def test_compiled_run_search_gives_the_numpy_result(case, monkeypatch):
+    """Both forms of the run search (numpy below COMPILED_MIN_VERTICES, numba from there on) find
+    the same runs and κ on circles, corners, random polygons and 3-D walks."""
+    pytest.importorskip("numba")
+    import fuzzyfeed.polyline as pl
+
+    rng = np.random.default_rng(3)
+    sq = np.array([[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]], dtype=float)
+    pts = {"circle": lambda: rounded_circle(200.0, 1e-4, decimals=4),
+           "open-arc": lambda: rounded_circle(30.0, 0.001, sweep=1.5 * np.pi),
+           "squares": lambda: np.round(np.concatenate([sq * (1 + k * 0.01) for k in range(300)]), 3),
+           "polygon": lambda: np.round(rng.uniform(-50, 50, (1500, 2)), 3),
+           "walk-3d": lambda: np.round(np.cumsum(rng.normal(0, 0.05, (2000, 3)), axis=0), 4)}[case]()
+    forms = {}
+    for compiled in (False, True):
+        monkeypatch.setattr(pl, "COMPILED_MIN_VERTICES", 0 if compiled else 10**9)
+        forms[compiled] = polyline_curvature(pts)
+    np.testing.assert_allclose(forms[True].curvature, forms[False].curvature, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(forms[True].corner, forms[False].corner)
+    np.testing.assert_allclose(forms[True].tangent, forms[False].tangent, atol=1e-12)
+
+
+def test_both_forms_see_the_curvature_of_a_rounded_free_form_curve(monkeypatch):
+    """On a free-form curve (the program benchmark's wavy spiral, 4 decimals, 0.07 mm moves) each
+    form is near the closed-form curvature, far nearer than the paper's three-point estimate. The
+    two forms may cut the runs differently where a near-straight stretch's fit residual sits at the
+    tolerance to the last bits (their sums run in another order), so they are compared with the
+    truth, not bit for bit."""
+    pytest.importorskip("numba")
+    import fuzzyfeed.polyline as pl
+
+    pts, exact = wavy_spiral(100_000)
+    pts, exact = pts[20_000:24_000], exact[20_000:24_000]
+    paper = np.abs(three_point_curvature(pts) - exact)[3:-3] / exact.max()
+    assert np.percentile(paper, 95) > 0.15
+    stats = []
+    for compiled in (False, True):
+        monkeypatch.setattr(pl, "COMPILED_MIN_VERTICES", 0 if compiled else 10**9)
+        err = np.abs(polyline_curvature(pts).curvature - exact)[3:-3] / exact.max()
+        stats.append((np.percentile(err, 95), err.max()))
+        assert stats[-1][0] < 0.04 and stats[-1][1] < 0.15, stats
+    assert abs(stats[0][0] - stats[1][0]) < 0.002, stats
+
+
+def test_a_small_polyline_does_not_import_numba():
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np\nfrom fuzzyfeed.polyline import polyline_curvature\n"
+            "t = np.linspace(0, 6, 800)\n"
+            "polyline_curvature(np.round(np.column_stack([20 * np.cos(t), 20 * np.sin(t)]), 3))\n"
+            "print('numba' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
