@@ -26,19 +26,28 @@ def positive_float(text: str) -> float:
     return value
 
 
+def count_at_least(minimum: int, unit: str, maximum: int | None = None):
+    """argparse type: an integer count of ``unit`` from ``minimum`` (to ``maximum``), the error
+    naming the value and the rule."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{value} is too few; use at least {minimum} {unit}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"{value} is too many; use at most {maximum:,} {unit}")
+        return value
+    parse.__name__ = unit.replace(" ", "_")
+    return parse
+
+
 def point_count(text: str) -> int:
-    """argparse type: an integer number of sample points >= 3."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    """argparse type: an integer number of sample points, 3 to the sampling budget."""
     from fuzzyfeed.sampling import MAX_POINTS
 
-    if value < 3:
-        raise argparse.ArgumentTypeError(f"{value} is too few; use at least 3 points")
-    if value > MAX_POINTS:
-        raise argparse.ArgumentTypeError(f"{value} is too many; use at most {MAX_POINTS:,} points")
-    return value
+    return count_at_least(3, "points", MAX_POINTS)(text)
 
 
 def add_shape_argument(parser: argparse.ArgumentParser) -> None:

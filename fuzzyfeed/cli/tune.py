@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from fuzzyfeed.cli._common import point_count, positive_float
+from fuzzyfeed.cli._common import count_at_least, point_count, positive_float
 from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
 from fuzzyfeed.cli._servo import add_servo_arguments, servo_from_args
 
@@ -21,17 +21,8 @@ when no candidate met the constraints (the least infeasible table is written, an
 """
 
 
-def evaluation_count(text: str) -> int:
-    """argparse type: a number of simulated evaluations, an integer >= 3 (Nelder-Mead's simplex)."""
-    import argparse
-
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 3:
-        raise argparse.ArgumentTypeError(f"{value} is too few; use at least 3 evaluations")
-    return value
+#: argparse type of --evaluations: Nelder-Mead's simplex needs at least 3.
+evaluation_count = count_at_least(3, "evaluations")
 
 
 def register(sub) -> None:
