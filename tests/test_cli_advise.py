@@ -131,3 +131,12 @@ def test_rule_strength_columns(tmp_path):
     assert len(names) == 30 and names[0] == "w_ZO_ZO" and "w_VB_VH" in names
     w = np.stack([cols[c] for c in names], axis=1)
     assert ((w >= 0) & (w <= 1)).all() and (w.max(axis=1) > 0).all()
+
+
+def test_filter_flag_offers_every_filter_the_advisor_has():
+    from fuzzyfeed.cli import build_parser
+    from fuzzyfeed.fuzzy.filters import FILTER_KINDS
+
+    advise = build_parser()._subparsers._group_actions[0].choices["advise"]
+    flag = next(a for a in advise._actions if "--filter" in a.option_strings)
+    assert set(flag.choices) == set(FILTER_KINDS)
