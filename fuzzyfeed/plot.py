@@ -29,13 +29,19 @@ def save_figure(fig, output: str | os.PathLike) -> None:
 
 def colored_path(ax, samples: PathSamples, values: np.ndarray, label: str, cmap: str = "viridis",
                  log: bool = False):
-    """Draw the path in the xy plane as a line coloured by ``values``; returns the colorbar."""
+    """Draw the path in the xy plane as a line coloured by ``values``; returns the colorbar.
+
+    A step between samples that is longer than its arc length is not path but a jump between the
+    pieces of a path (a program's rapid between two cuts): it is left out."""
     from matplotlib.collections import LineCollection
     from matplotlib.colors import LogNorm, Normalize
 
     pts = samples.xyz[:, :2]
-    segments = np.stack([pts[:-1], pts[1:]], axis=1)
-    mid = 0.5 * (values[:-1] + values[1:])
+    chord = np.linalg.norm(np.diff(np.asarray(samples.xyz, dtype=float), axis=0), axis=1)
+    ds = np.diff(np.asarray(samples.s, dtype=float))
+    on_path = chord <= ds * (1.0 + 1e-6) + 1e-9 * max(1.0, float(samples.s[-1]))
+    segments = np.stack([pts[:-1], pts[1:]], axis=1)[on_path]
+    mid = (0.5 * (values[:-1] + values[1:]))[on_path]
     if log:
         positive = mid[mid > 0]
         # four decades below the peak are enough to see where a path is sharp
