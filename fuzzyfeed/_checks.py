@@ -25,3 +25,16 @@ def float_array(value: object, name: str, error: type[Exception] = InputError) -
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
         raise error(f"{name}: cannot be read as numbers ({' '.join(str(exc).split())})") from None
+
+
+def finite_vector(value: object, name: str, rule: str) -> np.ndarray:
+    """``value`` as a flat float array of finite numbers, or a one-line InputError naming ``name``,
+    the index and value, and ``rule`` (why it must be finite)."""
+    arr = float_array(value, name)
+    if arr.ndim != 1:
+        raise InputError(f"{name}: shape {arr.shape}; expected a flat array")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f"{name}[{i}] = {arr[i]}; {rule}")
+    return arr

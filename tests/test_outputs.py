@@ -23,14 +23,7 @@ from fuzzyfeed.cli import main
 from fuzzyfeed.io.atomic import atomic_write
 from fuzzyfeed.io.outputs import OutputPathError, OutputSet
 
-SHAPE = """\
-name = "tiny"
-units = "mm"
-degree = 2
-knotvector = [0, 0, 0, 0.5, 1, 1, 1]
-control_points = [[0, 0], [10, 5], [20, -5], [30, 0]]
-"""
-FAST = ["--points", "60"]
+from hostile_cases import FAST, SHAPE  # the catalogue's tiny shape and quick sampling
 
 
 def snapshot(folder: Path) -> dict[str, tuple]:

@@ -68,14 +68,15 @@ def register(sub) -> None:
     p.set_defaults(run=run, csv_sidecar=True)
 
 
-def compute(args: argparse.Namespace):
-    """Shape, rules and samples in, :class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice` out (one call)."""
+def compute(args: argparse.Namespace, shape=None):
+    """Shape, rules and samples in, :class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice` out (one call);
+    ``shape``, if already loaded, is SHAPE's one path."""
     from fuzzyfeed.fuzzy.advisor import advise_details
     from fuzzyfeed.io.shapes import load_shape, sample_shape
 
     feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
     table = table_from_args(args)
-    shape = load_shape(args.shape)
+    shape = load_shape(args.shape) if shape is None else shape
     try:
         samples = sample_shape(shape, args.points)
         return shape, advise_details(samples, table, feed_mm_min / 60.0)
@@ -144,15 +145,12 @@ def _filter_line(advice) -> str:
 
 
 def drawing_paths(args: argparse.Namespace) -> list | None:
-    """Every path of SHAPE when it is a file of several (a drawing's contours) and no FILE#SELECTOR
-    picks one; None otherwise."""
+    """Every path of SHAPE (a drawing's contours; the one path of any other file), read once; None
+    when a FILE#SELECTOR picks one."""
     from fuzzyfeed.io.shapes import load_shapes, split_selector
 
     _, selector = split_selector(args.shape)
-    if selector is not None:
-        return None
-    shapes = load_shapes(args.shape)
-    return shapes if len(shapes) > 1 else None
+    return None if selector is not None else load_shapes(args.shape)
 
 
 def run_paths(args: argparse.Namespace, shapes: list) -> int:
@@ -202,9 +200,9 @@ def run(args: argparse.Namespace) -> int:
     if args.step_mm is not None:
         raise MachineLimitsError("--step-mm applies to G-code programs only; shapes take --points")
     shapes = drawing_paths(args)
-    if shapes is not None:
+    if shapes is not None and len(shapes) > 1:
         return run_paths(args, shapes)
-    shape, advice = compute(args)
+    shape, advice = compute(args, shapes[0] if shapes else None)
     notes = (f"rules {advice.table.name!r}; F = {advice.profile.max_feed_mm_s * 60:g} mm/min "
              "(feed % refers to it)",)
     gcode = prepare_gcode(args, advice.profile, shape, notes)  # checked before any file is written

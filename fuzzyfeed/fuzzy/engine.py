@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed._checks import expect, float_array
+from fuzzyfeed._checks import expect, finite_vector
 from fuzzyfeed._kernels import use_compiled
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.rules import RuleTable, Variable
@@ -73,14 +73,7 @@ def membership(var: Variable, x: np.ndarray) -> np.ndarray:
 
 def check_finite(name: str, values: np.ndarray) -> np.ndarray:
     """Return ``values`` as a float array; NaN or infinity is an :class:`InputError` naming the index."""
-    arr = np.ascontiguousarray(float_array(values, name), dtype=float)
-    if arr.ndim != 1:
-        raise InputError(f"{name}: shape {arr.shape}; expected a 1-D array")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InputError(f"{name}[{i}] = {arr[i]}; controller inputs must be finite numbers")
-    return arr
+    return np.ascontiguousarray(finite_vector(values, name, "controller inputs must be finite numbers"))
 
 
 @dataclass(frozen=True, eq=False)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fuzzyfeed._checks import float_array
+from fuzzyfeed._checks import finite_vector
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.windows import cell_lengths, centred_bounds, range_min, window_mean
 
@@ -59,13 +59,7 @@ def smooth_feed(values: np.ndarray, kind: str = DEFAULT_FILTER, points: int | No
     points keep their own value); the sliding minimum uses the same half-width, truncated at the
     ends. ``"corner-mean"`` needs the ``curvature`` of every point.
     """
-    v = float_array(values, "values")
-    if v.ndim != 1:
-        raise InputError(f"values: shape {v.shape}; expected a flat array")
-    bad = ~np.isfinite(v)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InputError(f"values[{i}] = {v[i]}; the filter needs finite values")
+    v = finite_vector(values, "values", "the filter needs finite values")
     if kind not in FILTER_KINDS:
         raise InputError(f"filter = {kind!r}; must be one of {', '.join(FILTER_KINDS)}")
     n = v.size
