@@ -203,5 +203,17 @@ def spec_to_table(spec: Spec, settings_from: RuleTable | None = None) -> RuleTab
         raise RuleTableError(f"{where}: {SETTINGS_TAG}: {exc}") from None
 
 
+def rule_cells(m, where: str, shown: str, weight_word: str, form: str) -> tuple[str, str, str]:
+    """(κ term, Dκ term, feed term) of a parsed rule, shared by the FCL and FLL readers: ``m`` is
+    their rule pattern's match (groups: variable/term pairs 1–4, output 5/6, weight 7); ``shown``,
+    ``weight_word`` and ``form`` word the one-line errors in the format's own keywords."""
+    if m.group(7) is not None and float(m.group(7)) != 1.0:
+        raise RuleTableError(f"{where}: {weight_word} {m.group(7)}; fuzzyfeed's rules all weigh 1")
+    pairs = {m.group(1): m.group(2), m.group(3): m.group(4)}
+    if set(pairs) != {KAPPA, DK} or m.group(5) != FEED:
+        raise RuleTableError(f"{where}: {shown}; {form}")
+    return pairs[KAPPA], pairs[DK], m.group(6)
+
+
 __all__ = ["EXPORT_FORMATS", "IMPORT_SUFFIXES", "Spec", "numbered_rules", "rule_number",
            "spec_to_table", "VARIABLES"]

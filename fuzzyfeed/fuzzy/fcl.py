@@ -16,7 +16,8 @@ import re
 
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.exchange import (SETTINGS_TAG, Spec, num, numbered_rules, points_to_trapezoid,
-                                      read_settings, settings_json, shape_params, trapezoid_points)
+                                      read_settings, rule_cells, settings_json, shape_params,
+                                      trapezoid_points)
 from fuzzyfeed.fuzzy.rules import DK, FEED, KAPPA, RuleTable, Term, Variable
 
 _UNITS = {KAPPA: "1/mm, clipped to the universe", DK: "normalised curvature variation",
@@ -187,13 +188,8 @@ def _rule(stmt: str, where: str) -> tuple[str, str, str]:
     if not m:
         raise RuleTableError(f"{where}: {stmt!r}; fuzzyfeed reads rules "
                              "RULE n : IF a IS x AND b IS y THEN c IS z (no OR, NOT or hedges)")
-    if m.group(7) is not None and float(m.group(7)) != 1.0:
-        raise RuleTableError(f"{where}: rule weight WITH {m.group(7)}; fuzzyfeed's rules all weigh 1")
-    pairs = {m.group(1): m.group(2), m.group(3): m.group(4)}
-    if set(pairs) != {KAPPA, DK} or m.group(5) != FEED:
-        raise RuleTableError(f"{where}: {stmt!r}; a rule reads IF {KAPPA} IS … AND {DK} IS … THEN "
-                             f"{FEED} IS …")
-    return pairs[KAPPA], pairs[DK], m.group(6)
+    return rule_cells(m, where, repr(stmt), "rule weight WITH",
+                      f"a rule reads IF {KAPPA} IS … AND {DK} IS … THEN {FEED} IS …")
 
 
 def _variable(name: str, terms: list, rng: tuple[float, float] | None, path: str) -> Variable:

@@ -11,7 +11,7 @@ import re
 
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.exchange import (FLL_RESOLUTION, SETTINGS_TAG, Spec, num, numbered_rules,
-                                      read_settings, settings_json, shape_params)
+                                      read_settings, rule_cells, settings_json, shape_params)
 from fuzzyfeed.fuzzy.rules import DK, FEED, KAPPA, RuleTable, Term, Variable
 
 
@@ -129,10 +129,5 @@ def _rule(value: str, where: str) -> tuple[str, str, str]:
     if not m:
         raise RuleTableError(f"{where}: rule {value!r}; fuzzyfeed reads "
                              "'if a is x and b is y then c is z' (no or, not or hedges)")
-    if m.group(7) is not None and float(m.group(7)) != 1.0:
-        raise RuleTableError(f"{where}: rule weight {m.group(7)}; fuzzyfeed's rules all weigh 1")
-    pairs = {m.group(1): m.group(2), m.group(3): m.group(4)}
-    if set(pairs) != {KAPPA, DK} or m.group(5) != FEED:
-        raise RuleTableError(f"{where}: rule {value!r}; a rule reads if {KAPPA} is … and {DK} is … "
-                             f"then {FEED} is …")
-    return pairs[KAPPA], pairs[DK], m.group(6)
+    return rule_cells(m, where, f"rule {value!r}", "rule weight",
+                      f"a rule reads if {KAPPA} is … and {DK} is … then {FEED} is …")
