@@ -34,23 +34,6 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
-def _progress_bar(total_mm: float):
-    """A tqdm bar over arc length on a terminal, else a no-op."""
-    if not sys.stderr.isatty():
-        return None, lambda s: None
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=round(total_mm, 3), unit="mm", desc="scheduling", leave=False,
-               bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm")
-    state = {"done": 0.0}
-
-    def update(s_mm: float) -> None:
-        bar.update(round(s_mm - state["done"], 3))
-        state["done"] = round(s_mm, 3)
-
-    return bar, update
-
-
 def compute(args: argparse.Namespace):
     """Shape, trajectory, measurements and bound for parsed arguments."""
     from fuzzyfeed.io.shapes import load_shape
@@ -58,14 +41,11 @@ def compute(args: argparse.Namespace):
 
     limits = limits_from_args(args)
     shape = load_shape(args.shape)
-    bar, update = _progress_bar(shape.curve.length)
-    try:
-        traj = schedule(shape.curve, limits, progress=update, approach=args.approach)
+    try:  # a progress bar on a terminal (tqdm.auto), none in a pipe or a log
+        traj = schedule(shape.curve, limits, progress=True if sys.stderr.isatty() else None,
+                        approach=args.approach)
     except InputError as exc:  # the message names the user's file
         raise InputError(f"{args.shape}: {exc}") from None
-    finally:
-        if bar is not None:
-            bar.close()
     bound = path_bound(shape.curve, limits)
     return shape, traj, measure(traj), bound, bound.time_s
 

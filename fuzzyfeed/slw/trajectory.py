@@ -178,7 +178,8 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if progress is True:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=round(total, 3), unit="mm", desc="scheduling", leave=False)
+        bar = tqdm(total=round(total, 3), unit="mm", desc="scheduling", leave=False,
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm")
         done = [0.0]
 
         def progress(s_mm: float) -> None:
@@ -192,16 +193,15 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
             if progress is not None:
                 progress(block.s1)
     except (ValueError, RuntimeError) as exc:
-        if bar is not None:
-            bar.close()
         if isinstance(exc, InputError):
             raise
         where = blocks[-1].s1 if blocks else 0.0
         raise InputError(f"SLW scheduling failed after s = {where:.6g} mm of {total:.6g} mm: {exc}; the "
                          "path has a (near-)stationary point or a corner the look-ahead cannot "
                          "resolve under these limits") from None
-    if bar is not None:
-        bar.close()
+    finally:
+        if bar is not None:
+            bar.close()
     t, s, v, a, j = _sample_profile(blocks, limits.ts_s, total)
     if t.size < 2:
         raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")
