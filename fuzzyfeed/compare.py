@@ -140,10 +140,10 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     for method in METHODS:
         step(f"simulate {method}")
         if method == "slw":
-            sims[method] = simulate(curve, trajectory.time_law(), limits, "slw", bound_time_s=bound_time,
+            sims[method] = simulate(trajectory.curve, trajectory.time_law(), limits, "slw", bound_time_s=bound_time,
                                     servo=servo)
         elif method == "fuzzy-safe":
-            sims[method] = simulate(curve, safe_trajectory.time_law(), limits, "fuzzy-safe",
+            sims[method] = simulate(safe_trajectory.curve, safe_trajectory.time_law(), limits, "fuzzy-safe",
                                     bound_time_s=bound_time, servo=servo)
         else:
             sims[method] = simulate_profile(profiles[method], limits, bound_time_s=bound_time, servo=servo)

@@ -217,7 +217,7 @@ def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike |
     t = traj.t_s
     for ax, y, limit, label in ((axes[1], traj.feed_mm_s * 60, lim.feed_mm_min, "feed (mm/min)"),
                                 (axes[2], traj.acc_mm_s2, lim.tangential_acc_mm_s2,
-                                 "tangential acc (mm/s²)"),
+                                 "tangential acc (mm/s²)\n(dotted: smallest axis limit)"),
                                 (axes[3], traj.jerk_mm_s3, lim.jerk_mm_s3, "tangential jerk (mm/s³)")):
         ax.plot(t, y, lw=1.0)
         ax.axhline(limit, color="tab:red", lw=0.8, ls=":")

@@ -84,7 +84,7 @@ def pareto_points(samples: PathSamples, limits: MachineLimits, feeds_mm_min, tol
             traj = schedule(samples.curve, machine)
         except InputError:  # the scheduler refuses some low-acceleration paths: leave the point out
             continue
-        m = simulate(samples.curve, traj.time_law(), machine, "slw", servo=servo).metrics
+        m = simulate(traj.curve, traj.time_law(), machine, "slw", servo=servo).metrics
         points.append(_point("slw-tol", f"eps={tol:g}um", m))
     return points
 

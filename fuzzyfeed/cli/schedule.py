@@ -46,7 +46,7 @@ def compute(args: argparse.Namespace):
                         approach=args.approach)
     except InputError as exc:  # the message names the user's file
         raise InputError(f"{args.shape}: {exc}") from None
-    bound = path_bound(shape.curve, limits)
+    bound = path_bound(traj.curve, limits)  # of the path followed (a polyline: blended)
     return shape, traj, measure(traj), bound, bound.time_s
 
 
@@ -68,6 +68,8 @@ def summary(shape_name: str, traj, m: dict, bound) -> str:
         f"jerk {np.abs(traj.jerk_mm_s3).max():.1f} mm/s^3 ({100 * m['jerk']:.2f} % of limit)",
         f"terminal error    {1000 * m['terminal_error_mm']:.3g} um",
     ]
+    if traj.polyline_fit is not None:
+        lines.append(f"path followed     {traj.polyline_fit.describe()}")
     return "\n".join(lines)
 
 
@@ -81,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     def segment_feeds():
         """F of each segment = its length / the scheduled time between its ends, so the program
         at its F words takes the schedule's time (up to the F rounding)."""
-        t = np.interp(samples.s, traj.s_mm, traj.t_s)
+        t = traj.time_at(samples.s)
         dt = np.diff(t)
         ds = np.diff(samples.s)
         with np.errstate(divide="ignore", invalid="ignore"):

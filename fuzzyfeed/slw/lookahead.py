@@ -146,7 +146,7 @@ class SlidingWindow:
         # a stretch with a zero limit everywhere (a micro-kink between two near-stationary
         # points) is crawled through at a tiny feed rather than being impassable
         vmax = min(self.limits.feed_mm_s, max(block.peak_limit, CRAWL * self.limits.feed_mm_s))
-        self.blocks.append(_WBlock(block.ref, self.acc, vmax))
+        self.blocks.append(_WBlock(block.ref, self._direction_acc(block.ref), vmax))
         self.juncs.append(_Junction(block.s1, block.cap1, critical=True))
         self.stats.max_window_blocks = max(self.stats.max_window_blocks, len(self.blocks))
         self.stats.max_window_mm = max(self.stats.max_window_mm, self.blocks[-1].s1 - self.blocks[0].s0)
@@ -168,7 +168,7 @@ class SlidingWindow:
         if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk):
             return False
         b = self.blocks[-1]
-        head, acc = b.ref, b.acc
+        head, acc = b.ref, min(b.acc, self._direction_acc(block.ref))
         if self._corner_s.size and np.isin(last.s, self._corner_s):
             # a true corner passed inside a block, not at rest on its tangential acceleration:
             # the corner's turn may use CORNER_SHARE of each axis, the tangential acceleration
@@ -183,6 +183,16 @@ class SlidingWindow:
         last.s, last.cap, last.v = block.s1, block.cap1, 0.0
         self.stats.merged += 1
         return True
+
+    def _direction_acc(self, ref: Reference) -> float:
+        """Tangential acceleration of a new block: the largest a with |a·T_j| ≤ A_j at each of its
+        reference points (seed 000, eq. (13)-(14), per block instead of for every direction), at
+        least the machine's smallest A_j. On unequal axes a block along a fast axis accelerates
+        as that axis can; the profile check lowers it where the centripetal part needs room."""
+        t = np.abs(ref.tangent)
+        with np.errstate(divide="ignore"):
+            per_point = np.min(np.where(t > 0.0, self.axis_acc[None, :] / t, np.inf), axis=1)
+        return float(max(self.acc, min(float(per_point.min()), float(self.axis_acc.max()))))
 
     def _ahead_mm(self) -> float:
         """Look-ahead beyond the first block's end."""

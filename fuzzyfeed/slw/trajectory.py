@@ -18,6 +18,7 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.interpolate import interpolate_u
 from fuzzyfeed.limits import AXES, MachineLimits
 from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.polyline_fit import PolylineFit, fit_polyline
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.simulate import TimeLaw, simulate
@@ -52,6 +53,7 @@ class Trajectory:
     blocks: tuple[ScheduledBlock, ...] = field(repr=False)
     stats: LookaheadStats = field(repr=False)
     critical_s_mm: np.ndarray = field(repr=False, default=None)  # type: ignore[assignment]
+    polyline_fit: PolylineFit | None = field(repr=False, default=None)
 
     @property
     def cycle_time_s(self) -> float:
@@ -79,17 +81,29 @@ class Trajectory:
                        duration_s=self.cycle_time_s)
 
     def feed_at(self, samples: PathSamples) -> FeedProfile:
-        """The scheduled feed at the sampling layer's points (method "slw"), interpolated in s."""
+        """The scheduled feed at the sampling layer's points (method "slw"), interpolated in s
+        (the samples' arc lengths scaled to the followed path's length)."""
         s, idx = np.unique(self.s_mm, return_index=True)
         v = np.maximum.reduceat(self.feed_mm_s, idx) if s.size < self.s_mm.size else self.feed_mm_s
-        scale = s[-1] / samples.s[-1] if samples.s[-1] > 0 else 1.0
-        feed = np.interp(np.asarray(samples.s) * scale, s, v)
+        feed = np.interp(self._scaled(samples.s), s, v)
         return FeedProfile(samples, feed, "slw", self.limits.feed_mm_s)
+
+    def time_at(self, s_mm: np.ndarray) -> np.ndarray:
+        """Scheduled time (s) at which the input path's arc lengths ``s_mm`` (increasing, from 0
+        to its end) are passed; scaled to the followed path's length like :meth:`feed_at`."""
+        return np.interp(self._scaled(s_mm), self.s_mm, self.t_s)
+
+    def _scaled(self, s_mm) -> np.ndarray:
+        """Arc lengths over the whole input path (last = its end) scaled to the followed path."""
+        s_mm = np.asarray(s_mm, dtype=float)
+        return s_mm * (self.s_mm[-1] / s_mm[-1]) if s_mm[-1] > 0 else s_mm
 
 
 def _feed_cap(feed_cap, total: float) -> FeedCap | None:
-    if feed_cap is None or isinstance(feed_cap, FeedCap):
-        return feed_cap
+    if feed_cap is None:
+        return None
+    if isinstance(feed_cap, FeedCap):  # given on the input path: rescaled to the followed one
+        return feed_cap if feed_cap.length_mm == total else FeedCap(feed_cap.s_mm, feed_cap.feed_mm_s, total)
     if isinstance(feed_cap, FeedProfile):
         return FeedCap(np.asarray(feed_cap.samples.s), feed_cap.feed_mm_s, total)
     try:
@@ -147,7 +161,7 @@ def check_work(total_mm: float, limits: MachineLimits) -> None:
 
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
              progress: Callable[[float], None] | None = None, approach: int = 2,
-             feed_cap=None) -> Trajectory:
+             feed_cap=None, blend: bool = True, path_tolerance_mm: float | None = None) -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
 
     ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 2 (default)
@@ -158,6 +172,11 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     (its samples' arc lengths and feeds), a pair ``(s_mm, feed_mm_s)`` or a :class:`FeedCap`;
     linear in s between its points. The result is the jerk-limited schedule under
     min(cap, machine): every machine limit still holds.
+
+    A polyline (degree 1) is followed as a blending controller follows it (``blend``, default):
+    smooth within the path tolerance P (``path_tolerance_mm``, default G64 P0.01) between its true
+    corners, which are passed within one servo period (:func:`fuzzyfeed.polyline_fit.fit_polyline`);
+    ``blend=False`` takes every vertex as a corner. The fit is ``Trajectory.polyline_fit``.
 
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
     ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal or a
@@ -173,6 +192,10 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if approach not in (1, 2):
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
     check_work(total, limits)
+    fit = None
+    if blend and curve.degree == 1:
+        fit = fit_polyline(curve, path_tolerance_mm)
+        curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
     bar = None
     if progress is True:
@@ -210,7 +233,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if xyz.shape[1] == 2:
         xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 1))])
     critical = np.array([b.s1 for b in blocks[:-1]])
-    return Trajectory(curve, limits, t, s, u, xyz, v, a, j, tuple(blocks), window.stats, critical)
+    return Trajectory(curve, limits, t, s, u, xyz, v, a, j, tuple(blocks), window.stats, critical, fit)
 
 
 # ---------------------------------------------------------------------- measurement
@@ -218,7 +241,8 @@ def measure(traj: Trajectory) -> dict[str, float]:
     """Worst ratio to each limit, measured by the one simulator (:func:`fuzzyfeed.simulate.simulate`).
 
     From the positions (differences at Ts): feed, axial velocity, axial acceleration, chord
-    error. From the scheduled profile: tangential acceleration and jerk. Plus the start/end feeds
+    error. From the scheduled profile: tangential acceleration (over the smallest axis limit, a
+    reference, not a limit: along a fast axis a block accelerates as that axis allows) and jerk. Plus the start/end feeds
     and the start and terminal errors (distance of the first/last point from the path's ends, mm).
     """
     lim = traj.limits
