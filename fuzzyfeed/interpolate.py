@@ -25,6 +25,9 @@ import numpy as np
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.nurbs import Nurbs
 
+#: Ticks per chunk of the chord-exact interpolation's curve evaluations (~300 B per tick each).
+CHUNK_TICKS = 65536
+
 METHODS = ("taylor1", "taylor2", "compensated", "arc", "best")
 
 
@@ -86,24 +89,35 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 12) -> np.ndarra
     s′_k = Σ_{i≤k} (μ·ΔL_i + d_i), μ = (L − Σd)/L, makes every chord μ·ΔL_k and keeps s′_K = L.
     u(s_k) is solved once by Newton on s(u); each retargeting moves u by the second-order Taylor
     step of the change in target (DESIGN §7), and the fixed point on d converges in a few passes.
+    The curve is evaluated in chunks of :data:`CHUNK_TICKS` ticks (memory bounded per tick).
     """
     total = s[-1]
     steps = np.diff(s)
+    n = s.size
     lo, hi = curve.domain
     u = np.asarray(curve.param_at_length(s), dtype=float)
     target = s
+    chords = np.empty(n - 1)
+    deficit = np.empty(n - 1)
+    sp2 = np.empty(n)     # |C′|²
+    d1d2 = np.empty(n)    # C′·C″
     for _ in range(iterations):
-        pts, d1, d2 = curve.evaluate(u, order=2)
-        chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        deficit = np.maximum(np.diff(target) - chords, 0.0)
-        # only the deficit the curvature explains (ΔL³κ²/24, with margin): across a true corner
-        # (a tangent break) the chord cuts the corner and retargeting would make the tick jump
-        d1n = np.linalg.norm(d1, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            kap = np.linalg.norm(np.cross(_pad3(d1), _pad3(d2)), axis=1) / d1n ** 3
-        kap = np.nan_to_num(kap, nan=0.0, posinf=0.0)
-        dl = np.diff(target)
-        deficit = np.minimum(deficit, dl ** 3 * np.maximum(kap[:-1], kap[1:]) ** 2 / 12.0 + 1e-3 * deficit)
+        for c0 in range(0, n - 1, CHUNK_TICKS):
+            c1 = min(c0 + CHUNK_TICKS, n - 1)      # chords c0 … c1 − 1 need points c0 … c1
+            pts, d1, d2 = curve.evaluate(u[c0:c1 + 1], order=2)
+            ch = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+            chords[c0:c1] = ch
+            dl = np.diff(target[c0:c1 + 1])
+            # only the deficit the curvature explains (ΔL³κ²/24, with margin): across a true corner
+            # (a tangent break) the chord cuts the corner and retargeting would make the tick jump
+            d1n = np.linalg.norm(d1, axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                kap = np.linalg.norm(np.cross(_pad3(d1), _pad3(d2)), axis=1) / d1n ** 3
+            kap = np.nan_to_num(kap, nan=0.0, posinf=0.0)
+            part = np.maximum(dl - ch, 0.0)
+            deficit[c0:c1] = np.minimum(part, dl ** 3 * np.maximum(kap[:-1], kap[1:]) ** 2 / 12.0 + 1e-3 * part)
+            sp2[c0:c1 + 1] = np.einsum("ij,ij->i", d1, d1)
+            d1d2[c0:c1 + 1] = np.einsum("ij,ij->i", d1, d2)
         mu = (total - deficit.sum()) / total if total > 0 else 1.0
         with np.errstate(divide="ignore", invalid="ignore"):
             err = np.abs(chords - mu * steps) / np.where(steps > 0, steps, np.inf)
@@ -114,10 +128,8 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 12) -> np.ndarra
         new = np.minimum(np.maximum.accumulate(new), total)
         shift = new - target
         target = new
-        sp2 = np.einsum("ij,ij->i", d1, d1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            du = np.where(sp2 > 0, shift / np.sqrt(sp2)
-                          - shift * shift * np.einsum("ij,ij->i", d1, d2) / (2.0 * sp2 * sp2), 0.0)
+            du = np.where(sp2 > 0, shift / np.sqrt(sp2) - shift * shift * d1d2 / (2.0 * sp2 * sp2), 0.0)
         u = np.clip(u + du, lo, hi)
     return u
 

@@ -63,12 +63,15 @@ class PolylineFit:
     corners: int
     fitted: int
     kept: int
+    quantum_mm: float | None = None
 
     def describe(self) -> str:
         """One line for a summary."""
-        return (f"polyline of {self.source.n_control_points} points followed within "
-                f"{1000 * self.max_deviation_mm:.2f} um (path tolerance P {self.path_tolerance_mm:g} mm, "
-                f"rounding {1000 * self.rounding_tolerance_mm:.2g} um): {self.fitted} smooth "
+        coords = ("full-precision coordinates" if self.quantum_mm is None
+                  else f"coordinates rounded to {self.quantum_mm:g} mm")
+        return (f"polyline of {self.source.n_control_points} points ({coords}) followed within "
+                f"{1000 * self.max_deviation_mm:.2f} um (path tolerance P {self.path_tolerance_mm:g} mm): "
+                f"{self.fitted} smooth "
                 f"piece(s), {self.kept} kept as lines, {self.corners} true corner(s) passed within one "
                 "servo period")
 
@@ -119,7 +122,8 @@ def fit_polyline(curve: Nurbs, path_tolerance_mm: float | None = None,
         ctrl.append(c[1:])
     knots[-1] = np.full(4, x[-1])
     out = Nurbs(3, np.concatenate(knots), np.concatenate(ctrl))
-    return PolylineFit(out, curve, p_tol, r_tol, worst, int(np.count_nonzero(is_corner[1:-1])), fitted, kept)
+    return PolylineFit(out, curve, p_tol, r_tol, worst, int(np.count_nonzero(is_corner[1:-1])), fitted, kept,
+                       info.quantum_mm)
 
 
 def _chords(x: np.ndarray, p: np.ndarray):

@@ -172,6 +172,8 @@ def following_errors(servo: ServoModel, commanded: np.ndarray, ts_s: float) -> n
 
 
 _DENSE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Points per chunk of :func:`nearest_on_curve` (its temporaries: ~1 kB per point).
+NEAREST_CHUNK = 16384
 
 
 def _dense_grid(curve: Nurbs, step_mm: float, max_points: int):
@@ -202,13 +204,23 @@ def nearest_on_curve(curve: Nurbs, points: np.ndarray, step_mm: float = 0.01, ca
     ends) is returned.
     """
     pts = np.asarray(points, dtype=float)
+    grid, tree = _dense_grid(curve, step_mm, max_points)
+    u_out = np.empty(pts.shape[0])
+    d_out = np.empty(pts.shape[0])
+    for c0 in range(0, pts.shape[0], NEAREST_CHUNK):  # bounded temporaries on long trajectories
+        part = slice(c0, c0 + NEAREST_CHUNK)
+        u_out[part], d_out[part] = _nearest_chunk(curve, pts[part], grid, tree, candidates, iterations)
+    return u_out, d_out
+
+
+def _nearest_chunk(curve: Nurbs, pts: np.ndarray, grid: np.ndarray, tree, candidates: int,
+                   iterations: int) -> tuple[np.ndarray, np.ndarray]:
     dim = curve.dim
     if pts.shape[1] > dim:
         extra = np.abs(pts[:, dim:]).sum(axis=1)
         pts2 = pts[:, :dim]
     else:
         extra, pts2 = None, pts
-    grid, tree = _dense_grid(curve, step_mm, max_points)
     k = min(candidates, grid.size)
     _, idx = tree.query(pts2, k=k)
     idx = np.asarray(idx).reshape(pts2.shape[0], k)

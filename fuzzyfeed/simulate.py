@@ -26,6 +26,8 @@ from fuzzyfeed.servo import ServoModel, Tracking, track
 #: A tick counts as a violation when it exceeds a limit by more than this fraction (rounding and
 #: the O(ΔL³) chord-to-arc difference must not count).
 VIOLATION_TOLERANCE = 1e-6
+#: Ticks per chunk of the per-tick measurements (bounded temporaries on long trajectories).
+CHUNK_TICKS = 32768
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,7 +184,16 @@ class Simulation:
 
 def chord_errors(curve: Nurbs, u: np.ndarray, probes: int = 5) -> np.ndarray:
     """Largest distance of the curve from each tick's chord C(u_k)C(u_k+1) (mm, one per tick),
-    probed at ``probes`` evenly spaced parameters inside every interval."""
+    probed at ``probes`` evenly spaced parameters inside every interval (in chunks of
+    :data:`CHUNK_TICKS` ticks: the memory stays bounded on long trajectories)."""
+    u = np.asarray(u, dtype=float)
+    out = np.empty(max(u.size - 1, 0))
+    for c0 in range(0, out.size, CHUNK_TICKS):
+        out[c0:c0 + CHUNK_TICKS] = _chord_errors(curve, u[c0:c0 + CHUNK_TICKS + 1], probes)
+    return out
+
+
+def _chord_errors(curve: Nurbs, u: np.ndarray, probes: int) -> np.ndarray:
     frac = np.linspace(0.0, 1.0, probes + 2)[1:-1]
     u0, u1 = u[:-1], u[1:]
     inner = u0[:, None] + (u1 - u0)[:, None] * frac[None, :]
