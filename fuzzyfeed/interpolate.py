@@ -26,7 +26,7 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.nurbs import Nurbs
 
 #: Ticks per chunk of the chord-exact interpolation's curve evaluations (~300 B per tick each).
-CHUNK_TICKS = 65536
+CHUNK_TICKS = 16384
 
 METHODS = ("taylor1", "taylor2", "compensated", "arc", "best")
 

@@ -27,7 +27,7 @@ from fuzzyfeed.servo import ServoModel, Tracking, track
 #: the O(ΔL³) chord-to-arc difference must not count).
 VIOLATION_TOLERANCE = 1e-6
 #: Ticks per chunk of the per-tick measurements (bounded temporaries on long trajectories).
-CHUNK_TICKS = 32768
+CHUNK_TICKS = 16384
 
 
 @dataclass(frozen=True, eq=False)

@@ -38,8 +38,11 @@ CRAWL = 1e-3
 #: Blocks shorter than this fraction of one servo period's travel at the command feed are not
 #: checked against the limits (the ticks around them are what the machine sees).
 SUB_TICK = 1e-3
-#: Repairs tried per window before giving up on a block (then reported in the statistics).
+#: Failed checks in a row, beyond the blocks to release, after which the look beyond them stops.
 MAX_REPAIRS = 400
+#: Repairs in one window before the path is refused (each repair is progress; never reached on
+#: the benchmark's paths).
+MAX_SETTLE = 100_000
 #: A junction added where the profile crosses the feed limit is capped this far below the limit:
 #: the next profile has room to rise, so a slowly rising limit is followed in stairs of a few per
 #: cent (a bounded number of splits) instead of a staircase of tiny steps.
@@ -334,11 +337,13 @@ class SlidingWindow:
         self._invalidate()
 
     def _settle(self, end_feed: float, full: bool = False) -> None:
-        """Plan and repair until every block in the window passes its check."""
+        """Plan and repair until every block in the window passes its check. Every repair adds a
+        junction or lowers an acceleration, so this ends; past MAX_SETTLE repairs in one window
+        the path is refused (RuntimeError) rather than released over a limit."""
         # only blocks within a full stop of the first junction ahead can lower it: the others
         # are checked when they come to the front (bounded work per released block)
         reach = self.blocks[0].s1 + 1.05 * self.stop if self.blocks and not full else math.inf
-        for _ in range(MAX_REPAIRS):
+        for _ in range(MAX_SETTLE):
             self._plan(end_feed)
             ok = True
             for i in range(len(self.blocks)):
@@ -350,7 +355,8 @@ class SlidingWindow:
             if ok:
                 return
         self.stats.unresolved += 1
-        self._plan(end_feed)
+        raise RuntimeError(f"{MAX_SETTLE} repairs in one look-ahead window at s = {self.blocks[0].s0:.6g} mm "
+                           "did not bring every block within the limits")
 
     # ------------------------------------------------------------------ the window loop
     def run(self, blocks: Iterable[Block]) -> Iterator[ScheduledBlock]:
@@ -406,15 +412,15 @@ class SlidingWindow:
     def _front_holds(self, n_final: int) -> bool:
         """Check the blocks to release and a few after them with the feeds they get when the path
         goes on (no stop at the window's end): a limit crossing that only shows at those feeds is
-        repaired now, while the junction it needs can still be reached."""
-        if self._front_checks >= MAX_REPAIRS:
-            return True
+        repaired now, while the junction it needs can still be reached. The blocks to release are
+        always checked; the look beyond them stops after MAX_REPAIRS failures in a row."""
         self._plan(math.inf)
         # every block a full stop beyond the released ones: a repair there (a junction with zero
         # acceleration) could otherwise need a lower feed than the released one can reach
         reach = self.juncs[n_final].s + 1.05 * self.stop
         for i in range(len(self.blocks)):
-            if i >= n_final + FRONT_BLOCKS and self.blocks[i].s0 > reach:
+            if i >= n_final and (self._front_checks >= MAX_REPAIRS
+                                 or (i >= n_final + FRONT_BLOCKS and self.blocks[i].s0 > reach)):
                 break
             if not self._check(i):
                 self._front_checks += 1
