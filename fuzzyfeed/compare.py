@@ -120,12 +120,13 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     expect(limits, MachineLimits, "limits", "MachineLimits")
     curve = samples.curve
     step = progress or (lambda _name: None)
-    step("bound")
-    bound = path_bound(curve, limits, halve=False)
-    bound_profile, bound_time = bound.profile_at(samples, limits), bound.time_s
     step("slw")
     trajectory = schedule(curve, limits, approach=approach)
     slw_profile = trajectory.feed_at(samples)
+    step("bound")
+    # on the path the machine follows: a polyline blended within the path tolerance, as schedule
+    bound = path_bound(trajectory.curve, limits, halve=False)
+    bound_profile, bound_time = bound.profile_at(samples, limits), bound.time_s
     step("fuzzy")
     fuzzy = advise(samples, table, max_feed_mm_s=limits.feed_mm_s)
     step("fuzzy-safe")
