@@ -11,16 +11,9 @@ from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.polyline_fit import fit_polyline
 from fuzzyfeed.slw import measure, path_bound, schedule
+from slw_cases import polyline
 
 RATIOS = ("feed", "axis_vel", "axis_acc", "chord", "jerk")
-
-
-def polyline(points) -> Nurbs:
-    pts = np.asarray(points, dtype=float)
-    chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    t = np.concatenate([[0.0], np.cumsum(chords)]) / chords.sum()
-    t[-1] = 1.0
-    return Nurbs(1, np.concatenate([[0.0], t, [1.0]]), pts)
 
 
 def rounded_arc(radius=10.0, sweep_deg=350.0, chord=0.05, decimals=3, center=(0.0, 0.0)):
