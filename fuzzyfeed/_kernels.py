@@ -22,11 +22,20 @@ import numpy as np
 
 #: Calls on fewer points than this use the numpy form (no numba import, no compilation).
 COMPILED_MIN_POINTS = 65_536
+#: Once the kernel is loaded in this process, calls on at least this many points use it too
+#: (a long schedule makes thousands of mid-sized calls after its first large one).
+LOADED_MIN_POINTS = 256
 
 
-def use_compiled(n_points: int) -> bool:
-    """Whether a call on ``n_points`` points should use the compiled form."""
-    return n_points >= COMPILED_MIN_POINTS
+def use_compiled(n_points: int, loaded: bool = False) -> bool:
+    """Whether a call on ``n_points`` points should use the compiled form (``loaded``: the
+    kernel is already loaded in this process, so a mid-sized call costs no import)."""
+    return n_points >= COMPILED_MIN_POINTS or (loaded and n_points >= LOADED_MIN_POINTS)
+
+
+def nurbs_compiled(n_points: int) -> bool:
+    """:func:`use_compiled` for the NURBS kernel."""
+    return use_compiled(n_points, nurbs_kernel.cache_info().currsize > 0)
 
 
 _notice_shown = False
@@ -111,7 +120,7 @@ def evaluate_power_basis(spans: np.ndarray, coeffs: np.ndarray, u: np.ndarray, o
     """Fill ``out[0..order]`` with C(u), C′(u), C″(u): the compiled loop for large calls, numpy
     below :data:`COMPILED_MIN_POINTS` (``compiled`` forces one form)."""
     if compiled is None:
-        compiled = use_compiled(u.size)
+        compiled = nurbs_compiled(u.size)
     if compiled:
         nurbs_kernel()(spans, coeffs, u, order, out)
     else:

@@ -28,7 +28,7 @@ from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.servo import ServoModel
-from fuzzyfeed.simulate import Simulation, simulate, simulate_profile
+from fuzzyfeed.simulate import Simulation, simulate_profile
 from fuzzyfeed.slw import path_bound, schedule
 
 METHODS = ("fuzzy", "fuzzy-safe", "slw", "constant", "bound")
@@ -141,11 +141,9 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     for method in METHODS:
         step(f"simulate {method}")
         if method == "slw":
-            sims[method] = simulate(trajectory.curve, trajectory.time_law(), limits, "slw", bound_time_s=bound_time,
-                                    servo=servo)
+            sims[method] = trajectory.simulate("slw", bound_time_s=bound_time, servo=servo)
         elif method == "fuzzy-safe":
-            sims[method] = simulate(safe_trajectory.curve, safe_trajectory.time_law(), limits, "fuzzy-safe",
-                                    bound_time_s=bound_time, servo=servo)
+            sims[method] = safe_trajectory.simulate("fuzzy-safe", bound_time_s=bound_time, servo=servo)
         else:
             sims[method] = simulate_profile(profiles[method], limits, bound_time_s=bound_time, servo=servo)
     check = _cross_check(samples, fuzzy, slw_profile, sims["fuzzy"].metrics.cycle_time_s,

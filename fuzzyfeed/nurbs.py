@@ -17,7 +17,7 @@ from functools import cached_property
 
 import numpy as np
 
-from fuzzyfeed._kernels import evaluate_power_basis, use_compiled
+from fuzzyfeed._kernels import evaluate_power_basis, nurbs_compiled
 from fuzzyfeed.errors import NurbsError
 
 #: Gauss–Legendre order used per interval for arc length (exact for polynomials of degree 15).
@@ -413,7 +413,7 @@ class ArcLengthTable:
             raise NurbsError(f"s[{i}] = {_fmt(flat[i])} is outside the curve's length [0, {_fmt(total)}]")
         u = np.empty(flat.size)
         # block by block (each point's iteration is independent): temporaries stay a few MB
-        compiled = use_compiled(flat.size)
+        compiled = nurbs_compiled(flat.size)
         for start in range(0, flat.size, ARC_BLOCK_INTERVALS):
             block = slice(start, start + ARC_BLOCK_INTERVALS)
             u[block] = self._param_block(curve, np.clip(flat[block], 0.0, total), iterations, compiled)
@@ -466,7 +466,7 @@ def _gl_lengths(curve: Nurbs, lo: np.ndarray, hi: np.ndarray, compiled: bool | N
     hi = np.asarray(hi, dtype=float)
     n = lo.size
     if compiled is None:
-        compiled = use_compiled(n * GAUSS_ORDER)
+        compiled = nurbs_compiled(n * GAUSS_ORDER)
     out = np.empty(n)
     spans, coeffs, dim = curve._spans, curve._coeffs, curve.dim
     for start in range(0, n, ARC_BLOCK_INTERVALS):

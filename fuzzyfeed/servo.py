@@ -155,10 +155,8 @@ def following_errors(servo: ServoModel, commanded: np.ndarray, ts_s: float) -> n
     """Following error e_k = x_cmd,k − x_k (mm, shape (K+1, 3)) of the axes at every tick.
 
     ``commanded`` (K+1, 3) are the set-points at t_k = k·Ts; the axes start at rest on the first.
-    One ``scipy.signal.lfilter`` per axis on the per-tick commanded velocities.
+    One discrete filter per axis on the per-tick commanded velocities (:func:`_iir`).
     """
-    from scipy.signal import lfilter
-
     cmd = np.asarray(commanded, dtype=float)
     vel = np.diff(cmd, axis=0) / ts_s
     err = np.zeros_like(cmd)
@@ -167,8 +165,23 @@ def following_errors(servo: ServoModel, commanded: np.ndarray, ts_s: float) -> n
             continue
         b, a = servo.error_filter(j, ts_s)
         # e_k depends on v_0 … v_k−1: the filter's first output (k = 0) sees no input
-        err[:, j] = lfilter(b, a, np.concatenate([vel[:, j], [0.0]]))
+        err[:, j] = _iir(b, a, np.concatenate([vel[:, j], [0.0]]))
     return err
+
+
+def _iir(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """y with Σ a_i·y_(n−i) = Σ b_i·x_(n−i), from rest (what ``scipy.signal.lfilter(b, a, x)``
+    returns), as one triangular banded solve (LAPACK dtbtrs): the same recursion, without the
+    second of CPU that importing scipy.signal costs."""
+    from scipy.linalg.lapack import dtbtrs
+
+    n = x.size
+    rhs = np.convolve(x, np.asarray(b, dtype=float))[:n]
+    band = np.repeat(np.asarray(a, dtype=float)[:, None], n, axis=1)  # LAPACK lower band storage
+    y, info = dtbtrs(band, rhs, uplo="L")
+    if info != 0:
+        raise ValueError(f"servo filter: LAPACK dtbtrs info = {info}")
+    return np.ravel(y)
 
 
 _DENSE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -184,9 +197,19 @@ def _dense_grid(curve: Nurbs, step_mm: float, max_points: int):
     key = (step_mm, max_points)
     cached = _DENSE_CACHE.get(curve, {})
     if key not in cached:
-        length = curve.length
-        n = int(min(max_points, max(64, math.ceil(length / step_mm) + 1)))
-        u = np.asarray(curve.param_at_length(np.linspace(0.0, length, n)), dtype=float)
+        # uniform in u inside each interval of the curve's arc-length table (where the speed is
+        # smooth), twice as many points as the interval's length needs: no Newton on s(u)
+        table = curve._arc_table
+        lengths = np.diff(table.cumulative)
+        want = 2.0 * lengths / step_mm
+        want *= min(1.0, max_points / max(float(want.sum()), 1.0))
+        per = np.maximum(np.ceil(want).astype(np.int64), 1)
+        which = np.repeat(np.arange(per.size), per)
+        frac = (np.arange(which.size) - np.repeat(np.cumsum(per) - per, per)) / per[which]
+        u = table.breaks[which] + (table.breaks[which + 1] - table.breaks[which]) * frac
+        n = max(64, u.size)
+        if u.size < n:  # a short curve: at least 64 points, evenly in u
+            u = np.linspace(*curve.domain, n)
         grid = np.unique(np.concatenate([u, curve.span_breaks, list(curve.domain)]))
         cached[key] = (grid, cKDTree(curve(grid)))
         _DENSE_CACHE[curve] = cached
@@ -228,21 +251,34 @@ def _nearest_chunk(curve: Nurbs, pts: np.ndarray, grid: np.ndarray, tree, candid
     hi = grid[np.minimum(idx + 1, grid.size - 1)].ravel()
     x = np.repeat(pts2, k, axis=0)
     u = grid[idx].ravel()
+    span = float(grid[-1] - grid[0])
+    # a candidate within two grid points of the nearest one is the same stretch of curve: the
+    # foot point lies within half a grid step of the nearest vertex, inside its bracket
+    same = (np.abs(idx - idx[:, :1]) <= 2) & (np.arange(k) > 0)[None, :]
+    active = np.flatnonzero(~same.ravel())  # a point leaves once its Newton step is below rounding
     for _ in range(iterations):
-        c, d1, d2 = curve.evaluate(u, order=2)
-        r = c - x
+        if active.size == 0:
+            break
+        ua, xa = u[active], x[active]
+        c, d1, d2 = curve.evaluate(ua, order=2)
+        r = c - xa
         f = np.einsum("ij,ij->i", r, d1)
         fp = np.einsum("ij,ij->i", d1, d1) + np.einsum("ij,ij->i", r, d2)
-        lo = np.where(f < 0, u, lo)
-        hi = np.where(f > 0, u, hi)
+        lo_a = np.where(f < 0, ua, lo[active])
+        hi_a = np.where(f > 0, ua, hi[active])
         with np.errstate(divide="ignore", invalid="ignore"):
-            newton = u - f / fp
-        ok = (fp > 0) & (newton > lo) & (newton < hi)
-        u = np.where(ok, newton, 0.5 * (lo + hi))
+            newton = ua - f / fp
+        ok = (fp > 0) & (newton > lo_a) & (newton < hi_a)
+        new = np.where(ok, newton, 0.5 * (lo_a + hi_a))
+        lo[active], hi[active], u[active] = lo_a, hi_a, new
+        done = (ok & (np.abs(new - ua) <= 1e-15 * span)) | (f == 0.0)
+        active = active[~done]
     # candidates: the polished point and both bracket ends
     cand_u = np.stack([u, lo, hi], axis=1)
-    cand_pts = curve(cand_u.ravel()).reshape(cand_u.shape + (dim,))
-    dist = np.linalg.norm(cand_pts - x[:, None, :], axis=-1)
+    keep = np.flatnonzero(~same.ravel())
+    dist = np.full(cand_u.shape, np.inf)
+    cand_pts = curve(cand_u[keep].ravel()).reshape((keep.size, 3, dim))
+    dist[keep] = np.linalg.norm(cand_pts - x[keep][:, None, :], axis=-1)
     best = np.argmin(dist, axis=1)
     rows = np.arange(dist.shape[0])
     d = dist[rows, best].reshape(-1, k)

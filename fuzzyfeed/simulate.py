@@ -218,17 +218,21 @@ def _violation(values: np.ndarray, limit: float) -> tuple[int, float]:
 
 def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
              bound_time_s: float | None = None, interpolation: str = "best",
-             servo: ServoModel | None = None) -> Simulation:
+             servo: ServoModel | None = None, u: np.ndarray | None = None) -> Simulation:
     """Execute ``law`` on ``curve`` through the one interpolator and measure it (DESIGN §3).
 
     ``servo`` is the axis model the contour error is measured with (default: ``ServoModel()``,
-    first order, Kv = 30 1/s, no feed-forward).
+    first order, Kv = 30 1/s, no feed-forward). ``u``, if given, are the ticks' curve parameters
+    already found by ``interpolation`` (a scheduled trajectory's), so they are not found twice.
     """
     servo = ServoModel() if servo is None else servo
     if abs(law.ts_s - limits.ts_s) > 1e-12 * limits.ts_s:
         raise InputError(f"time law at Ts = {law.ts_s} s, limits at Ts = {limits.ts_s} s; "
                          "simulate with the limits' servo period")
-    u = interpolate_u(curve, law.s_mm, method=interpolation)
+    if u is None:
+        u = interpolate_u(curve, law.s_mm, method=interpolation)
+    elif np.shape(u) != law.s_mm.shape:
+        raise InputError(f"u has shape {np.shape(u)}, the time law {law.s_mm.shape}; one parameter per tick")
     pts = curve(u)
     if pts.shape[1] < 3:
         pts = np.hstack([pts, np.zeros((pts.shape[0], 3 - pts.shape[1]))])

@@ -31,7 +31,7 @@ from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.servo import ServoModel
-from fuzzyfeed.simulate import Metrics, simulate, simulate_profile
+from fuzzyfeed.simulate import Metrics, simulate_profile
 from fuzzyfeed.slw import schedule
 
 #: Seed 002's headline figures (abstract): error reduction at equal time, time reduction at equal error.
@@ -84,7 +84,7 @@ def pareto_points(samples: PathSamples, limits: MachineLimits, feeds_mm_min, tol
             traj = schedule(samples.curve, machine)
         except InputError:  # the scheduler refuses some low-acceleration paths: leave the point out
             continue
-        m = simulate(traj.curve, traj.time_law(), machine, "slw", servo=servo).metrics
+        m = traj.simulate(servo=servo).metrics
         points.append(_point("slw-tol", f"eps={tol:g}um", m))
     return points
 

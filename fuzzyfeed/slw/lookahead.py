@@ -26,7 +26,8 @@ import numpy as np
 
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.slw.preprocess import Block, FeedCap, Reference, corners, evaluate_reference
+from fuzzyfeed.slw.feed_cap import FeedCap
+from fuzzyfeed.slw.preprocess import Block, Reference, corners, evaluate_reference
 from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, lowest_end_speed, max_start_speed,
                                    transition_distance,
                                    segment_state, stop_distance)

@@ -22,6 +22,7 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.limits import MachineLimits, curvature_vectors, feed_limits
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.sampling import samples_at
+from fuzzyfeed.slw.feed_cap import FeedCap
 
 #: Points per refinement level and levels of the local fine pre-interpolation (Algorithm 1).
 FINE_POINTS = 11
@@ -34,35 +35,6 @@ RESOLVE_LEVELS = 8
 SPAN_POINTS = 8
 #: Bounds on the number of coarse reference points over the whole path.
 MIN_POINTS, MAX_POINTS = 200, 400_000
-
-
-@dataclass(frozen=True, eq=False)
-class FeedCap:
-    """One more pointwise feed limit (mm/s) given at arc lengths (mm), linear in between — e.g.
-    a planner's advice, so that the schedule is the jerk-limited one under min(advice, machine).
-    The arc lengths are rescaled to the path's length (samples and curve may differ by rounding)."""
-
-    s_mm: np.ndarray
-    feed_mm_s: np.ndarray
-    length_mm: float
-
-    def __post_init__(self) -> None:
-        s = np.asarray(self.s_mm, dtype=float)
-        v = np.asarray(self.feed_mm_s, dtype=float)
-        if s.ndim != 1 or s.shape != v.shape or s.size < 2:
-            raise InputError(f"feed_cap: {s.size} arc lengths and {v.size} feeds; need the same number, ≥ 2")
-        if not (np.isfinite(s).all() and np.isfinite(v).all()):
-            raise InputError("feed_cap: a value is not finite; a feed cap must be finite")
-        if (v <= 0).any():
-            i = int(np.argmax(v <= 0))
-            raise InputError(f"feed_cap[{i}] = {v[i]!r} mm/s; a feed cap must be > 0")
-        if (np.diff(s) < 0).any() or s[-1] <= s[0]:
-            raise InputError("feed_cap: arc lengths must be non-decreasing and span the path")
-        object.__setattr__(self, "s_mm", (s - s[0]) * (self.length_mm / (s[-1] - s[0])))
-        object.__setattr__(self, "feed_mm_s", v)
-
-    def __call__(self, s: np.ndarray) -> np.ndarray:
-        return np.interp(s, self.s_mm, self.feed_mm_s)
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,7 +215,11 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     # left-hand limit is where the feed limit is lowest
     s_knots = np.atleast_1d(curve.arc_length(breaks[1:-1]))
     left = s_knots - 1e-9 * max(total, 1.0)
-    grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span)), left]))
+    # a step of the cap gets a point on each side of it and one on it (the lower side's feed):
+    # the limit between reference points is linear, so the step stays a step
+    steps = np.empty(0) if cap is None else cap.steps_mm
+    at_steps = (steps[:, None] + np.array([-1e-9, 0.0, 1e-9])[None, :] * max(total, 1.0)).ravel()
+    grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span)), left, at_steps]))
     grid = grid[(grid >= 0.0) & (grid <= total)]
     grid[0], grid[-1] = 0.0, total
     command = limits.feed_mm_s
@@ -253,37 +229,43 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     prev_tail: Reference | None = None  # last two coarse points of the previous chunk
     corner_s, corner_cap = corners(curve, limits)
     for c0 in range(0, grid.size, CHUNK_POINTS):
+        # the machine's own limit first: its minima are critical points even where a flat cap
+        # hides them between two reference points (a curvature spike under a cap's plateau)
         chunk = evaluate_reference(curve, limits, grid[c0:min(c0 + CHUNK_POINTS + 1, grid.size)],
-                                   resolve=True, cap=cap)
+                                   resolve=True)
         if c0 + CHUNK_POINTS + 1 <= grid.size:  # the next chunk starts with the shared point
             chunk = chunk.slice(0, int(np.searchsorted(chunk.s, grid[c0 + CHUNK_POINTS])) - 1)
         last_chunk = c0 + CHUNK_POINTS >= grid.size
         hi_s = grid[min(c0 + CHUNK_POINTS, grid.size - 1)]
         in_chunk = (corner_s >= grid[c0]) & ((corner_s < hi_s) | last_chunk)
         if in_chunk.any():
-            cref = evaluate_reference(curve, limits, corner_s[in_chunk], cap=cap)
+            cref = evaluate_reference(curve, limits, corner_s[in_chunk])
             cref = Reference(cref.s, cref.u, np.minimum(cref.vlim, corner_cap[in_chunk]),
                              cref.tangent, cref.kn)
             chunk = Reference.concat([chunk, cref]).sorted_unique()
-            forced = dict(zip(corner_s[in_chunk].tolist(), np.minimum(cref.vlim, corner_cap[in_chunk]).tolist()))
+            forced = dict(zip(corner_s[in_chunk].tolist(), _capped(cref, cap).vlim.tolist()))
         else:
             forced = {}
         if prev_tail is not None:
-            ctx = Reference.concat([prev_tail, chunk])
+            ctx_machine = Reference.concat([prev_tail, chunk])
             offset = len(prev_tail)
         else:
-            ctx, offset = chunk, 0
-        v = ctx.vlim
+            ctx_machine, offset = chunk, 0
+        ctx = _capped(ctx_machine, cap)
         # middle points decidable now: indices 1 … len-2 of the context, new ones only
         mid = np.arange(max(1, offset - 1), len(ctx) - 1)
-        is_min = (v[mid] < v[mid - 1]) & (v[mid] <= v[mid + 1]) & (v[mid] < command * (1 - 1e-12))
-        is_min |= (v[mid] <= v[mid - 1]) & (v[mid] < v[mid + 1]) & (v[mid] < command * (1 - 1e-12))
-        crit = mid[is_min]
+        crit_machine = mid[_is_min(ctx_machine.vlim, mid, command)]
         extras_by_region: list[Reference] = []
         located = np.empty(0)
-        if crit.size:
-            extras, located = _refine(curve, limits, ctx.s[crit - 1], ctx.s[crit + 1], cap)
-            extras_by_region = extras
+        if crit_machine.size:
+            extras, located = _refine(curve, limits, ctx.s[crit_machine - 1], ctx.s[crit_machine + 1])
+            extras_by_region = [_capped(e, cap) for e in extras]
+        if cap is not None:  # and the minima of min(machine, cap) that are the cap's
+            crit = np.setdiff1d(mid[_is_min(ctx.vlim, mid, command)], crit_machine)
+            if crit.size:
+                extras, at = _refine(curve, limits, ctx.s[crit - 1], ctx.s[crit + 1], cap)
+                extras_by_region += extras
+                located = np.concatenate([located, at])
         fine = Reference.concat(extras_by_region) if extras_by_region else None
         # new coarse points of this chunk (context minus the carried tail)
         new = ctx.slice(offset, len(ctx) - 1) if offset else ctx
@@ -308,9 +290,24 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
                 s_start = float(allref.s[i])
                 allref = allref.slice(i, len(allref) - 1)
             pending = [allref]
-        prev_tail = ctx.slice(len(ctx) - 2, len(ctx) - 1)
+        prev_tail = ctx_machine.slice(len(ctx_machine) - 2, len(ctx_machine) - 1)
     rest = Reference.concat(pending).sorted_unique()
     yield Block(s_start, total, cap0, 0.0, rest)
+
+
+def _is_min(v: np.ndarray, mid: np.ndarray, command: float) -> np.ndarray:
+    """Which of the points ``mid`` (interior indices of ``v``) are local minima below the command
+    feed (eq. (15)); on a plateau, its first and last points."""
+    below = v[mid] < command * (1 - 1e-12)
+    return below & (((v[mid] < v[mid - 1]) & (v[mid] <= v[mid + 1]))
+                    | ((v[mid] <= v[mid - 1]) & (v[mid] < v[mid + 1])))
+
+
+def _capped(ref: Reference, cap: FeedCap | None) -> Reference:
+    """``ref`` with its feed limit lowered to ``cap`` (if any)."""
+    if cap is None:
+        return ref
+    return Reference(ref.s, ref.u, np.minimum(ref.vlim, cap(ref.s)), ref.tangent, ref.kn)
 
 
 def critical_points(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:

@@ -21,9 +21,10 @@ from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.polyline_fit import PolylineFit, fit_polyline
 from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
-from fuzzyfeed.simulate import TimeLaw, simulate
+from fuzzyfeed.simulate import Simulation, TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
-from fuzzyfeed.slw.preprocess import FeedCap, iter_blocks
+from fuzzyfeed.slw.feed_cap import FeedCap, stairs
+from fuzzyfeed.slw.preprocess import iter_blocks
 from fuzzyfeed.slw.profile import segment_state
 
 
@@ -79,6 +80,12 @@ class Trajectory:
         return TimeLaw(ts_s=self.limits.ts_s, s_mm=self.s_mm, feed_mm_s=self.feed_mm_s,
                        acc_mm_s2=self.acc_mm_s2, jerk_mm_s3=self.jerk_mm_s3,
                        duration_s=self.cycle_time_s)
+
+    def simulate(self, method: str = "slw", bound_time_s: float | None = None, servo=None) -> Simulation:
+        """The trajectory through the one simulator (:func:`fuzzyfeed.simulate.simulate`) on the
+        path it follows, with its own interpolated parameters."""
+        return simulate(self.curve, self.time_law(), self.limits, method, bound_time_s=bound_time_s,
+                        servo=servo, u=self.u)
 
     def feed_at(self, samples: PathSamples) -> FeedProfile:
         """The scheduled feed at the sampling layer's points (method "slw"), interpolated in s
@@ -197,6 +204,8 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         fit = fit_polyline(curve, path_tolerance_mm)
         curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
+    if cap is not None:  # followed in stairs planned once, not repaired crossing by crossing
+        cap = stairs(cap, limits.feed_mm_s, limits.tangential_acc_mm_s2, limits.jerk_mm_s3)
     bar = None
     if progress is True:
         from tqdm.auto import tqdm
@@ -246,7 +255,7 @@ def measure(traj: Trajectory) -> dict[str, float]:
     and the start and terminal errors (distance of the first/last point from the path's ends, mm).
     """
     lim = traj.limits
-    m = simulate(traj.curve, traj.time_law(), lim, "slw").metrics
+    m = traj.simulate().metrics
     ratio = {name: worst for name, (_, worst) in m.violations.items()}
     start, end = traj.curve(traj.curve.domain[0]), traj.curve(traj.curve.domain[1])
     d = traj.curve.dim
