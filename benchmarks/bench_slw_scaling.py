@@ -9,6 +9,8 @@ cache, first calls), then times the run. The memory figure is the 10^4-span run'
 anchor per 10^6 ticks, with the marginal figure (10^3 -> 10^4 spans) beside it. The growth exponent is the slope of log CPU over log spans (1.0 = linear).
 
 Run: python benchmarks/bench_slw_scaling.py
+The comparison runs on 10^3 spans (its ratio to one schedule is the last figure) and on 10^4 spans
+(memory per 10^6 simulated ticks, growth).
 Last line: growth_exponent=E peak_mb_per_1e6_ticks=M compare_over_schedule=R
 """
 
@@ -45,7 +47,7 @@ else:
     from fuzzyfeed.compare import compare
     from fuzzyfeed.sampling import sample_uniform_u
     c = compare(sample_uniform_u(curve, 2000), lim)
-    ticks = c.simulations["slw"].law.s_mm.size
+    ticks = sum(sim.law.s_mm.size for sim in c.simulations.values())
 cpu = time.process_time() - t0
 print(json.dumps({"spans": spans, "what": what, "cpu": cpu, "ticks": ticks, "length": curve.length,
                   "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
@@ -81,7 +83,13 @@ def main() -> None:
     one = next(r for r in rows if r["spans"] == 1000)
     print(f"compare on 1000 spans: {cmp_['cpu']:.2f} s CPU, peak {cmp_['rss_mb']:.0f} MB "
           f"({cmp_['cpu'] / one['cpu']:.2f}x one schedule: it runs two schedules, the bound and five "
-          "simulations)")
+          f"simulations of {cmp_['ticks']} ticks in all, {cmp_['ticks'] / one['ticks']:.1f}x the schedule's)")
+    big = run(10_000, "compare")
+    big_extra = max(big["rss_mb"] - base["rss_mb"], 0.0)
+    growth = np.log(big["cpu"] / cmp_["cpu"]) / np.log(10.0)
+    print(f"compare on 10000 spans: {big['cpu']:.2f} s CPU ({big['cpu'] / rows[-1]['cpu']:.2f}x one schedule), "
+          f"peak {big['rss_mb']:.0f} MB, {big_extra / big['ticks'] * 1e6:.0f} MB per 10^6 simulated ticks over "
+          f"the anchor; CPU growth 10^3 -> 10^4 spans: exponent {growth:.3f}")
     print()
     print(f"growth_exponent={slope:.3f} peak_mb_per_1e6_ticks={rows[-1]['per_1e6']:.0f} "
           f"compare_over_schedule={cmp_['cpu'] / one['cpu']:.2f}")

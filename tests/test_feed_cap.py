@@ -77,6 +77,26 @@ def test_a_dip_faster_than_a_transition_is_kept_as_it_is():
     assert st_.steps_mm.size <= 4
 
 
+def test_a_sharp_dip_of_the_cap_is_held_from_the_positions():
+    # end to end, from the positions: a V of the cap whose bottom lies between reference points
+    from fuzzyfeed.nurbs import Nurbs
+
+    line = Nurbs(1, [0, 0, 1, 1], [[0.0, 0.0], [100.0, 0.0]])
+    s = np.array([0.0, 50.0, 50.5333, 51.1, 100.0])
+    v = np.array([80.0, 80.0, 9.0, 80.0, 80.0])
+    traj = schedule(line, LIM, feed_cap=(s, v))
+    cap = FeedCap(s, v, 100.0)
+    step = np.linalg.norm(np.diff(traj.xyz, axis=0), axis=1) / LIM.ts_s
+    # the cap's least value over each tick's chord (its ends and any cap point inside)
+    lowest = np.minimum(cap(traj.s_mm[:-1]), cap(traj.s_mm[1:]))
+    inside = np.searchsorted(traj.s_mm, s[1:-1])
+    for k, vk in zip(inside, v[1:-1]):
+        if 0 < k < lowest.size + 1:
+            lowest[k - 1] = min(lowest[k - 1], vk)
+    assert np.all(step <= lowest * 1.005 + 1e-9)
+    assert measure(traj)["jerk"] <= 1.0 + 1e-6
+
+
 def test_a_constant_cap_stays_constant():
     cap = FeedCap(np.array([0.0, 50.0]), np.array([37.5, 37.5]), 50.0)
     st_ = stairs(cap, LIM.feed_mm_s, LIM.tangential_acc_mm_s2, LIM.jerk_mm_s3)

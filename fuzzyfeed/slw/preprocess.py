@@ -215,10 +215,13 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     # left-hand limit is where the feed limit is lowest
     s_knots = np.atleast_1d(curve.arc_length(breaks[1:-1]))
     left = s_knots - 1e-9 * max(total, 1.0)
-    # a step of the cap gets a point on each side of it and one on it (the lower side's feed):
-    # the limit between reference points is linear, so the step stays a step
+    # the cap's own points (the limit between reference points is linear: a kink of the cap
+    # between two of them would be cut), and a point either side of each of its steps (one on it
+    # has the lower side's feed), so a step stays a step
     steps = np.empty(0) if cap is None else cap.steps_mm
-    at_steps = (steps[:, None] + np.array([-1e-9, 0.0, 1e-9])[None, :] * max(total, 1.0)).ravel()
+    at_steps = (steps[:, None] + np.array([-1e-9, 1e-9])[None, :] * max(total, 1.0)).ravel()
+    if cap is not None:
+        at_steps = np.concatenate([at_steps, cap.s_mm])
     grid = np.unique(np.concatenate([grid, np.atleast_1d(curve.arc_length(u_span)), left, at_steps]))
     grid = grid[(grid >= 0.0) & (grid <= total)]
     grid[0], grid[-1] = 0.0, total
