@@ -246,7 +246,12 @@ def test_disk_full_names_the_users_file(tmp_path):
 
 # -- signals while writing ------------------------------------------------------------------------
 SIGNAL_SCRIPT = textwrap.dedent("""
-    import os, sys, time
+    import os, signal, sys, time
+    # a terminal's dispositions, whatever this test runs under (nohup ignores SIGHUP, a background
+    # job SIGINT, and the outputs keep an ignored signal ignored)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     from fuzzyfeed.io import outputs
     marker = sys.argv[1]
     real_open = outputs.OutputSet.open
