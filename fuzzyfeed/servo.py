@@ -207,9 +207,8 @@ def _dense_grid(curve: Nurbs, step_mm: float, max_points: int):
         which = np.repeat(np.arange(per.size), per)
         frac = (np.arange(which.size) - np.repeat(np.cumsum(per) - per, per)) / per[which]
         u = table.breaks[which] + (table.breaks[which + 1] - table.breaks[which]) * frac
-        n = max(64, u.size)
-        if u.size < n:  # a short curve: at least 64 points, evenly in u
-            u = np.linspace(*curve.domain, n)
+        if u.size < 64:  # a short curve: at least 64 points, evenly in u
+            u = np.linspace(*curve.domain, 64)
         grid = np.unique(np.concatenate([u, curve.span_breaks, list(curve.domain)]))
         cached[key] = (grid, cKDTree(curve(grid)))
         _DENSE_CACHE[curve] = cached
@@ -220,11 +219,12 @@ def nearest_on_curve(curve: Nurbs, points: np.ndarray, step_mm: float = 0.01, ca
                      iterations: int = 12, max_points: int = 400_000) -> tuple[np.ndarray, np.ndarray]:
     """Nearest curve parameter and distance (mm) for each of ``points`` (N, 3 or dim).
 
-    The curve is sampled every ``step_mm`` of arc length (plus its knots and ends); for each
-    point the ``candidates`` nearest vertices (scipy cKDTree) give brackets [u_i−1, u_i+1], in
-    which Newton's method on f(u) = (C(u) − x)·C′(u), f′ = |C′|² + (C − x)·C″, kept inside the
-    bracket by bisection, finds the foot point. The smallest distance over the brackets (and their
-    ends) is returned.
+    The curve is sampled about every ``step_mm`` of arc length or closer (twice as densely as each
+    interval of its arc-length table needs, plus its knots and ends); for each point the
+    ``candidates`` nearest vertices (scipy cKDTree; those within two vertices of the nearest are
+    the same stretch and skipped) give brackets [u_i−1, u_i+1], in which Newton's method on
+    f(u) = (C(u) − x)·C′(u), f′ = |C′|² + (C − x)·C″, kept inside the bracket by bisection, finds the
+    foot point. The smallest distance over the brackets (and their ends) is returned.
     """
     pts = np.asarray(points, dtype=float)
     grid, tree = _dense_grid(curve, step_mm, max_points)
