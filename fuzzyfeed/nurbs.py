@@ -139,6 +139,12 @@ class Nurbs:
         return ArcLengthTable.build(self)
 
     @property
+    def arc_table(self) -> ArcLengthTable:
+        """The adaptive Gauss–Legendre partition of the domain and its cumulative arc length
+        (built once per curve): where the speed |C′| is smooth enough for GL (seed 004 eq. 9)."""
+        return self._arc_table
+
+    @property
     def length(self) -> float:
         """Total arc length (adaptive Gauss–Legendre, seed 004 eq. 8–9)."""
         return float(self._arc_table.cumulative[-1])

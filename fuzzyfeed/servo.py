@@ -199,7 +199,7 @@ def _dense_grid(curve: Nurbs, step_mm: float, max_points: int):
     if key not in cached:
         # uniform in u inside each interval of the curve's arc-length table (where the speed is
         # smooth), twice as many points as the interval's length needs: no Newton on s(u)
-        table = curve._arc_table
+        table = curve.arc_table
         lengths = np.diff(table.cumulative)
         want = 2.0 * lengths / step_mm
         want *= min(1.0, max_points / max(float(want.sum()), 1.0))
