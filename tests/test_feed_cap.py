@@ -13,7 +13,7 @@ from fuzzyfeed.io.shapes import load_shape
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.sampling import sample_uniform_u
 from fuzzyfeed.slw import measure, schedule
-from fuzzyfeed.slw.feed_cap import STAIR_PLATEAU, STAIR_RATIO, FeedCap, stairs
+from fuzzyfeed.slw.feed_cap import MACHINE_ROOM, STAIR_PLATEAU, STAIR_RATIO, FeedCap, lower, stairs
 from fuzzyfeed.slw.profile import transition_distance
 
 LIM = MachineLimits()
@@ -50,6 +50,68 @@ def test_property_staircase_never_above_the_cap(seed, n, length):
     # at most one step per level the cap crosses, and two per cap point
     crossed = np.abs(np.diff(np.log(np.minimum(v, LIM.feed_mm_s)))).sum() / -np.log(STAIR_RATIO)
     assert st_.steps_mm.size <= crossed + 2 * cap.s_mm.size + 2
+    # the machine's staircase: never above its (sampled) limit raised by MACHINE_ROOM
+    mach = stairs(cap, LIM.feed_mm_s, LIM.tangential_acc_mm_s2, LIM.jerk_mm_s3, machine=True)
+    assert np.all(mach(x) <= cap(x) * MACHINE_ROOM * (1 + 1e-12))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 60), m=st.integers(2, 60))
+def test_property_lower_of_two_caps_is_their_minimum(seed, n, m):
+    rng = np.random.default_rng(seed)
+
+    def random_cap(k: int) -> FeedCap:
+        s = np.sort(np.concatenate([[0.0, 10.0], rng.uniform(0.0, 10.0, k - 2)]))
+        if k > 3:  # a step: an arc length given twice
+            s[k // 2] = s[k // 2 - 1]
+        return FeedCap(s, rng.uniform(1.0, 100.0, k), 10.0)
+
+    a, b = random_cap(n), random_cap(m)
+    both = lower(a, b)
+    x = np.concatenate([np.linspace(0.0, 10.0, 4001), a.s_mm, b.s_mm])
+    np.testing.assert_allclose(both(x), np.minimum(a(x), b(x)), rtol=1e-9, atol=1e-9)
+    for side in (-1e-9, 1e-9):  # either side of every step of either cap
+        y = np.clip(np.concatenate([a.steps_mm, b.steps_mm]) + side, 0.0, 10.0)
+        np.testing.assert_allclose(both(y), np.minimum(a(y), b(y)), rtol=1e-6, atol=1e-6)
+
+
+def _minima(cap: FeedCap) -> int:
+    """Local minima of a staircase (a plateau counts once)."""
+    v = cap.feed_mm_s[np.concatenate([[True], np.diff(cap.feed_mm_s) != 0.0])]
+    inner = (v[1:-1] < v[:-2]) & (v[1:-1] < v[2:])
+    return int(inner.sum())
+
+
+def test_the_machine_staircase_keeps_the_limit_itself_near_the_bottom_of_a_dip():
+    # a deep dip of the machine's limit (100 -> 10 -> 100 mm/s over 40 mm): stairs on its flanks
+    # near the bottom would be zero accelerations the climb out of the dip cannot use yet
+    s = np.linspace(0.0, 200.0, 10001)
+    v = np.clip(10.0 + 4.5 * np.abs(s - 100.0), 10.0, 100.0)
+    cap = FeedCap(s, v, 200.0)
+    st_ = stairs(cap, LIM.feed_mm_s, LIM.tangential_acc_mm_s2, LIM.jerk_mm_s3, machine=True)
+    plain = stairs(cap, LIM.feed_mm_s, LIM.tangential_acc_mm_s2, LIM.jerk_mm_s3)
+    # within a transition of the bottom (a profile rising from 10 mm/s cannot be above the limit
+    # there yet): the limit itself, raised, not stairs under it; the preprocessor holds the limit
+    reach = np.array([transition_distance(10.0, x, LIM.tangential_acc_mm_s2, LIM.jerk_mm_s3) for x in v])
+    near = (np.abs(s - 100.0) < reach) & (v > 10.0)
+    assert near.sum() >= 10
+    assert np.all(st_(s[near]) >= v[near])
+    assert np.all(st_(s[near]) <= v[near] * MACHINE_ROOM * (1 + 1e-12))
+    assert np.any(plain(s[near]) < v[near])  # where the plain staircase has steps
+    # one dip, one local minimum: no step up where a plateau meets the limit itself
+    assert _minima(st_) == 1
+    assert st_.steps_mm.size < plain.steps_mm.size
+
+
+def test_a_short_shallow_dip_of_the_machine_limit_gets_no_steps():
+    # infinity's small dips: 100 -> 97.9 -> 100 mm/s over 3 mm; two 3 % steps would only add
+    # two junctions (each a zero acceleration) — default approach slower than seed 000's own
+    s = np.linspace(0.0, 100.0, 1001)
+    v = np.minimum(100.0, 97.9 + 2.0 * ((s - 50.0) / 1.5) ** 2)
+    cap = FeedCap(s, v, 100.0)
+    st_ = stairs(cap, LIM.feed_mm_s, LIM.tangential_acc_mm_s2, LIM.jerk_mm_s3, machine=True)
+    assert st_.steps_mm.size == 0
+    assert np.all(st_(s) >= v)
 
 
 def test_a_peak_too_short_for_its_transitions_is_lowered():

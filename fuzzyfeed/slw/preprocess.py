@@ -99,6 +99,22 @@ def reference_step(curve: Nurbs, limits: MachineLimits) -> float:
     return float(np.clip(limits.feed_mm_s * limits.ts_s, total / MAX_POINTS, total / MIN_POINTS))
 
 
+def machine_cap(curve: Nurbs, limits: MachineLimits) -> FeedCap:
+    """The machine's own feed limit (eq. (8)-(12), at most F) on the coarse reference grid, as a
+    :class:`FeedCap`: what the staircase of the default approach is built on. Evaluated chunk by
+    chunk; a limit of 0 (a stationary point) is kept at 1e-3·F here — the preprocessor still
+    holds the limit itself."""
+    total = curve.length
+    n = max(int(np.ceil(total / reference_step(curve, limits) - 1e-9)), 2)
+    s = np.linspace(0.0, total, n + 1)
+    v = np.empty(s.size)
+    for c0 in range(0, s.size, CHUNK_POINTS):
+        part = slice(c0, c0 + CHUNK_POINTS)
+        v[part] = _evaluate(curve, limits, s[part]).vlim
+    floor = 1e-3 * limits.feed_mm_s
+    return FeedCap(s, np.clip(np.nan_to_num(v, nan=floor), floor, limits.feed_mm_s), total)
+
+
 def evaluate_reference(curve: Nurbs, limits: MachineLimits, s: np.ndarray,
                        resolve: bool = False, cap: FeedCap | None = None) -> Reference:
     """Reference data at arc lengths ``s`` (sorted).

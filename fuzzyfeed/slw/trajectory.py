@@ -23,8 +23,8 @@ from fuzzyfeed.profile import FeedProfile
 from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.simulate import Simulation, TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
-from fuzzyfeed.slw.feed_cap import FeedCap, stairs
-from fuzzyfeed.slw.preprocess import iter_blocks
+from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
+from fuzzyfeed.slw.preprocess import iter_blocks, machine_cap
 from fuzzyfeed.slw.profile import segment_state
 
 
@@ -178,7 +178,9 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     ``feed_cap`` (optional) is one more pointwise feed limit in mm/s: a :class:`FeedProfile`
     (its samples' arc lengths and feeds), a pair ``(s_mm, feed_mm_s)`` or a :class:`FeedCap`;
     linear in s between its points. The result is the jerk-limited schedule under
-    min(cap, machine): every machine limit still holds.
+    min(cap, machine): every machine limit still holds. Approach 2 follows the machine's own
+    limit in a staircase too (:func:`fuzzyfeed.slw.feed_cap.stairs`); approach 1 follows it as
+    seed 000 does.
 
     A polyline (degree 1) is followed as a blending controller follows it (``blend``, default):
     smooth within the path tolerance P (``path_tolerance_mm``, default G64 P0.01) between its true
@@ -204,8 +206,12 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         fit = fit_polyline(curve, path_tolerance_mm)
         curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
+    acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
     if cap is not None:  # followed in stairs planned once, not repaired crossing by crossing
-        cap = stairs(cap, limits.feed_mm_s, limits.tangential_acc_mm_s2, limits.jerk_mm_s3)
+        cap = stairs(cap, limits.feed_mm_s, acc, jerk)
+    if approach == 2:  # and so is the machine's own limit, but near the bottom of its dips
+        machine = stairs(machine_cap(curve, limits), limits.feed_mm_s, acc, jerk, machine=True)
+        cap = machine if cap is None else lower(cap, machine)
     bar = None
     if progress is True:
         from tqdm.auto import tqdm
