@@ -89,7 +89,7 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 12) -> np.ndarra
     s′_k = Σ_{i≤k} (μ·ΔL_i + d_i), μ = (L − Σd)/L, makes every chord μ·ΔL_k and keeps s′_K = L.
     u(s_k) is solved once by Newton on s(u); each retargeting moves u by the second-order Taylor
     step of the change in target (DESIGN §7), and the fixed point on d converges in a few passes
-    (it stops once converged to 1e-13 of a step, or once a pass no longer halves the error).
+    (it stops once converged to 1e-13 of a step, or once a pass gains less than 10 %).
     The curve is evaluated in chunks of :data:`CHUNK_TICKS` ticks (memory bounded per tick).
     """
     total = s[-1]
@@ -124,9 +124,9 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 12) -> np.ndarra
         with np.errstate(divide="ignore", invalid="ignore"):
             err = np.abs(chords - mu * steps) / np.where(steps > 0, steps, np.inf)
         worst = float(err.max(initial=0.0))
-        # converged, or stalled at the floating-point floor (~1e-9 of a tick's step on long paths,
-        # where a further pass only moves rounding noise around)
-        if worst <= 1e-13 or worst > 0.5 * previous:
+        # converged, or stalled (a pass gains < 10 %): at the floating-point floor (~1e-9 of a
+        # step on long paths), or at a corner's ticks where the chord cannot follow the arc
+        if worst <= 1e-13 or worst > 0.9 * previous:
             break
         previous = worst
         new = np.concatenate([[0.0], np.cumsum(mu * steps + deficit)])
