@@ -167,7 +167,7 @@ def stairs(cap: FeedCap, feed_mm_s: float, acc_mm_s2: float, jerk_mm_s3: float,
         for i in np.flatnonzero(shallow):
             need = STAIR_PLATEAU * transition_distance(value[i], beside[i], acc_mm_s2, jerk_mm_s3)
             shallow[i] = edges[bounds[i + 1]] - edges[bounds[i]] < need
-        steep |= bottom & side | shallow
+        steep |= (bottom & side) | shallow
     # one point at each end of every plateau (a step repeats its arc length); a steep stretch is
     # the cap itself, its own points included
     s_out: list[np.ndarray] = []
