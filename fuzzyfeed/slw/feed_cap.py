@@ -149,25 +149,7 @@ def stairs(cap: FeedCap, feed_mm_s: float, acc_mm_s2: float, jerk_mm_s3: float,
     value = np.minimum.reduceat(low, bounds[:-1])
     steep = _steep(edges[bounds], value, acc_mm_s2, jerk_mm_s3)
     if machine:
-        steep |= _within_reach(edges[bounds], value, acc_mm_s2, jerk_mm_s3)
-        # and the bottom of a dip whose sides are the cap itself: the whole dip is
-        bottom = np.ones(value.size, dtype=bool)
-        bottom[1:] &= value[:-1] > value[1:]
-        bottom[:-1] &= value[1:] > value[:-1]
-        side = np.zeros(value.size, dtype=bool)
-        side[1:] |= steep[:-1]
-        side[:-1] |= steep[1:]
-        # and a short shallow dip (its bottom within one level of both sides and shorter than
-        # STAIR_PLATEAU transitions up to them): its two steps would cost more than they save
-        beside = np.full(value.size, np.inf)
-        beside[1:] = value[:-1]
-        beside[:-1] = np.minimum(beside[:-1], value[1:])
-        shallow = bottom & (value >= STAIR_RATIO * beside)
-        shallow[[0, -1]] = False  # a dip has two sides (a cap low to the path's end is no dip)
-        for i in np.flatnonzero(shallow):
-            need = STAIR_PLATEAU * transition_distance(value[i], beside[i], acc_mm_s2, jerk_mm_s3)
-            shallow[i] = edges[bounds[i + 1]] - edges[bounds[i]] < need
-        steep |= (bottom & side) | shallow
+        steep = _machine_keeps(edges[bounds], value, steep, acc_mm_s2, jerk_mm_s3)
     # one point at each end of every plateau (a step repeats its arc length); a steep stretch is
     # the cap itself, its own points included
     s_out: list[np.ndarray] = []
@@ -217,6 +199,32 @@ def _steep(bounds_mm: np.ndarray, value: np.ndarray, acc: float, jerk: float) ->
         lo, hi = min(prev[i], nxt[i]), max(prev[i], nxt[i])
         steep[i + 1] = length[i] < STEEP_SHARE * transition_distance(lo, hi, acc, jerk)
     return steep
+
+
+def _machine_keeps(bounds_mm: np.ndarray, value: np.ndarray, steep: np.ndarray, acc_mm_s2: float,
+                   jerk_mm_s3: float) -> np.ndarray:
+    """Plateaus of the machine's own staircase kept as the limit itself: those within reach of a
+    dip's bottom (:func:`_within_reach`), the bottom of a dip whose sides are kept, and a short
+    shallow dip."""
+    steep = steep | _within_reach(bounds_mm, value, acc_mm_s2, jerk_mm_s3)
+    # and the bottom of a dip whose sides are the cap itself: the whole dip is
+    bottom = np.ones(value.size, dtype=bool)
+    bottom[1:] &= value[:-1] > value[1:]
+    bottom[:-1] &= value[1:] > value[:-1]
+    side = np.zeros(value.size, dtype=bool)
+    side[1:] |= steep[:-1]
+    side[:-1] |= steep[1:]
+    # and a short shallow dip (its bottom within one level of both sides and shorter than
+    # STAIR_PLATEAU transitions up to them): its two steps would cost more than they save
+    beside = np.full(value.size, np.inf)
+    beside[1:] = value[:-1]
+    beside[:-1] = np.minimum(beside[:-1], value[1:])
+    shallow = bottom & (value >= STAIR_RATIO * beside)
+    shallow[[0, -1]] = False  # a dip has two sides (a cap low to the path's end is no dip)
+    for i in np.flatnonzero(shallow):
+        need = STAIR_PLATEAU * transition_distance(value[i], beside[i], acc_mm_s2, jerk_mm_s3)
+        shallow[i] = bounds_mm[i + 1] - bounds_mm[i] < need
+    return steep | (bottom & side) | shallow
 
 
 def _clip(x: np.ndarray, v: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray]:
