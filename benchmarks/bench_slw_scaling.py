@@ -4,8 +4,9 @@ Random smooth NURBS (degree 3, 2-D, legs of about 2 mm, turning up to ±0.6 rad)
 10⁴ knot spans on the default machine. Each measurement runs in a fresh process, so the peak
 resident memory (ru_maxrss) is that run's; the anchor is the same process importing fuzzyfeed and
 numba and scheduling a 10-span curve (the interpreter's own footprint), subtracted from every
-figure. Each child schedules a small curve first and loads the compiled NURBS kernel (numba's
-cache, first calls), then times the run. The memory figure is the 10^4-span run's peak over the
+figure. Each child loads the compiled NURBS kernel (numba's cache) and runs its own command
+(schedule or compare) on a small curve first (imports and first calls are paid once per process,
+not per path), then times the run. The memory figure is the 10^4-span run's peak over the
 anchor per 10^6 ticks, with the marginal figure (10^3 -> 10^4 spans) beside it. The growth exponent is the slope of log CPU over log spans (1.0 = linear).
 
 Runs of 10² and 10³ spans (schedule and compare) are the least CPU of three fresh processes.
@@ -38,18 +39,23 @@ pts = np.cumsum(np.column_stack([np.cos(ang), np.sin(ang)]) * rng.uniform(1.5, 2
 knots = np.concatenate([[0.0] * 4, np.linspace(0, 1, spans + 1)[1:-1], [1.0] * 4])
 curve = Nurbs(3, knots, pts)
 lim = MachineLimits()
-schedule(Nurbs(3, [0, 0, 0, 0, 1, 1, 1, 1], [[0, 0], [5, 5], [10, -5], [15, 0]]), lim)  # warm-up
+small = Nurbs(3, [0, 0, 0, 0, 1, 1, 1, 1], [[0, 0], [5, 5], [10, -5], [15, 0]])
 from fuzzyfeed._kernels import nurbs_kernel
 nurbs_kernel()  # the compiled NURBS loop long paths use: loaded in the anchor too
-t0 = time.process_time()
-if what == "schedule":
-    traj = schedule(curve, lim)
-    ticks = traj.t_s.size
-else:
+
+
+def run(path):  # the measured command; run once on a small curve first (imports, first calls)
+    if what == "schedule":
+        return schedule(path, lim).t_s.size
     from fuzzyfeed.compare import compare
     from fuzzyfeed.sampling import sample_uniform_u
-    c = compare(sample_uniform_u(curve, 2000), lim)
-    ticks = sum(sim.law.s_mm.size for sim in c.simulations.values())
+    c = compare(sample_uniform_u(path, 2000), lim)
+    return sum(sim.law.s_mm.size for sim in c.simulations.values())
+
+
+run(small)
+t0 = time.process_time()
+ticks = run(curve)
 cpu = time.process_time() - t0
 print(json.dumps({"spans": spans, "what": what, "cpu": cpu, "ticks": ticks, "length": curve.length,
                   "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))

@@ -28,11 +28,11 @@ shortest distance from the scanned groove to the programmed path, §3.1).
 from __future__ import annotations
 
 import math
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._cache import per_curve
 from fuzzyfeed.errors import MachineLimitsError
 from fuzzyfeed.limits import AXES
 from fuzzyfeed.nurbs import Nurbs
@@ -184,7 +184,6 @@ def _iir(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.ravel(y)
 
 
-_DENSE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 #: Points per chunk of :func:`nearest_on_curve` (its temporaries: ~1 kB per point).
 NEAREST_CHUNK = 16384
 
@@ -192,27 +191,27 @@ NEAREST_CHUNK = 16384
 def _dense_grid(curve: Nurbs, step_mm: float, max_points: int):
     """Parameters of a dense arc-length sampling (plus knots and ends) and a KD-tree of its
     points, cached per curve (a curve is immutable)."""
+    return per_curve(curve, ("dense grid", step_mm, max_points),
+                     lambda: _make_dense_grid(curve, step_mm, max_points))
+
+
+def _make_dense_grid(curve: Nurbs, step_mm: float, max_points: int):
     from scipy.spatial import cKDTree
 
-    key = (step_mm, max_points)
-    cached = _DENSE_CACHE.get(curve, {})
-    if key not in cached:
-        # uniform in u inside each interval of the curve's arc-length table (where the speed is
-        # smooth), twice as many points as the interval's length needs: no Newton on s(u)
-        table = curve.arc_table
-        lengths = np.diff(table.cumulative)
-        want = 2.0 * lengths / step_mm
-        want *= min(1.0, max_points / max(float(want.sum()), 1.0))
-        per = np.maximum(np.ceil(want).astype(np.int64), 1)
-        which = np.repeat(np.arange(per.size), per)
-        frac = (np.arange(which.size) - np.repeat(np.cumsum(per) - per, per)) / per[which]
-        u = table.breaks[which] + (table.breaks[which + 1] - table.breaks[which]) * frac
-        if u.size < 64:  # a short curve: at least 64 points, evenly in u
-            u = np.linspace(*curve.domain, 64)
-        grid = np.unique(np.concatenate([u, curve.span_breaks, list(curve.domain)]))
-        cached[key] = (grid, cKDTree(curve(grid)))
-        _DENSE_CACHE[curve] = cached
-    return cached[key]
+    # uniform in u inside each interval of the curve's arc-length table (where the speed is
+    # smooth), twice as many points as the interval's length needs: no Newton on s(u)
+    table = curve.arc_table
+    lengths = np.diff(table.cumulative)
+    want = 2.0 * lengths / step_mm
+    want *= min(1.0, max_points / max(float(want.sum()), 1.0))
+    per = np.maximum(np.ceil(want).astype(np.int64), 1)
+    which = np.repeat(np.arange(per.size), per)
+    frac = (np.arange(which.size) - np.repeat(np.cumsum(per) - per, per)) / per[which]
+    u = table.breaks[which] + (table.breaks[which + 1] - table.breaks[which]) * frac
+    if u.size < 64:  # a short curve: at least 64 points, evenly in u
+        u = np.linspace(*curve.domain, 64)
+    grid = np.unique(np.concatenate([u, curve.span_breaks, list(curve.domain)]))
+    return grid, cKDTree(curve(grid))
 
 
 def nearest_on_curve(curve: Nurbs, points: np.ndarray, step_mm: float = 0.01, candidates: int = 4,
@@ -268,10 +267,12 @@ def _nearest_chunk(curve: Nurbs, pts: np.ndarray, grid: np.ndarray, tree, candid
         hi_a = np.where(f > 0, ua, hi[active])
         with np.errstate(divide="ignore", invalid="ignore"):
             newton = ua - f / fp
-        ok = (fp > 0) & (newton > lo_a) & (newton < hi_a)
+        # the bracket is closed: a step that lands on its end (the point itself, to rounding)
+        # is a converged Newton step, not a reason to bisect
+        ok = (fp > 0) & (newton >= lo_a) & (newton <= hi_a)
         new = np.where(ok, newton, 0.5 * (lo_a + hi_a))
         lo[active], hi[active], u[active] = lo_a, hi_a, new
-        done = (ok & (np.abs(new - ua) <= 1e-15 * span)) | (f == 0.0)
+        done = (ok & (np.abs(new - ua) <= 1e-14 * span)) | (f == 0.0)
         active = active[~done]
     # candidates: the polished point and both bracket ends
     cand_u = np.stack([u, lo, hi], axis=1)
@@ -279,7 +280,11 @@ def _nearest_chunk(curve: Nurbs, pts: np.ndarray, grid: np.ndarray, tree, candid
     dist = np.full(cand_u.shape, np.inf)
     cand_pts = curve(cand_u[keep].ravel()).reshape((keep.size, 3, dim))
     dist[keep] = np.linalg.norm(cand_pts - x[keep][:, None, :], axis=-1)
-    best = np.argmin(dist, axis=1)
+    # a bracket end wins only if closer beyond rounding: near the foot point the distance is flat
+    # (second order), so an end a few 1e-8 mm away can tie with it
+    score = dist.copy()
+    score[:, 1:] += 1e-12 * max(1.0, float(np.abs(x).max(initial=0.0)))
+    best = np.argmin(score, axis=1)
     rows = np.arange(dist.shape[0])
     d = dist[rows, best].reshape(-1, k)
     uu = cand_u[rows, best].reshape(-1, k)

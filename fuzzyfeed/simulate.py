@@ -182,23 +182,26 @@ class Simulation:
     tracking: Tracking         # servo response per tick (K + 1 values)
 
 
-def chord_errors(curve: Nurbs, u: np.ndarray, probes: int = 5) -> np.ndarray:
+def chord_errors(curve: Nurbs, u: np.ndarray, probes: int = 5, points: np.ndarray | None = None) -> np.ndarray:
     """Largest distance of the curve from each tick's chord C(u_k)C(u_k+1) (mm, one per tick),
     probed at ``probes`` evenly spaced parameters inside every interval (in chunks of
-    :data:`CHUNK_TICKS` ticks: the memory stays bounded on long trajectories)."""
+    :data:`CHUNK_TICKS` ticks: the memory stays bounded on long trajectories). ``points``, if
+    given, are the ticks' positions C(u_k) already evaluated (their first ``curve.dim`` columns)."""
     u = np.asarray(u, dtype=float)
     out = np.empty(max(u.size - 1, 0))
     for c0 in range(0, out.size, CHUNK_TICKS):
-        out[c0:c0 + CHUNK_TICKS] = _chord_errors(curve, u[c0:c0 + CHUNK_TICKS + 1], probes)
+        part = slice(c0, c0 + CHUNK_TICKS + 1)
+        ends = curve(u[part]) if points is None else points[part, :curve.dim]
+        out[c0:c0 + CHUNK_TICKS] = _chord_errors(curve, u[part], ends, probes)
     return out
 
 
-def _chord_errors(curve: Nurbs, u: np.ndarray, probes: int) -> np.ndarray:
+def _chord_errors(curve: Nurbs, u: np.ndarray, ends: np.ndarray, probes: int) -> np.ndarray:
     frac = np.linspace(0.0, 1.0, probes + 2)[1:-1]
     u0, u1 = u[:-1], u[1:]
     inner = u0[:, None] + (u1 - u0)[:, None] * frac[None, :]
     pts = curve(inner.ravel()).reshape(inner.shape + (curve.dim,))
-    a, b = curve(u0), curve(u1)
+    a, b = ends[:-1], ends[1:]
     ab = b - a
     length2 = np.einsum("ij,ij->i", ab, ab)
     rel = pts - a[:, None, :]
@@ -247,7 +250,7 @@ def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
     dt_b = np.concatenate([[law.ts_s], 0.5 * (dt[:-1] + dt[1:]), [law.ts_s]])
     acc = np.diff(np.vstack([rest, vel, rest]), axis=0) / dt_b[:, None]
     feed = np.linalg.norm(vel, axis=1)
-    chord = chord_errors(curve, u)
+    chord = chord_errors(curve, u, points=pts)
     fluct = feed_fluctuation(curve, u, law.s_mm)
     fluct = fluct[np.isfinite(fluct)]
     vel_max = tuple(float(x) for x in np.abs(vel).max(axis=0))

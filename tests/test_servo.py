@@ -160,6 +160,12 @@ def test_nearest_on_circle_is_exact(polar):
     np.testing.assert_allclose(dist, np.abs(off), rtol=0, atol=1e-9)
     foot = curve(u)
     np.testing.assert_allclose(np.linalg.norm(foot - pts[:, :2], axis=1), dist, atol=1e-12)
+    # the foot point itself: on the ray from the centre through the point (off the centre)
+    rays = np.abs(radius + off) > 0.5
+    want = 1.0 + radius * np.cos(ang), -2.0 + radius * np.sin(ang)
+    sign = np.sign(radius + off)
+    np.testing.assert_allclose(foot[rays, 0], (1.0 + sign * (want[0] - 1.0))[rays], atol=1e-10)
+    np.testing.assert_allclose(foot[rays, 1], (-2.0 + sign * (want[1] + 2.0))[rays], atol=1e-10)
 
 
 def test_nearest_is_global_on_a_hairpin():

@@ -70,6 +70,9 @@ class FeedCap:
             raise InputError("feed_cap: arc lengths must be non-decreasing and span the path")
         scaled = (s - s[0]) * (self.length_mm / (s[-1] - s[0]))
         scaled[-1] = self.length_mm
+        v = v.copy()  # read-only copies: a cap is shared (the machine's, cached per curve)
+        for arr in (scaled, v):
+            arr.flags.writeable = False
         object.__setattr__(self, "s_mm", scaled)
         object.__setattr__(self, "feed_mm_s", v)
 

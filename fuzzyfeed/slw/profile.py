@@ -22,6 +22,8 @@ from dataclasses import dataclass
 #: Below this fraction of the block's peak feed, a short block uses approach 2 (a peak) instead of
 #: approach 1 (a cruise at the higher end feed), which would crawl — or stand still between two stops.
 SLOW_CRUISE = 1e-3
+#: A feed change below this (mm/s) is none: no transition is planned for it.
+NEGLIGIBLE_DV = 1e-200
 #: Bisection steps for junction corrections: the bracket shrinks by 2**-60, below rounding.
 BISECTION_STEPS = 60
 
@@ -29,7 +31,7 @@ BISECTION_STEPS = 60
 def transition_time(v_s: float, v_e: float, acc: float, jerk: float) -> float:
     """Shortest duration of the cosine transition v_s → v_e under |a| ≤ acc, |j| ≤ jerk (eq. (20))."""
     dv = abs(v_e - v_s)
-    if dv == 0.0:
+    if dv < NEGLIGIBLE_DV:  # a subnormal Δv would lose its digits in √(Δv/2J)
         return 0.0
     return max(math.pi * dv / (2.0 * acc), math.pi * math.sqrt(dv / (2.0 * jerk)))
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fuzzyfeed._cache import per_curve
 from fuzzyfeed._checks import expect
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.interpolate import interpolate_u
@@ -203,14 +204,16 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     check_work(total, limits)
     fit = None
     if blend and curve.degree == 1:
-        fit = fit_polyline(curve, path_tolerance_mm)
+        fit = per_curve(curve, ("polyline fit", path_tolerance_mm),
+                        lambda: fit_polyline(curve, path_tolerance_mm))
         curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
     if cap is not None:  # followed in stairs planned once, not repaired crossing by crossing
         cap = stairs(cap, limits.feed_mm_s, acc, jerk)
     if approach == 2:  # and so is the machine's own limit, but near the bottom of its dips
-        machine = stairs(machine_cap(curve, limits), limits.feed_mm_s, acc, jerk, machine=True)
+        machine = per_curve(curve, ("machine stairs", limits), lambda: stairs(
+            machine_cap(curve, limits), limits.feed_mm_s, acc, jerk, machine=True))
         cap = machine if cap is None else lower(cap, machine)
     bar = None
     if progress is True:
