@@ -49,7 +49,9 @@ class TimeLaw:
     def __post_init__(self) -> None:
         n = np.shape(self.s_mm)[0]
         for name in ("s_mm", "feed_mm_s", "acc_mm_s2", "jerk_mm_s3"):
-            arr = np.array(getattr(self, name), dtype=float)
+            arr = getattr(self, name)
+            if not (isinstance(arr, np.ndarray) and arr.dtype == np.float64 and not arr.flags.writeable):
+                arr = np.array(arr, dtype=float)  # a read-only float array (a trajectory's) is shared
             if arr.shape != (n,):
                 raise InputError(f"time law: {name} has shape {arr.shape}, expected ({n},)")
             if not np.isfinite(arr).all():
@@ -221,24 +223,33 @@ def _violation(values: np.ndarray, limit: float) -> tuple[int, float]:
 
 def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
              bound_time_s: float | None = None, interpolation: str = "best",
-             servo: ServoModel | None = None, u: np.ndarray | None = None) -> Simulation:
+             servo: ServoModel | None = None, u: np.ndarray | None = None,
+             xyz: np.ndarray | None = None) -> Simulation:
     """Execute ``law`` on ``curve`` through the one interpolator and measure it (DESIGN §3).
 
     ``servo`` is the axis model the contour error is measured with (default: ``ServoModel()``,
     first order, Kv = 30 1/s, no feed-forward). ``u``, if given, are the ticks' curve parameters
-    already found by ``interpolation`` (a scheduled trajectory's), so they are not found twice.
+    already found by ``interpolation`` (a scheduled trajectory's), so they are not found twice;
+    ``xyz`` (K+1, 3), with ``u`` only, their positions C(u) already evaluated.
     """
     servo = ServoModel() if servo is None else servo
     if abs(law.ts_s - limits.ts_s) > 1e-12 * limits.ts_s:
         raise InputError(f"time law at Ts = {law.ts_s} s, limits at Ts = {limits.ts_s} s; "
                          "simulate with the limits' servo period")
+    given_u = u
     if u is None:
         u = interpolate_u(curve, law.s_mm, method=interpolation)
     elif np.shape(u) != law.s_mm.shape:
         raise InputError(f"u has shape {np.shape(u)}, the time law {law.s_mm.shape}; one parameter per tick")
-    pts = curve(u)
-    if pts.shape[1] < 3:
-        pts = np.hstack([pts, np.zeros((pts.shape[0], 3 - pts.shape[1]))])
+    if xyz is not None:
+        if given_u is None or np.shape(xyz) != (law.s_mm.size, 3):
+            raise InputError(f"xyz has shape {np.shape(xyz)}; give the ticks' positions with their u, "
+                             f"shape ({law.s_mm.size}, 3)")
+        pts = xyz
+    else:
+        pts = curve(u)
+        if pts.shape[1] < 3:
+            pts = np.hstack([pts, np.zeros((pts.shape[0], 3 - pts.shape[1]))])
     # tick durations: Ts, except the last (terminal) tick, which ends when the law reaches L
     dt = np.full(law.s_mm.size - 1, law.ts_s)
     dt[-1] = max(law.duration_s - (dt.size - 1) * law.ts_s, 1e-12 * law.ts_s)

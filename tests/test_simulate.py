@@ -70,3 +70,24 @@ def test_stalled_profile_is_an_error():
     feed[4:6] = 0.0
     with pytest.raises(InputError, match=r"feed is 0 at both samples 4 and 5"):
         time_law_from_profile(FeedProfile(samples, feed, "bad", 1.0), 0.001)
+
+
+def test_a_trajectory_simulates_the_same_with_its_own_positions():
+    """Trajectory.simulate hands its u and positions to the simulator (no second evaluation, no
+    copies): the metrics equal a simulation that evaluates them itself; positions of the wrong
+    shape, or without their u, are refused."""
+    from fuzzyfeed.simulate import simulate
+    from fuzzyfeed.slw import schedule
+
+    curve = circle_nurbs(10.0)
+    traj = schedule(curve, MachineLimits())
+    shared = traj.simulate()
+    own = simulate(traj.curve, traj.time_law(), traj.limits, "slw", u=traj.u)
+    a, b = shared.metrics.row(), own.metrics.row()
+    assert a.keys() == b.keys()
+    assert all(a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]) for k in a)  # nan == nan here
+    assert traj.time_law().s_mm is traj.s_mm  # read-only: shared, not copied
+    with pytest.raises(InputError, match="xyz"):
+        simulate(traj.curve, traj.time_law(), traj.limits, "slw", u=traj.u, xyz=traj.xyz[:-1])
+    with pytest.raises(InputError, match="xyz"):
+        simulate(traj.curve, traj.time_law(), traj.limits, "slw", xyz=traj.xyz)

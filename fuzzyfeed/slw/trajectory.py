@@ -86,7 +86,7 @@ class Trajectory:
         """The trajectory through the one simulator (:func:`fuzzyfeed.simulate.simulate`) on the
         path it follows, with its own interpolated parameters."""
         return simulate(self.curve, self.time_law(), self.limits, method, bound_time_s=bound_time_s,
-                        servo=servo, u=self.u)
+                        servo=servo, u=self.u, xyz=self.xyz)
 
     def feed_at(self, samples: PathSamples) -> FeedProfile:
         """The scheduled feed at the sampling layer's points (method "slw"), interpolated in s
@@ -251,6 +251,8 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if xyz.shape[1] == 2:
         xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 1))])
     critical = np.array([b.s1 for b in blocks[:-1]])
+    for arr in (t, s, u, xyz, v, a, j):  # read-only: shared with the time law and simulations
+        arr.flags.writeable = False
     return Trajectory(curve, limits, t, s, u, xyz, v, a, j, tuple(blocks), window.stats, critical, fit)
 
 
