@@ -17,7 +17,10 @@ _PER_CURVE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def per_curve(curve: object, key: Hashable, make: Callable[[], T]) -> T:
-    """``make()`` for ``curve`` and ``key``, computed once while ``curve`` is alive."""
+    """``make()`` for ``curve`` and ``key``, computed once while ``curve`` is alive.
+
+    The value must not refer to ``curve`` (the cache holds values strongly: the curve would never
+    be freed)."""
     cached = _PER_CURVE.setdefault(curve, {})
     if key not in cached:
         cached[key] = make()

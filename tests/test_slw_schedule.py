@@ -252,3 +252,21 @@ def test_zero_length_span_and_corner_stop():
 def test_schedule_rejects_wrong_limits_type():
     with pytest.raises(InputError, match="MachineLimits"):
         schedule(load_shape("wm").curve, {"feed_mm_s": 1})
+
+
+def test_cached_results_do_not_keep_a_curve_alive():
+    """What compare shares per curve (the polyline fit, the machine staircase, the contour grid)
+    is dropped with the curve: a notebook scheduling path after path does not grow."""
+    import gc
+    import weakref
+
+    def run():
+        line = Nurbs(1, [0, 0, 0.5, 1, 1], [[0, 0], [30, 0], [30, 20]])
+        traj = schedule(line, MachineLimits())
+        traj.simulate()
+        assert traj.polyline_fit.source is line
+        return weakref.ref(line), weakref.ref(traj.curve)
+
+    source, followed = run()
+    gc.collect()
+    assert source() is None and followed() is None

@@ -9,7 +9,7 @@ seed 000): the profile reaches rest at t_end and the tick at ⌈t_end/Ts⌉·Ts 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -204,8 +204,10 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     check_work(total, limits)
     fit = None
     if blend and curve.degree == 1:
-        fit = per_curve(curve, ("polyline fit", path_tolerance_mm),
-                        lambda: fit_polyline(curve, path_tolerance_mm))
+        # cached without its source: a value holding its own key would keep the curve alive
+        kept = per_curve(curve, ("polyline fit", path_tolerance_mm),
+                         lambda: replace(fit_polyline(curve, path_tolerance_mm), source=None))
+        fit = replace(kept, source=curve)
         curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
