@@ -245,7 +245,10 @@ def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
         if given_u is None or np.shape(xyz) != (law.s_mm.size, 3):
             raise InputError(f"xyz has shape {np.shape(xyz)}; give the ticks' positions with their u, "
                              f"shape ({law.s_mm.size}, 3)")
-        pts = xyz
+        pts = np.asarray(xyz, dtype=float)
+        if not np.isfinite(pts).all():
+            raise InputError(f"xyz[{int(np.argmax(~np.isfinite(pts).all(axis=1)))}] is not finite; "
+                             "positions must be finite")
     else:
         pts = curve(u)
         if pts.shape[1] < 3:

@@ -91,3 +91,7 @@ def test_a_trajectory_simulates_the_same_with_its_own_positions():
         simulate(traj.curve, traj.time_law(), traj.limits, "slw", u=traj.u, xyz=traj.xyz[:-1])
     with pytest.raises(InputError, match="xyz"):
         simulate(traj.curve, traj.time_law(), traj.limits, "slw", xyz=traj.xyz)
+    bad = traj.xyz.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(InputError, match=r"xyz\[3\] is not finite"):
+        simulate(traj.curve, traj.time_law(), traj.limits, "slw", u=traj.u, xyz=bad)
