@@ -175,21 +175,23 @@ def _sequential(curve: Nurbs, s: np.ndarray, method: str) -> np.ndarray:
     return u
 
 
-def feed_fluctuation(curve: Nurbs, u: np.ndarray, s_mm: np.ndarray) -> np.ndarray:
+def feed_fluctuation(curve: Nurbs, u: np.ndarray, s_mm: np.ndarray,
+                     points: np.ndarray | None = None) -> np.ndarray:
     """Per-tick feed fluctuation |ΔP_k| / ΔL_k − 1 in absolute value (Yeh & Hsu 2002).
 
     ΔP_k = C(u_k) − C(u_{k−1}) is the chord the machine actually moves in tick k, ΔL_k the commanded
     step s_k − s_{k−1}. Ticks excluded (NaN): a commanded step of 0, the tick that arrives at the
     path's end (the terminal-error compensation step; a sequential method may arrive a few ticks
     early) and every tick after it.
-    Returns an array of length K (one value per tick); multiply by 100 for percent.
+    Returns an array of length K (one value per tick); multiply by 100 for percent. ``points``,
+    if given, are the ticks' positions C(u_k) already evaluated.
     """
     u = np.asarray(u, dtype=float)
     s = np.asarray(s_mm, dtype=float)
     if u.shape != s.shape or u.ndim != 1 or u.size < 2:
         raise InputError(f"u has shape {u.shape}, s_mm {s.shape}; need equal 1-D arrays of >= 2 values")
     commanded = np.diff(s)
-    chords = _chords(curve, u)
+    chords = _chords(curve, u) if points is None else np.linalg.norm(np.diff(points, axis=0), axis=1)
     out = np.full(commanded.size, np.nan)
     ok = commanded > 1e-12 * max(float(s[-1]), 1.0)
     hi = curve.domain[1]

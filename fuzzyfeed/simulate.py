@@ -265,7 +265,7 @@ def simulate(curve: Nurbs, law: TimeLaw, limits: MachineLimits, method: str,
     acc = np.diff(np.vstack([rest, vel, rest]), axis=0) / dt_b[:, None]
     feed = np.linalg.norm(vel, axis=1)
     chord = chord_errors(curve, u, points=pts)
-    fluct = feed_fluctuation(curve, u, law.s_mm)
+    fluct = feed_fluctuation(curve, u, law.s_mm, points=pts)
     fluct = fluct[np.isfinite(fluct)]
     vel_max = tuple(float(x) for x in np.abs(vel).max(axis=0))
     acc_max = tuple(float(x) for x in (np.abs(acc).max(axis=0) if acc.size else np.zeros(3)))
