@@ -13,15 +13,22 @@ Runs of 10² and 10³ spans (schedule and compare) are the least CPU of three fr
 
 Run: python benchmarks/bench_slw_scaling.py
 The comparison runs on 10^3 spans (its ratio to one schedule is the last figure) and on 10^4 spans
-(memory per 10^6 simulated ticks, growth).
-Last line: growth_exponent=E peak_mb_per_1e6_ticks=M compare_over_schedule=R
+(memory per 10^6 simulated ticks, growth). The same two jobs are also timed as the commands a user
+runs (`fuzzyfeed schedule` and `fuzzyfeed compare` on the 10^3-span curve written as a shape file,
+start-up and output included): the command `schedule` also computes the bound with its halved-grid
+check and simulates its trajectory, which the library's `schedule` does not.
+Last line: growth_exponent=E peak_mb_per_1e6_ticks=M compare_over_schedule=R (library functions)
+command_compare_over_schedule=C (commands)
 """
 
 from __future__ import annotations
 
 import json
+import resource
 import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -62,6 +69,14 @@ print(json.dumps({"spans": spans, "what": what, "cpu": cpu, "ticks": ticks, "len
 """
 
 
+WRITE_SHAPE = CHILD.split("lim = MachineLimits()")[0].replace("spans, what = int(sys.argv[1]), sys.argv[2]",
+                                                                "spans = int(sys.argv[1])") + r"""
+with open(sys.argv[2], "w") as f:
+    json.dump({"name": f"random{spans}", "units": "mm", "degree": 3,
+               "knotvector": [float(k) for k in knots], "control_points": pts.tolist()}, f)
+"""
+
+
 def run(spans: int, what: str, repeat: int = 1) -> dict:
     """The run with the least CPU of ``repeat`` fresh processes (the host is shared: a slow run
     is someone else's load, not ours)."""
@@ -72,6 +87,25 @@ def run(spans: int, what: str, repeat: int = 1) -> dict:
         r = json.loads(out.stdout.strip().splitlines()[-1])
         best = r if best is None or r["cpu"] < best["cpu"] else best
     return best
+
+
+def commands(spans: int, repeat: int = 3) -> dict[str, float]:
+    """CPU seconds of ``fuzzyfeed schedule`` and ``fuzzyfeed compare`` on the same random curve
+    (written as a shape file), each the least of ``repeat`` fresh processes: what a user waits for."""
+    with tempfile.TemporaryDirectory() as tmp:
+        shape = Path(tmp) / f"random{spans}.json"
+        subprocess.run([sys.executable, "-c", WRITE_SHAPE, str(spans), str(shape)], check=True)
+        out = {}
+        for what in ("schedule", "compare"):
+            best = np.inf
+            for _ in range(repeat):
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
+                subprocess.run([sys.executable, "-m", "fuzzyfeed", what, str(shape), "-o",
+                                str(Path(tmp) / f"{what}.csv")], check=True, capture_output=True)
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                best = min(best, after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+            out[what] = best
+    return out
 
 
 def main() -> None:
@@ -98,6 +132,10 @@ def main() -> None:
     print(f"compare on 1000 spans: {cmp_['cpu']:.2f} s CPU, peak {cmp_['rss_mb']:.0f} MB "
           f"({cmp_['cpu'] / one['cpu']:.2f}x one schedule: it runs two schedules, the bound and five "
           f"simulations of {cmp_['ticks']} ticks in all, {cmp_['ticks'] / one['ticks']:.1f}x the schedule's)")
+    cmd = commands(1000)
+    print(f"as commands on 1000 spans (fresh processes, start-up included, least of 3): fuzzyfeed schedule "
+          f"{cmd['schedule']:.2f} s CPU (schedule, bound with its halved-grid check, simulation, CSV), "
+          f"fuzzyfeed compare {cmd['compare']:.2f} s CPU ({cmd['compare'] / cmd['schedule']:.2f}x)")
     big = run(10_000, "compare")
     big_extra = max(big["rss_mb"] - base["rss_mb"], 0.0)
     growth = np.log(big["cpu"] / cmp_["cpu"]) / np.log(10.0)
@@ -106,7 +144,8 @@ def main() -> None:
           f"the anchor; CPU growth 10^3 -> 10^4 spans: exponent {growth:.3f}")
     print()
     print(f"growth_exponent={slope:.3f} peak_mb_per_1e6_ticks={rows[-1]['per_1e6']:.0f} "
-          f"compare_over_schedule={cmp_['cpu'] / one['cpu']:.2f}")
+          f"compare_over_schedule={cmp_['cpu'] / one['cpu']:.2f} "
+          f"command_compare_over_schedule={cmd['compare'] / cmd['schedule']:.2f}")
 
 
 if __name__ == "__main__":
