@@ -18,10 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from fuzzyfeed.io.program import ARC, LINE, Program, arc_geometry, arc_points
-from fuzzyfeed.sampling import PathSamples, three_point_curvature
+from fuzzyfeed.sampling import POINT_STEP_MM, PathSamples, three_point_curvature
 
 #: Default largest distance between samples along a cut (mm).
-DEFAULT_STEP_MM = 0.25
+DEFAULT_STEP_MM = POINT_STEP_MM
 #: Largest angle between samples on an arc (rad): 10°.
 ARC_STEP_RAD = np.pi / 18
 

@@ -20,6 +20,9 @@ from fuzzyfeed.nurbs import MAX_COORDINATE_MM, Nurbs, curvature_from_derivatives
 
 #: Seed 002 samples its paths at 2000 points (Δu = 0.0005 on [0, 1]).
 DEFAULT_POINTS = 2000
+#: Largest distance between samples along a program's cut (mm), and the spacing at which the
+#: advisor's windows (WS, M points) become lengths on a point sequence, whose points are the file's.
+POINT_STEP_MM = 0.25
 #: Work budget: the most points any sampling (or arc flattening) may create (~0.3 GB of samples).
 MAX_POINTS = 1_000_000
 

@@ -221,3 +221,44 @@ def test_feed_always_within_floor_and_max(paper, k, max_feed, ws, m, floor):
     assert np.isfinite(pct).all() and (pct >= floor).all() and (pct <= 100).all()
     assert (advice.profile.feed_mm_s > 0).all() and (advice.profile.feed_mm_s <= max_feed * (1 + 1e-12)).all()
     assert ((advice.features.curvature_variation >= 0) & (advice.features.curvature_variation <= 1)).all()
+
+
+def _l_path(step_first_leg: float) -> np.ndarray:
+    """An L of two 40 mm legs with one true corner, the first leg cut into ``step`` mm and the
+    second leg a quarter arc of R 5 flattened finely (as a DXF chain of a LINE and an ARC is)."""
+    first = np.column_stack([np.arange(0.0, 40.0, step_first_leg), np.zeros(int(round(40 / step_first_leg)))])
+    theta = np.linspace(0.0, np.pi / 2, 800)
+    arc = np.column_stack([40.0 + 5.0 * np.sin(theta), 5.0 - 5.0 * np.cos(theta)])
+    return np.vstack([first, arc])
+
+
+def test_point_sequence_windows_are_lengths_not_point_counts(paper):
+    from fuzzyfeed.sampling import POINT_STEP_MM, samples_from_points
+
+    coarse = advise_details(samples_from_points(_l_path(1.0)), paper, 100.0)
+    fine = advise_details(samples_from_points(_l_path(0.1)), paper, 100.0)
+    # the windows became lengths (WS and M points at the step whole programs are sampled at)
+    assert coarse.table.window_mm == pytest.approx((paper.window_points - 1) * POINT_STEP_MM)
+    assert coarse.table.filter_mm == pytest.approx((paper.filter_points - 1) * POINT_STEP_MM)
+    for adv in (coarse, fine):
+        s, pct = adv.profile.samples.s, adv.feed_pct
+        # the first 10 mm of the leg (30 mm before the corner) run at the straight-line feed;
+        # counted in points, 30 points of 1 mm (and a filter of 21) slow the whole leg down
+        straight = s < 10.0
+        assert np.ptp(pct[straight]) < 1e-9 and pct[straight][0] > 90.0
+        assert pct[np.argmin(np.abs(s - 40.0))] < 20.0
+    # the same path at another spacing gets the same advice where both have points
+    at = np.flatnonzero(coarse.profile.samples.s < 39.5)
+    np.testing.assert_allclose(np.interp(coarse.profile.samples.s[at], fine.profile.samples.s, fine.feed_pct),
+                               coarse.feed_pct[at], atol=6.0)
+
+
+def test_point_sequence_keeps_lengths_the_table_gives(paper):
+    from fuzzyfeed.sampling import samples_from_points
+
+    table = replace(paper, window_mm=2.0, filter_mm=1.0)
+    adv = advise_details(samples_from_points(_l_path(1.0)), table, 100.0)
+    assert (adv.table.window_mm, adv.table.filter_mm) == (2.0, 1.0)
+    # a NURBS keeps seed 002's point counts
+    nurbs = advise_details(sample_uniform_u(circle_nurbs(10.0), 2000), paper, 100.0)
+    assert nurbs.table.window_mm is None and nurbs.table.filter_mm is None

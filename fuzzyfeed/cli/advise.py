@@ -55,10 +55,12 @@ def register(sub) -> None:
     p.add_argument("--window-mm", type=positive_float, default=None, metavar="L",
                    help="look-ahead WS as a length: Dk at a point is the largest curvature within "
                         "the next L mm of path, whatever the sampling (default: the table's "
-                        "window, 30 points in the paper's)")
+                        "window, 30 points in the paper's; on a point sequence or a program, "
+                        "whose points are the file's, the stretch 30 points cover at 0.25 mm: "
+                        "7.25 mm)")
     p.add_argument("--filter-mm", type=positive_float, default=None, metavar="L",
                    help="filter window M as a length of L mm centred on each point (default: the "
-                        "table's, 21 points in the paper's)")
+                        "table's, 21 points in the paper's; 5 mm on a point sequence or a program)")
     p.add_argument("--rule-strengths", action="store_true",
                    help="add one column per rule with its firing strength, named "
                         "w_<curvature term>_<curvature_variation term> (e.g. w_VS_M)")

@@ -9,7 +9,7 @@ F_max.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,7 +21,18 @@ from fuzzyfeed.fuzzy.filters import average_filter, smooth_feed  # noqa: F401  (
 from fuzzyfeed.fuzzy.rules import RuleTable, load_rule_table
 from fuzzyfeed.limits import MAX_LIMIT
 from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import PathSamples, tangent_breaks
+from fuzzyfeed.sampling import POINT_STEP_MM, PathSamples, tangent_breaks
+
+
+def point_sequence_table(table: RuleTable) -> RuleTable:
+    """``table`` with its windows as lengths for a point sequence, whose points are where the file
+    put them: ``window_mm`` and ``filter_mm`` as given, else the stretch WS and M points cover at
+    :data:`fuzzyfeed.sampling.POINT_STEP_MM` (the step whole programs are sampled at). Counted in
+    points, a window would reach 30 mm along a line cut into 1 mm steps and 0.4 mm along an arc
+    flattened finely beside it."""
+    return replace(table,
+                   window_mm=table.window_mm or (table.window_points - 1) * POINT_STEP_MM,
+                   filter_mm=table.filter_mm or (table.filter_points - 1) * POINT_STEP_MM)
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +79,8 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
                              "round the corner or split the path there")
     table = table if table is not None else (engine.table if engine is not None else load_rule_table())
     engine = engine if engine is not None else compile_table(table)
+    if not np.isfinite(samples.d1).all():  # a point sequence: its spacing is the file's, not ours
+        table = point_sequence_table(table)
     feats = features(samples.curvature, table.window_points, table.dk_clip_1_mm, samples.s,
                      table.window_mm)
     raw = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
