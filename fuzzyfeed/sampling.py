@@ -220,15 +220,23 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
 
 def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
                         tolerance_mm: float | None = None,
-                        path_tolerance_mm: float | None = None) -> PathSamples:
+                        path_tolerance_mm: float | None = None,
+                        max_step_mm: float | None = None) -> PathSamples:
     """A :class:`PathSamples` for a point sequence: chord-length s, and the curvature of the path
     the points describe within their rounding, corners blended as a controller blends them within
     the path tolerance P (:func:`fuzzyfeed.polyline.polyline_curvature`; ``tolerance_mm`` None
     reads the rounding from the coordinates, ``path_tolerance_mm`` None is LinuxCNC-style
     G64 P0.01). Consecutive repeated points are allowed (they get their neighbour's values).
 
+    ``max_step_mm``, if given, adds samples inside every segment longer than it (evenly, at most
+    that far apart), as programs are sampled (:mod:`fuzzyfeed.cuts`): a feed given per sample and
+    executed between samples then sees a long line between two corners, not only its slow ends.
+    Inside a segment κ is the smaller of its two ends' that are not corners (a chord of a circle
+    written as G1 moves keeps the circle's κ), 0 between two corners; the tangent is the chord's.
+
     ``curve``, if given, is the degree-1 NURBS through the points with chord-length knots on
-    [0, 1] (so u = s / L is its parameter at every point); planners and the simulator move along it.
+    [0, 1] (so u = s / L is its parameter at every point, the added ones too); planners and the
+    simulator move along it.
     """
     from fuzzyfeed.polyline import polyline_curvature
 
@@ -239,12 +247,43 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
     dim = pts.shape[1]
     xyz = _pad3(pts)
     chords = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(chords)])
-    if s[-1] <= 0:
+    if chords.sum() <= 0:
         raise InputError("points: all points coincide; a path needs length > 0")
+    tangent, kappa = result.tangent, result.curvature
+    if max_step_mm is not None:
+        xyz, tangent, kappa, chords = _split_segments(xyz, tangent, kappa, result.corner, chords,
+                                                      float(max_step_mm))
+    s = np.concatenate([[0.0], np.cumsum(chords)])
     nan = np.full_like(xyz, np.nan)
-    return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=result.tangent,
-                       curvature=result.curvature, d1=nan, d2=nan, dim=dim, curve=curve)
+    return PathSamples(u=s / s[-1], xyz=xyz, s=s, tangent=tangent,
+                       curvature=kappa, d1=nan, d2=nan, dim=dim, curve=curve)
+
+
+def _split_segments(xyz: np.ndarray, tangent: np.ndarray, kappa: np.ndarray, corner: np.ndarray,
+                    chords: np.ndarray, max_step_mm: float):
+    """Points added evenly inside every segment longer than ``max_step_mm`` (see
+    :func:`samples_from_points`): positions, tangents, κ and the new chords."""
+    if not np.isfinite(max_step_mm) or max_step_mm <= 0:
+        raise InputError(f"max_step_mm = {max_step_mm!r}; must be a finite number > 0 (mm)")
+    pieces = np.maximum(np.ceil(chords / max_step_mm - 1e-9).astype(np.int64), 1)
+    if (pieces == 1).all():
+        return xyz, tangent, kappa, chords
+    seg = np.repeat(np.arange(chords.size), pieces)                  # segment of each new chord
+    first = np.repeat(np.cumsum(pieces) - pieces, pieces)
+    frac = (np.arange(seg.size) - first + 1) / pieces[seg]           # end of each new chord
+    ends = xyz[seg] + (xyz[seg + 1] - xyz[seg]) * frac[:, None]
+    at_vertex = frac == 1.0
+    ends[at_vertex] = xyz[seg[at_vertex] + 1]
+    out = np.vstack([xyz[:1], ends])
+    own = np.where(corner, np.inf, kappa)
+    inner = np.minimum(own[:-1], own[1:])
+    inner = np.where(np.isfinite(inner), inner, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        direction = (xyz[1:] - xyz[:-1]) / chords[:, None]
+    k_out = np.concatenate([kappa[:1], np.where(at_vertex, kappa[seg + 1], inner[seg])])
+    t_inner = np.where(np.isfinite(direction), direction, tangent[1:])[seg]
+    t_out = np.vstack([tangent[:1], np.where(at_vertex[:, None], tangent[seg + 1], t_inner)])
+    return out, t_out, k_out, np.linalg.norm(np.diff(out, axis=0), axis=1)
 
 
 def max_curvature(curve: Nurbs, per_span: int = 64, candidates: int = 8, rounds: int = 8) -> tuple[float, float]:

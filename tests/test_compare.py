@@ -183,3 +183,20 @@ def test_fuzzy_safe_breaks_no_limit_on_every_shipped_shape(name):
     for method in ("fuzzy-safe", "slw"):
         violations = c.simulations[method].metrics.violations
         assert all(count == 0 for count, _ in violations.values()), (method, violations)
+
+
+def test_cli_compare_samples_inside_long_lines(tmp_path, capsys):
+    """A CAM program of long G1 lines between corners: the bound row, the bound's feed executed
+    between the samples, is the bound (it crawled at the corners' feed along every line when only
+    the move ends were samples: 1.53 x the bound on a Fusion-style contour)."""
+    program = tmp_path / "rect.ngc"
+    program.write_text("%\n(rectangle with chamfers)\nG90 G94 G17\nG21\nG54\nG0 X0. Y0.\nG43 Z5. H1\n"
+                       "G1 Z-1. F300.\nX60. F1200.\nX65. Y5.\nY35.\nX60. Y40.\nX0.\nY0.\nG0 Z5.\nM30\n%\n")
+    report = tmp_path / "report.csv"
+    assert main(["compare", str(program), "-o", str(report)]) == 0
+    out = capsys.readouterr().out
+    df = pd.read_csv(report).set_index("method")
+    assert df.loc["bound", "ratio_to_bound"] == pytest.approx(1.0, abs=0.02)
+    assert df.loc["slw", "ratio_to_bound"] > 1.0
+    samples = int(out.split(" samples,")[0].rsplit(" ", 1)[-1])
+    assert samples >= 4 * 201  # 201 mm of path, a sample every 0.25 mm at most

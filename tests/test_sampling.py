@@ -54,6 +54,36 @@ def test_three_point_curvature_converges(name):
     assert errors[2] < 1e-3
 
 
+def test_points_split_inside_long_segments():
+    """Samples added inside long segments lie on the polyline, keep every vertex and its values,
+    and carry κ = 0 between two corners and the circle's κ on the chords of a circle run."""
+    theta = np.linspace(0.0, np.pi / 2, 31)
+    arc = np.column_stack([30.0 + 10.0 * np.sin(theta), 10.0 - 10.0 * np.cos(theta)])
+    square = [[0.0, 0.0], [30.0, 0.0]]
+    pts = np.round(np.vstack([square, arc[1:], [[40.0, 40.0], [0.0, 40.0]]]), 4)
+    plain = samples_from_points(pts)
+    split = samples_from_points(pts, max_step_mm=0.25)
+    assert split.length == pytest.approx(plain.length, rel=1e-12)
+    assert np.diff(split.s).max() <= 0.25 + 1e-9
+    at = np.array([int(np.argmin(np.abs(split.s - s_v))) for s_v in plain.s])
+    vertex = np.zeros(len(split), dtype=bool)
+    vertex[at] = True
+    np.testing.assert_array_equal(split.xyz[vertex], plain.xyz)
+    np.testing.assert_array_equal(split.curvature[vertex], plain.curvature)
+    # every added sample lies on its segment (distance from the chord through its neighbours)
+    inner = np.flatnonzero(~vertex)
+    a, b = split.xyz[inner - 1], split.xyz[inner + 1]
+    cross = np.cross(b - a, split.xyz[inner] - a)
+    assert np.abs(cross).max() / np.linalg.norm(b - a, axis=1).min() < 1e-9
+    on_first_line = ~vertex & (split.s < 29.0)
+    assert split.curvature[on_first_line].max() == 0.0
+    on_arc = ~vertex & (split.s > 30.0 + 0.5) & (split.s < 30.0 + 5 * np.pi - 0.5)
+    assert split.curvature[on_arc] == pytest.approx(0.1, rel=0.02)
+    np.testing.assert_allclose(np.linalg.norm(split.tangent, axis=1), 1.0)
+    with pytest.raises(InputError, match="max_step_mm"):
+        samples_from_points(pts, max_step_mm=0.0)
+
+
 def test_three_point_on_circle_converges():
     for n, tol in ((201, 1e-3), (2001, 1e-5)):
         t = np.linspace(0, 2 * np.pi, n)

@@ -69,12 +69,15 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import load_shape, sample_shape
+    from fuzzyfeed.sampling import POINT_STEP_MM
 
     limits = limits_from_args(args)
     servo = servo_from_args(args)
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
-    samples = sample_shape(shape, args.points)
+    # a point sequence is sampled inside its long segments too: the fuzzy and bound rows execute a
+    # feed given per sample, which must see a long line between two corners, not only its ends
+    samples = sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM)
     steps = 4 + len(METHODS)
     with tqdm(total=steps, desc=f"compare {shape.name}", unit="step", disable=not sys.stderr.isatty(),
               leave=False) as bar:

@@ -39,13 +39,15 @@ def shape_names() -> list[str]:
     return shipped_names("shapes", ShapeFileError)
 
 
-def sample_shape(shape: Shape, points: int = DEFAULT_POINTS) -> PathSamples:
-    """The planners' samples of a shape: ``points`` uniform in u for a NURBS (seed 002); the
-    vertices themselves with the three-point curvature (seed 002 eq. 4-9) for a polyline."""
+def sample_shape(shape: Shape, points: int = DEFAULT_POINTS, max_step_mm: float | None = None) -> PathSamples:
+    """The planners' samples of a shape: ``points`` uniform in u for a NURBS (seed 002); for a
+    polyline the vertices themselves with the curvature of the path they describe
+    (:func:`fuzzyfeed.sampling.samples_from_points`), with samples added inside segments longer
+    than ``max_step_mm`` if given."""
     if not isinstance(shape, Shape):
         raise ShapeFileError(f"shape: {type(shape).__name__} {shape!r:.40}; expected a Shape (load_shape)")
     if shape.polyline is not None:
-        return samples_from_points(shape.polyline, shape.curve)
+        return samples_from_points(shape.polyline, shape.curve, max_step_mm=max_step_mm)
     return sample_uniform_u(shape.curve, points)
 
 
