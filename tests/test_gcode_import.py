@@ -311,3 +311,27 @@ def test_incremental_inch_program_read_as_rs274_reads_it(tmp_path):
         if m:
             targets.append([float(v) * scale for v in m.group(2).split(",")[:3]])
     np.testing.assert_allclose(load_shape(str(path)).polyline, targets, atol=0.5e-4 * 25.4)
+
+
+@pytest.mark.parametrize("short_mm", [0.00045, 0.0012, 0.0014, 0.003])
+def test_r_arc_tolerance_is_linuxcncs(tmp_path, short_mm):
+    """An R arc a little shorter than half its chord (a CAM post's rounded R: Fusion's R1.508 on a
+    3.0169 mm chord) is read exactly when LinuxCNC's interpreter reads it (RADIUS_TOLERANCE_MM)."""
+    import subprocess
+
+    from test_gcode_export import rs274_binary
+
+    half = 1.5
+    prog = write(tmp_path, f"G21 G90 G17\nG0 X0 Y0\nG1 X0 Y0 F100\nG3 X{2 * half:.4f} Y0 R{half - short_mm:.5f}\n"
+                           "G1 X4 Y0\nM2\n")
+    run = subprocess.run([rs274_binary(), "-g", str(prog), str(tmp_path / "out.canon")], capture_output=True,
+                         text=True, stdin=subprocess.DEVNULL, timeout=120)
+    rs274_reads = "too small" not in (run.stdout + run.stderr) and "PROGRAM_END" in (tmp_path / "out.canon").read_text()
+    try:
+        shape = load_shape(str(prog))
+    except PathFormatError as exc:
+        assert not rs274_reads, exc
+        assert "shorter than half the chord" in str(exc)
+    else:
+        assert rs274_reads
+        assert shape.polyline[-1][0] == pytest.approx(4.0)

@@ -16,8 +16,10 @@ from fuzzyfeed.nurbs import Nurbs
 #: start radius by more than this *and* by more than ARC_RELATIVE_TOLERANCE is an error.
 ARC_RADIUS_TOLERANCE = {False: 0.02, True: 0.002}
 ARC_RELATIVE_TOLERANCE = 0.001
-#: An R arc whose radius is shorter than half the chord by more than this (program units) is an error.
-R_TOLERANCE = {False: 0.0002, True: 0.00001}
+#: An R arc whose radius is shorter than half the chord by more than this (program units) is an
+#: error: LinuxCNC's RADIUS_TOLERANCE_MM / _INCH (0.00005 inch; rs274 takes R 1.4988 for a chord of
+#: 3 mm and refuses R 1.4987 — a Fusion post's R 1.508 on a chord of 3.0169 mm is an arc).
+R_TOLERANCE = {False: 0.00127, True: 0.00005}
 
 
 def arc_centres(fail, kind, move_rows, motion, plane, start, endp, col, inch, scale, ij_absolute):
