@@ -114,6 +114,11 @@ def _clean_lines(lines: list[str], text: str, path: Path) -> list[str]:
 def _malformed(path: Path, body: str, pos: int, lines: list[str]) -> None:
     line = body.count("\n", 0, pos) + 1
     text = lines[line - 1].strip()
+    start = pos   # a parameter name reaches back to its '#<' (the checks may stop inside it)
+    while start > 0 and (body[start - 1].isalpha() or body[start - 1] in "_<"):
+        start -= 1
+    if start > 0 and body[start - 1] == "#":
+        pos = start - 1
     frag = body[pos:pos + 12].split("\n")[0]
     if frag[:1] in "#[<" or (frag[:1] == "O"):
         _fail(path, line, f"'{frag}' in {text!r}: parameters, expressions and O-words are not "
