@@ -179,7 +179,12 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     """Tangent breaks at span joins (C0 knots, zero-length spans) and the feed allowed through them.
 
     Passing a corner of unit-tangent jump ΔT at feed v turns the motion within one servo period:
-    the axial acceleration measured from positions is v·|ΔT_j|/Ts (≤ A_j) and the corner lies
+    the axial acceleration measured from positions is v·|ΔT_j|/Ts (with the joins
+    within one servo step v·Ts of it, which the same periods pass, weighted by their distance), on
+    top of the centripetal
+    v²·|κn_j| of the curve on either side (a line meeting an arc with a small kink of rounded
+    coordinates: the arc alone may already use the whole budget), so v²·|κn_j| + v·|ΔT_j|/Ts ≤ A_j,
+    v ≤ 2A_j / (c₁ + √(c₁² + 4c₂A_j)) with c₁ = |ΔT_j|/Ts, c₂ = max |κn_j|; and the corner lies
     (v·Ts/2)·sin(θ/2) from the chord (≤ δ). The cap is the smaller of the two, with 10 % margin; a
     reversal or a stationary point gives 0 (a stop). Smooth joins give caps far above the feed.
     Returns arc lengths and caps of the joins whose cap is below the command feed.
@@ -195,17 +200,56 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     if s_b.size == 0:
         return np.empty(0), np.empty(0)
     side = np.concatenate([s_b - h, s_b + h])
-    d1 = curve.evaluate(np.atleast_1d(curve.param_at_length(side)), order=1)[1]
-    d1 = np.hstack([d1, np.zeros((d1.shape[0], 3 - d1.shape[1]))])
+    _, d1, d2 = curve.evaluate(np.atleast_1d(curve.param_at_length(side)), order=2)
+    pad = ((0, 0), (0, 3 - d1.shape[1]))
+    d1, d2 = np.pad(d1, pad), np.pad(d2, pad)
     norm = np.linalg.norm(d1, axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = d1 / norm[:, None]
+        # curvature vector κn = (C″ − (C″·T)T) / |C′|² on each side
+        kn = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / (norm * norm)[:, None]
+    kn = np.nan_to_num(np.abs(kn), nan=0.0, posinf=0.0)
     t_in, t_out = t[: s_b.size], t[s_b.size:]
-    jump = np.abs(t_out - t_in)
+    jump = np.nan_to_num(np.abs(t_out - t_in), nan=0.0)
+    zero = np.zeros((1, 3))
+    cum = np.vstack([zero, np.cumsum(jump, axis=0)])
+    cum_s = np.vstack([zero, np.cumsum(jump * s_b[:, None], axis=0)])
     acc = np.asarray(limits.axis_acc_mm_s2)
+    c2 = np.maximum(kn[: s_b.size], kn[s_b.size:])
+    here = np.searchsorted(s_b, s_b, side="right")
+
+    def allowed(v: np.ndarray) -> np.ndarray:
+        # joins within one servo step L = v·Ts turn the motion in the same periods: the second
+        # difference of the positions at a tick at s is v/Ts · Σ ΔT_m (1 − |σ_m − s|/L)+, largest
+        # at a join (a sum of tents peaks at a tent's peak) — an arc flattened into short lines
+        reach = (v * limits.ts_s)[:, None]
+        lo = np.searchsorted(s_b, s_b - reach[:, 0], side="left")
+        hi = np.searchsorted(s_b, s_b + reach[:, 0], side="right")
+        s_i = s_b[:, None]
+        left0, left1 = cum[here] - cum[lo], cum_s[here] - cum_s[lo]
+        right0, right1 = cum[hi] - cum[here], cum_s[hi] - cum_s[here]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tents = (left0 - (s_i * left0 - left1) / reach) + (right0 - (right1 - s_i * right0) / reach)
+        c1 = np.maximum(np.nan_to_num(tents, nan=0.0), jump) / limits.ts_s
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.min(2.0 * acc[None, :] / (c1 + np.sqrt(c1 * c1 + 4.0 * c2 * acc[None, :])), axis=1)
+
+    # the largest v ≤ F that the joins within v·Ts allow (the allowance falls as v, and with it
+    # the reach, grows): bisection between a feed that holds and F
+    command = np.full(s_b.size, limits.feed_mm_s)
+    good = np.minimum(allowed(command), command)
+    bad = command.copy()
+    for _ in range(40):
+        mid = 0.5 * (good + bad)
+        holds = allowed(mid) >= mid
+        good, bad = np.where(holds, mid, good), np.where(holds, bad, mid)
+    both = np.where(allowed(command) >= command, np.inf, good)   # F itself holds: no cap
     with np.errstate(divide="ignore", invalid="ignore"):
-        cap_acc = np.min(np.where(jump > 0, acc[None, :] * limits.ts_s / jump, np.inf), axis=1)
-        half = np.linalg.norm(t_out - t_in, axis=1) / 2.0  # sin(θ/2)
+        curve_only = np.min(np.sqrt(acc[None, :] / c2), axis=1)
+    # a join counts when its kink lowers the curve's own limit (held at the reference points)
+    cap_acc = np.where(both < 0.99 * curve_only, both, np.inf)
+    half = np.linalg.norm(t_out - t_in, axis=1) / 2.0  # sin(θ/2)
+    with np.errstate(divide="ignore", invalid="ignore"):
         cap_chord = np.where(half > 0, 2.0 * limits.chord_tol_mm / (limits.ts_s * half), np.inf)
     cap = 0.9 * np.minimum(cap_acc, cap_chord)
     cap = np.where(np.isfinite(t).all(axis=1)[: s_b.size] & np.isfinite(t).all(axis=1)[s_b.size:],
