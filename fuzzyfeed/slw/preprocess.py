@@ -210,12 +210,14 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
         kn = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / (norm * norm)[:, None]
     kn = np.nan_to_num(np.abs(kn), nan=0.0, posinf=0.0)
     t_in, t_out = t[: s_b.size], t[s_b.size:]
-    jump = np.nan_to_num(np.abs(t_out - t_in), nan=0.0)
+    c2 = np.maximum(kn[: s_b.size], kn[s_b.size:])
+    # the kink: the tangents' difference less what the curve turns over the 2h between the sides
+    # (2h|κn| with a factor 2 of margin; on a long path h is microns and a smooth join turns that)
+    jump = np.maximum(np.nan_to_num(np.abs(t_out - t_in), nan=0.0) - 4.0 * h * c2, 0.0)
     zero = np.zeros((1, 3))
     cum = np.vstack([zero, np.cumsum(jump, axis=0)])
     cum_s = np.vstack([zero, np.cumsum(jump * s_b[:, None], axis=0)])
     acc = np.asarray(limits.axis_acc_mm_s2)
-    c2 = np.maximum(kn[: s_b.size], kn[s_b.size:])
     here = np.searchsorted(s_b, s_b, side="right")
 
     def allowed(v: np.ndarray) -> np.ndarray:
