@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fuzzyfeed.io.program import ARC, LINE, Program, arc_geometry, arc_points
-from fuzzyfeed.sampling import POINT_STEP_MM, PathSamples, three_point_curvature
+from fuzzyfeed.sampling import POINT_STEP_MM, PathSamples, segment_pieces, three_point_curvature
 
 #: Default largest distance between samples along a cut (mm).
 DEFAULT_STEP_MM = POINT_STEP_MM
@@ -38,10 +38,6 @@ class CutSamples:
     sample_move: np.ndarray  # (N,) the move each sample lies on (a move end: the arriving move)
 
 
-def _line_fractions(length: np.ndarray, step_mm: float) -> np.ndarray:
-    return np.maximum(1, np.ceil(length / step_mm - 1e-9)).astype(np.int64)
-
-
 def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> CutSamples:
     """Samples of cut ``k`` (see the module docstring)."""
     moves = program.cut_moves(k)
@@ -51,7 +47,7 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
     keep = (chord > 0) | (kinds != LINE)
     moves, kinds, chord = moves[keep], kinds[keep], chord[keep]
     if np.all(kinds == LINE):
-        counts = _line_fractions(chord, step_mm)
+        counts = segment_pieces(chord, step_mm)
         total = int(counts.sum())
         seg_move = np.repeat(moves, counts)
         first = np.repeat(np.cumsum(counts) - counts, counts)
@@ -69,7 +65,7 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
         parts, f0s, f1s, segm, exacts, keys = [start[moves[0]][None, :]], [], [], [], [], [True]
         for m, kind, c in zip(moves, kinds, chord):
             if kind == LINE:
-                n = int(_line_fractions(np.array([c]), step_mm)[0])
+                n = int(segment_pieces(np.array([c]), step_mm)[0])
                 f = np.arange(1, n + 1) / n
                 p = start[m] + (end[m] - start[m]) * f[:, None]
                 p[-1] = end[m]

@@ -259,13 +259,19 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
                        curvature=kappa, d1=nan, d2=nan, dim=dim, curve=curve)
 
 
+def segment_pieces(length_mm: np.ndarray, step_mm: float) -> np.ndarray:
+    """How many equal pieces of at most ``step_mm`` each segment length is cut into (at least 1;
+    a length a rounding over a whole number of steps is not cut once more)."""
+    return np.maximum(1, np.ceil(np.asarray(length_mm, dtype=float) / step_mm - 1e-9)).astype(np.int64)
+
+
 def _split_segments(xyz: np.ndarray, tangent: np.ndarray, kappa: np.ndarray, corner: np.ndarray,
                     chords: np.ndarray, max_step_mm: float):
     """Points added evenly inside every segment longer than ``max_step_mm`` (see
     :func:`samples_from_points`): positions, tangents, κ and the new chords."""
     if not np.isfinite(max_step_mm) or max_step_mm <= 0:
         raise InputError(f"max_step_mm = {max_step_mm!r}; must be a finite number > 0 (mm)")
-    pieces = np.maximum(np.ceil(chords / max_step_mm - 1e-9).astype(np.int64), 1)
+    pieces = segment_pieces(chords, max_step_mm)
     if (pieces == 1).all():
         return xyz, tangent, kappa, chords
     seg = np.repeat(np.arange(chords.size), pieces)                  # segment of each new chord

@@ -179,12 +179,12 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     """Tangent breaks at span joins (C0 knots, zero-length spans) and the feed allowed through them.
 
     Passing a corner of unit-tangent jump ΔT at feed v turns the motion within one servo period:
-    the axial acceleration measured from positions is v·|ΔT_j|/Ts (with the joins
-    within one servo step v·Ts of it, which the same periods pass, weighted by their distance), on
-    top of the centripetal
-    v²·|κn_j| of the curve on either side (a line meeting an arc with a small kink of rounded
-    coordinates: the arc alone may already use the whole budget), so v²·|κn_j| + v·|ΔT_j|/Ts ≤ A_j,
-    v ≤ 2A_j / (c₁ + √(c₁² + 4c₂A_j)) with c₁ = |ΔT_j|/Ts, c₂ = max |κn_j|; and the corner lies
+    the axial acceleration measured from positions is v·|ΔT_j|/Ts (with the joins within one
+    servo step v·Ts of it, which the same periods pass, weighted by their distance), on top of the
+    centripetal v²·|κn_j| of the curve on either side (a line meeting an arc with a small kink of
+    rounded coordinates: the arc alone may already use the whole budget), so
+    v²·|κn_j| + v·|ΔT_j|/Ts ≤ A_j, v ≤ 2A_j / (c₁ + √(c₁² + 4c₂A_j)) with c₁ = |ΔT_j|/Ts,
+    c₂ = max |κn_j|; and the corner lies
     (v·Ts/2)·sin(θ/2) from the chord (≤ δ). The cap is the smaller of the two, with 10 % margin; a
     reversal or a stationary point gives 0 (a stop). Smooth joins give caps far above the feed.
     Returns arc lengths and caps of the joins whose cap is below the command feed.
@@ -200,15 +200,10 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     if s_b.size == 0:
         return np.empty(0), np.empty(0)
     side = np.concatenate([s_b - h, s_b + h])
-    _, d1, d2 = curve.evaluate(np.atleast_1d(curve.param_at_length(side)), order=2)
-    pad = ((0, 0), (0, 3 - d1.shape[1]))
-    d1, d2 = np.pad(d1, pad), np.pad(d2, pad)
-    norm = np.linalg.norm(d1, axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = d1 / norm[:, None]
-        # curvature vector κn = (C″ − (C″·T)T) / |C′|² on each side
-        kn = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / (norm * norm)[:, None]
-    kn = np.nan_to_num(np.abs(kn), nan=0.0, posinf=0.0)
+    smp = samples_at(curve, np.atleast_1d(curve.param_at_length(side)), s=side)
+    t = np.asarray(smp.tangent)
+    # the curve's own κn on each side (a stationary side is a stop: its cap is 0 below)
+    kn = np.nan_to_num(np.abs(curvature_vectors(smp)), nan=0.0, posinf=0.0)
     t_in, t_out = t[: s_b.size], t[s_b.size:]
     c2 = np.maximum(kn[: s_b.size], kn[s_b.size:])
     # the kink: the tangents' difference less what the curve turns over the 2h between the sides
@@ -239,13 +234,13 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     # the largest v ≤ F that the joins within v·Ts allow (the allowance falls as v, and with it
     # the reach, grows): bisection between a feed that holds and F
     command = np.full(s_b.size, limits.feed_mm_s)
-    good = np.minimum(allowed(command), command)
-    bad = command.copy()
+    at_command = allowed(command)
+    good, bad = np.minimum(at_command, command), command.copy()
     for _ in range(40):
         mid = 0.5 * (good + bad)
         holds = allowed(mid) >= mid
         good, bad = np.where(holds, mid, good), np.where(holds, bad, mid)
-    both = np.where(allowed(command) >= command, np.inf, good)   # F itself holds: no cap
+    both = np.where(at_command >= command, np.inf, good)   # F itself holds: no cap
     with np.errstate(divide="ignore", invalid="ignore"):
         curve_only = np.min(np.sqrt(acc[None, :] / c2), axis=1)
     # a join counts when its kink lowers the curve's own limit (held at the reference points)
