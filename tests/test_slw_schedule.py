@@ -297,4 +297,26 @@ def test_joins_closer_than_a_servo_step_hold_the_axis_acceleration(segment_mm):
         count, worst = metrics.violations[f"axis_acc_{axis}"]
         assert count == 0 and worst <= 1.0 + 1e-6, (axis, count, worst)
     # the bound through the same joins is the arc's own (sqrt(A R) = 77 mm/s on R 6), not a crawl
-    assert path_bound(shape.curve, limits).time_s < 1.1
+    bound = path_bound(shape.curve, limits).time_s
+    assert bound < 1.1
+    # and the schedule follows the arc's joins as one cap, not a critical point per chord (each
+    # a zero acceleration: 3.0 x the bound, braking to the end over a whole half circle)
+    assert traj.cycle_time_s < 1.3 * bound, (traj.cycle_time_s, bound)
+
+
+def test_two_joins_closer_than_a_stair_are_one_corner():
+    """A corner written as two joins 1 um apart (a rounded chamfer in a CAM post) is passed as one
+    corner at the lower cap: not a crawl over the staircase's cell around it."""
+    from fuzzyfeed.io.points import polyline_shape
+
+    limits = MachineLimits()
+    sharp = polyline_shape(np.array([[0, 0], [40, 0], [40, 30], [0, 30]], float), name="sharp")
+    split = polyline_shape(np.array([[0, 0], [40, 0], [40.0, 0.001], [40, 30], [0, 30]], float),
+                           name="split")
+    t_sharp = schedule(sharp.curve, limits, blend=False).cycle_time_s
+    traj = schedule(split.curve, limits, blend=False)
+    assert traj.cycle_time_s < 1.02 * t_sharp, (traj.cycle_time_s, t_sharp)
+    metrics = traj.simulate("slw").metrics
+    for axis in "xy":
+        count, worst = metrics.violations[f"axis_acc_{axis}"]
+        assert count == 0 and worst <= 1.0 + 1e-6, (axis, count, worst)

@@ -22,7 +22,8 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.limits import MachineLimits, curvature_vectors, feed_limits
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.sampling import samples_at
-from fuzzyfeed.slw.feed_cap import FeedCap
+from fuzzyfeed.slw.feed_cap import STAIR_RATIO, FeedCap
+from fuzzyfeed.slw.profile import transition_distance
 
 #: Points per refinement level and levels of the local fine pre-interpolation (Algorithm 1).
 FINE_POINTS = 11
@@ -255,10 +256,60 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     return s_b[sel], cap[sel]
 
 
+def corner_plan(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray, FeedCap | None]:
+    """How the scheduler passes the corners of :func:`corners`: (arc lengths and caps of the
+    corners that are critical points, the cap of the others or None).
+
+    A critical point has zero acceleration. Corners closer together than the profile needs to
+    rise one stair step (×1/STAIR_RATIO) from the lower of their two caps are linked: an arc
+    written as short chords (0.024 mm in a plasma program) made a block per chord, and the
+    profile could neither rise nor brake across them (3 x the bound on a slot). A run of linked
+    corners is a pointwise cap instead — linear between its corners, a step at either end, the
+    command feed elsewhere — which the schedule follows in stairs
+    (:func:`fuzzyfeed.slw.feed_cap.stairs`). A run shorter than that rise from its lowest cap is
+    one corner: a critical point at its lowest cap, one stair lower (the profile passes the
+    run's other corners before it has risen one stair). Sharp corners a few mm apart (a zig-zag)
+    stay critical points; the profile peaks between them."""
+    s, cap = corners(curve, limits)
+    if s.size < 2:
+        return s, cap, None
+    acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
+
+    def rise(v: np.ndarray) -> np.ndarray:
+        return np.array([transition_distance(x, x / STAIR_RATIO, acc, jerk) for x in v.tolist()])
+
+    link = np.diff(s) < rise(np.minimum(cap[:-1], cap[1:]))
+    first = np.flatnonzero(link & ~np.concatenate([[False], link[:-1]]))   # runs of corners
+    last = np.flatnonzero(link & ~np.concatenate([link[1:], [False]])) + 1  # first … last
+    lone = np.ones(s.size, dtype=bool)
+    keep_s, keep_cap = [], []
+    pts, vals = [np.array([0.0])], [np.array([limits.feed_mm_s])]
+    for a, b in zip(first.tolist(), last.tolist()):
+        lone[a:b + 1] = False
+        k = a + int(np.argmin(cap[a:b + 1]))
+        if s[b] - s[a] < rise(cap[k:k + 1])[0]:   # one corner
+            keep_s.append(s[k])
+            keep_cap.append(STAIR_RATIO * cap[k])
+            continue
+        pts += [s[a:a + 1], s[a:b + 1], s[b:b + 1]]
+        vals += [np.array([limits.feed_mm_s]), cap[a:b + 1], np.array([limits.feed_mm_s])]
+    crit_s = np.concatenate([s[lone], keep_s])
+    crit_cap = np.concatenate([cap[lone], keep_cap])
+    order = np.argsort(crit_s)
+    dense = None
+    if len(pts) > 1:
+        pts.append(np.array([curve.length]))
+        vals.append(np.array([limits.feed_mm_s]))
+        dense = FeedCap(np.concatenate(pts), np.concatenate(vals), curve.length)
+    return crit_s[order], crit_cap[order], dense
+
+
 def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = None,
                 cap: FeedCap | None = None) -> Iterator[Block]:
     """Blocks between critical points, in path order, produced chunk by chunk (seed 000);
-    ``cap`` is an optional extra pointwise feed limit (:class:`FeedCap`)."""
+    ``cap`` is an optional extra pointwise feed limit (:class:`FeedCap`). The corners that
+    :func:`corner_plan` makes critical points are; its cap of the others is the caller's to
+    include in ``cap``."""
     total = curve.length
     if not np.isfinite(total) or total <= 0.0:
         raise InputError(f"path length {total!r} mm; a path to schedule must have a positive length")
@@ -287,7 +338,7 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
     cap0 = 0.0                      # start at rest
     s_start = 0.0
     prev_tail: Reference | None = None  # last two coarse points of the previous chunk
-    corner_s, corner_cap = corners(curve, limits)
+    corner_s, corner_caps, _ = corner_plan(curve, limits)
     for c0 in range(0, grid.size, CHUNK_POINTS):
         # the machine's own limit first: its minima are critical points even where a flat cap
         # hides them between two reference points (a curvature spike under a cap's plateau)
@@ -300,7 +351,7 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
         in_chunk = (corner_s >= grid[c0]) & ((corner_s < hi_s) | last_chunk)
         if in_chunk.any():
             cref = evaluate_reference(curve, limits, corner_s[in_chunk])
-            cref = Reference(cref.s, cref.u, np.minimum(cref.vlim, corner_cap[in_chunk]),
+            cref = Reference(cref.s, cref.u, np.minimum(cref.vlim, corner_caps[in_chunk]),
                              cref.tangent, cref.kn)
             chunk = Reference.concat([chunk, cref]).sorted_unique()
             forced = dict(zip(corner_s[in_chunk].tolist(), _capped(cref, cap).vlim.tolist()))
@@ -368,11 +419,3 @@ def _capped(ref: Reference, cap: FeedCap | None) -> Reference:
     if cap is None:
         return ref
     return Reference(ref.s, ref.u, np.minimum(ref.vlim, cap(ref.s)), ref.tangent, ref.kn)
-
-
-def critical_points(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:
-    """Arc lengths and feed limits of the critical points found by preprocessing (no ends)."""
-    blocks = list(iter_blocks(curve, limits))
-    s = np.array([b.s1 for b in blocks[:-1]])
-    v = np.array([b.cap1 for b in blocks[:-1]])
-    return s, v

@@ -25,7 +25,7 @@ from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.simulate import Simulation, TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
-from fuzzyfeed.slw.preprocess import iter_blocks, machine_cap
+from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, machine_cap
 from fuzzyfeed.slw.profile import segment_state
 
 
@@ -211,6 +211,10 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
+    # corners closer together than a stair step needs are a cap, not critical points
+    dense = per_curve(curve, ("corner cap", limits), lambda: corner_plan(curve, limits)[2])
+    if dense is not None:
+        cap = dense if cap is None else lower(cap, dense)
     if cap is not None:  # followed in stairs planned once, not repaired crossing by crossing
         cap = stairs(cap, limits.feed_mm_s, acc, jerk)
     if approach == 2:  # and so is the machine's own limit, but near the bottom of its dips
