@@ -7,7 +7,8 @@ Methods compared (each executed by :mod:`fuzzyfeed.simulate` and measured the sa
                 cap per sample (:func:`fuzzyfeed.slw.schedule` with ``feed_cap``), so every
                 machine limit holds, jerk included, and the feed never exceeds the advice;
 ``slw``         the jerk-limited look-ahead schedule (seed 000), its own time law;
-``constant``    the command feed F everywhere (what a program without feed planning asks for);
+``constant``    the command feed F everywhere (what a program without feed planning asks for; a
+                program's own F words);
 ``bound``       the acceleration-limited time-optimal bound (phase-plane pass, no jerk limit) on
                 its own adaptive grid (:func:`fuzzyfeed.slw.path_bound`), the same as
                 ``fuzzyfeed schedule`` reports; its feed is shown at the samples.
@@ -30,6 +31,7 @@ from fuzzyfeed.sampling import PathSamples
 from fuzzyfeed.servo import ServoModel
 from fuzzyfeed.simulate import Simulation, simulate_profile
 from fuzzyfeed.slw import path_bound, schedule
+from fuzzyfeed.slw.feed_cap import FeedCap
 
 METHODS = ("fuzzy", "fuzzy-safe", "slw", "constant", "bound")
 
@@ -107,7 +109,7 @@ def _cross_check(samples: PathSamples, fuzzy: FeedProfile, slw: FeedProfile,
 
 def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None = None,
             name: str = "path", progress=None, servo: ServoModel | None = None,
-            approach: int = 2) -> Comparison:
+            approach: int = 2, feed_cap=None) -> Comparison:
     """Run every method of :data:`METHODS` on ``samples`` and simulate each (DESIGN §3).
 
     ``servo`` is the axis model every method's contour error is measured with (default
@@ -115,26 +117,33 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     The fuzzy advisor's maximum feed is the command feed F of ``limits``; ``approach`` is the SLW
     scheduler's (seed 000 Table 1) for ``slw`` and ``fuzzy-safe``. ``progress``, if given, is
     called with the name of each step as it starts (the CLI hooks a progress bar on it).
+    ``feed_cap`` (optional, (s_mm, feed_mm_s) along the path, a repeated s a step) is the F a
+    program has at each place: every method runs under it — the advice as a fraction of it,
+    the constant feed as it — as ``fuzzyfeed advise PROGRAM`` and a controller run it.
     """
     expect(samples, PathSamples, "samples", "PathSamples")
     expect(limits, MachineLimits, "limits", "MachineLimits")
     curve = samples.curve
     step = progress or (lambda _name: None)
     step("slw")
-    trajectory = schedule(curve, limits, approach=approach)
+    ceiling = np.full(len(samples), limits.feed_mm_s)
+    if feed_cap is not None:
+        ceiling = np.minimum(FeedCap(*feed_cap, samples.length)(samples.s), limits.feed_mm_s)
+    trajectory = schedule(curve, limits, approach=approach, feed_cap=feed_cap)
     slw_profile = trajectory.feed_at(samples)
     step("bound")
     # on the path the machine follows: a polyline blended within the path tolerance, as schedule
-    bound = path_bound(trajectory.curve, limits, halve=False)
+    bound = path_bound(trajectory.curve, limits, halve=False, feed_cap=feed_cap)
     bound_profile, bound_time = bound.profile_at(samples, limits), bound.time_s
     step("fuzzy")
     fuzzy = advise(samples, table, max_feed_mm_s=limits.feed_mm_s)
+    if feed_cap is not None:   # the advised fraction of the F in force
+        fuzzy = FeedProfile(samples, fuzzy.feed_mm_s / limits.feed_mm_s * ceiling, "fuzzy", limits.feed_mm_s)
     step("fuzzy-safe")
     safe_trajectory = schedule(curve, limits, approach=approach, feed_cap=fuzzy)
     safe_at = safe_trajectory.feed_at(samples)
     safe = FeedProfile(samples, safe_at.feed_mm_s, "fuzzy-safe", limits.feed_mm_s)
-    constant = FeedProfile(samples, np.full(len(samples), limits.feed_mm_s), "constant",
-                           limits.feed_mm_s)
+    constant = FeedProfile(samples, ceiling, "constant", limits.feed_mm_s)
     profiles = {"fuzzy": fuzzy, "fuzzy-safe": safe, "slw": slw_profile, "constant": constant,
                 "bound": bound_profile}
     sims: dict[str, Simulation] = {}

@@ -135,3 +135,42 @@ def test_program_from_a_cut_starts_above_it(tmp_path):
     assert main(["schedule", str(program) + "#1", "-o", str(tmp_path / "c.csv"), "--gcode", str(bad),
                  "--safe-z-mm", "2"]) == 2
     assert not bad.exists() and not (tmp_path / "c.csv").exists()
+
+
+def test_schedule_and_compare_run_a_cut_at_its_own_f(tmp_path, capsys):
+    """A cut is scheduled at the program's F words (the plunge at F200, the contour at F1000),
+    each capped by --feed-mm-min, as DESIGN's "Feeds in a program" says: at the default 6000 a
+    compass program written at F400 was reported at 10.4 s instead of 118 s."""
+    program = write(tmp_path, PROGRAM)
+    out = tmp_path / "s.csv"
+    assert main(["schedule", str(program) + "#1", "-o", str(out)]) == 0
+    assert "the program's F200-F1000 mm/min" in capsys.readouterr().out
+    with open(out, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    s = np.array([float(r["s_mm"]) for r in rows])
+    feed = np.array([float(r["feed_mm_min"]) for r in rows])
+    assert feed[s < 6.0 - 1e-6].max() <= 200.0 + 1e-6     # the 6 mm plunge
+    assert 900.0 < feed.max() <= 1000.0 + 1e-6
+    assert main(["schedule", str(program) + "#1", "-o", str(out), "--feed-mm-min", "500"]) == 0
+    assert "above --feed-mm-min 500 capped to it" in capsys.readouterr().out
+    with open(out, newline="") as handle:
+        assert max(float(r["feed_mm_min"]) for r in csv.DictReader(handle)) <= 500.0 + 1e-6
+    # compare: the constant row is the program as written, every row under its F
+    report = tmp_path / "c.csv"
+    assert main(["compare", str(program) + "#2", "-o", str(report)]) == 0
+    with open(report, newline="") as handle:
+        rows = {r["method"]: r for r in csv.DictReader(handle)}
+    plunge, rest = 6.0, 40.0 + np.pi * 10.0 + 40.0 + 20.0   # mm at F200, mm at F800
+    written = plunge / (200 / 60) + rest / (800 / 60)
+    assert float(rows["constant"]["cycle_time_s"]) == pytest.approx(written, rel=0.01)
+    for method in ("slw", "bound", "fuzzy", "fuzzy-safe"):
+        assert float(rows[method]["cycle_time_s"]) > written
+
+
+def test_schedule_refuses_a_cut_without_f(tmp_path, capsys):
+    program = write(tmp_path, "G21 G90\nG0 X0 Y0\nG1 X10 Y0\nG1 X10 Y10\nM2\n")
+    out = tmp_path / "s.csv"
+    assert main(["schedule", str(program), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no F in force" in err and "prog.ngc" in err
+    assert not out.exists()

@@ -48,3 +48,30 @@ def limits_from_args(args: argparse.Namespace) -> MachineLimits:
     return MachineLimits(feed_mm_s=args.feed_mm_min / 60.0, axis_vel_mm_s=args.axis_vel_mm_s,
                          axis_acc_mm_s2=args.axis_acc_mm_s2, jerk_mm_s3=args.jerk_mm_s3,
                          chord_tol_mm=args.chord_tol_mm, ts_s=args.ts_s)
+
+
+def programmed_feed(shape, limits: MachineLimits):
+    """A cut of a G-code program runs at the program's own F words (DESIGN, "Feeds in a
+    program": the F a program has at a place is the ceiling there), each capped by
+    ``--feed-mm-min``. Returns (limits with that command feed: the highest of them; the feed cap
+    as (s_mm, feed_mm_s) or None; one line saying so, or None). Other shapes run at
+    ``--feed-mm-min`` unchanged."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from fuzzyfeed.errors import PathFormatError
+
+    if shape.programmed_feed is None:
+        return limits, None, None
+    s, f_mm_min = (np.asarray(a, dtype=float) for a in shape.programmed_feed)
+    if not (f_mm_min > 0).all():
+        raise PathFormatError(f"{shape.source}: a feed move with no F in force (F = 0); the program "
+                              "must give an F word before its first feed move")
+    capped = np.minimum(f_mm_min, limits.feed_mm_min)
+    low, high = float(capped.min()), float(capped.max())
+    words = f"F{low:g}" if low == high else f"F{low:g}-F{high:g}"
+    note = f"feed              the program's {words} mm/min"
+    if f_mm_min.max() > limits.feed_mm_min:
+        note += f" (F words above --feed-mm-min {limits.feed_mm_min:g} capped to it)"
+    return replace(limits, feed_mm_s=high / 60.0), (s, capped / 60.0), note

@@ -6,14 +6,16 @@ import argparse
 import sys
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
-from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args
+from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, programmed_feed
 from fuzzyfeed.cli._servo import add_servo_arguments, servo_from_args
 
 DESCRIPTION = """\
 Simulate every method on the same samples with the same interpolator at Ts and print one metric
 table: fuzzy (the advice at the command feed F), fuzzy-safe (the jerk-limited SLW schedule
 under min(advice, machine): every limit held), slw (the jerk-limited look-ahead schedule), constant (F everywhere) and bound (the
-acceleration-limited time-optimal bound, no jerk limit). Violations count servo ticks over a limit.
+acceleration-limited time-optimal bound, no jerk limit). A cut of a G-code program runs every row
+under the program's F words, each capped by F (the advice a fraction of them, the constant row the
+program as written). Violations count servo ticks over a limit.
 The contour error is the distance of the tool from the curve when each axis follows its set-points
 through a position loop (default Kv = 30 1/s, no feed-forward; see the servo flags).
 """
@@ -71,10 +73,10 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.shapes import load_shape, sample_shape
     from fuzzyfeed.sampling import POINT_STEP_MM
 
-    limits = limits_from_args(args)
     servo = servo_from_args(args)
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
+    limits, cap, feed_note = programmed_feed(shape, limits_from_args(args))
     # a point sequence is sampled inside its long segments too: the fuzzy and bound rows execute a
     # feed given per sample, which must see a long line between two corners, not only its ends
     samples = sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM)
@@ -86,12 +88,14 @@ def run(args: argparse.Namespace) -> int:
             bar.update(1)
 
         result = compare(samples, limits, table, name=shape.name, progress=progress, servo=servo,
-                         approach=args.approach)
+                         approach=args.approach, feed_cap=cap)
     rows = result.rows()
     columns = {key: np.array([row[key] for row in rows]) for key in rows[0]}
     write_columns(args.output, columns, allow_nan=("ratio_to_bound",))
     print(f"{shape.name}: {len(samples)} samples, {samples.length:.3f} mm; F = {limits.feed_mm_min:g} mm/min, "
           f"Ts = {limits.ts_s:g} s, chord tolerance {limits.chord_tol_mm * 1e3:g} um; servo {servo.describe()}")
+    if feed_note is not None:
+        print(" ".join(feed_note.split()))
     print(format_table(rows))
     for line in result.cross_check.lines():
         print(f"  {line}")

@@ -9,7 +9,7 @@ import numpy as np
 
 from fuzzyfeed.cli._common import add_shape_argument
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args
+from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, programmed_feed
 from fuzzyfeed.errors import InputError
 
 
@@ -22,7 +22,8 @@ def register(sub) -> None:
                     "feed_mm_s, feed_mm_min, acc_mm_s2, jerk_mm_s3. Prints the cycle time, the "
                     "critical points and blocks, the worst chord error, accelerations and jerk "
                     "(measured from the positions) and the ratio to the acceleration-limited "
-                    "time-optimal bound.")
+                    "time-optimal bound. A cut of a G-code program runs at the program's F "
+                    "words, each capped by --feed-mm-min.")
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write (atomically)")
     add_limit_arguments(p)
@@ -39,18 +40,18 @@ def compute(args: argparse.Namespace):
     from fuzzyfeed.io.shapes import load_shape
     from fuzzyfeed.slw import measure, path_bound, schedule
 
-    limits = limits_from_args(args)
     shape = load_shape(args.shape)
+    limits, cap, note = programmed_feed(shape, limits_from_args(args))
     try:  # a progress bar on a terminal (tqdm.auto), none in a pipe or a log
         traj = schedule(shape.curve, limits, progress=True if sys.stderr.isatty() else None,
-                        approach=args.approach)
+                        approach=args.approach, feed_cap=cap)
     except InputError as exc:  # the message names the user's file
         raise InputError(f"{args.shape}: {exc}") from None
-    bound = path_bound(traj.curve, limits)  # of the path followed (a polyline: blended)
-    return shape, traj, measure(traj), bound, bound.time_s
+    bound = path_bound(traj.curve, limits, feed_cap=cap)  # of the path followed (a polyline: blended)
+    return shape, traj, measure(traj), bound, note
 
 
-def summary(shape_name: str, traj, m: dict, bound) -> str:
+def summary(shape_name: str, traj, m: dict, bound, feed_note: str | None = None) -> str:
     bound_s = bound.time_s
     lim = traj.limits
     lines = [
@@ -68,6 +69,8 @@ def summary(shape_name: str, traj, m: dict, bound) -> str:
         f"jerk {np.abs(traj.jerk_mm_s3).max():.1f} mm/s^3 ({100 * m['jerk']:.2f} % of limit)",
         f"terminal error    {1000 * m['terminal_error_mm']:.3g} um",
     ]
+    if feed_note is not None:
+        lines.insert(1, feed_note)
     if traj.polyline_fit is not None:
         lines.append(f"path followed     {traj.polyline_fit.describe()}")
     return "\n".join(lines)
@@ -77,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import sample_shape
 
-    shape, traj, m, bound_profile, bound_s = compute(args)
+    shape, traj, m, bound_profile, feed_note = compute(args)
     samples = sample_shape(shape)
 
     def segment_feeds():
@@ -98,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
              f"{traj.cycle_time_s:.4f} s",)
     gcode = prepare_gcode(args, lambda: traj.feed_at(samples), shape, notes, segment_feeds)
     write_columns(args.output, traj.columns())
-    print(summary(shape.name, traj, m, bound_profile))
+    print(summary(shape.name, traj, m, bound_profile, feed_note))
     print(f"wrote {args.output}")
     if args.plot:
         from fuzzyfeed.plot import plot_schedule

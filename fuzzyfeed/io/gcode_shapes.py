@@ -10,6 +10,7 @@ LinuxCNC's knot vector on [0, 1]). Zero-length moves are skipped.
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -30,11 +31,19 @@ NURBS_IMPORT_POINTS_PER_SPAN = 32
 def cut_points(program: Program, k: int, arc_tolerance_mm: float = ARC_TOLERANCE_MM) -> np.ndarray:
     """The (N, 3) points of cut ``k``: move ends, arcs within ``arc_tolerance_mm`` of the exact
     arc, G5.2 blocks sampled per knot span; consecutive repeats dropped."""
+    return _cut_points(program, k, arc_tolerance_mm)[0]
+
+
+def _cut_points(program: Program, k: int, arc_tolerance_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cut_points` and, per point, the move that ends there (the first point: the first
+    move)."""
     moves = program.cut_moves(k)
     parts = [program.start[moves[0]][None, :]]
+    owner = [moves[:1]]
     kinds = program.kind[moves]
     if not np.isin(kinds, [ARC, NURBS]).any():
         parts.append(program.end[moves])
+        owner.append(moves)
     else:
         for m in moves:
             if program.kind[m] == ARC:
@@ -53,9 +62,22 @@ def cut_points(program: Program, k: int, arc_tolerance_mm: float = ARC_TOLERANCE
                 parts.append(block)
             else:
                 parts.append(program.end[m][None, :])
+            owner.append(np.full(len(parts[-1]), m))
     pts = np.concatenate(parts)
+    move = np.concatenate(owner)
     keep = np.concatenate([[True], np.any(pts[1:] != pts[:-1], axis=1)])
-    return pts[keep]
+    return pts[keep], move[keep]
+
+
+def programmed_feed(program: Program, moves: np.ndarray, length_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The F in force along a cut (see :attr:`Shape.programmed_feed`): ``moves`` in order with
+    their lengths along the path (mm); a step where the F changes between two moves."""
+    feed = program.feed_mm_min[moves]
+    ends = np.cumsum(length_mm)
+    change = np.flatnonzero(feed[1:] != feed[:-1])
+    s = np.concatenate([[0.0], np.repeat(ends[change], 2), [ends[-1]]])
+    f = np.concatenate([[feed[0]], np.column_stack([feed[change], feed[change + 1]]).ravel(), [feed[-1]]])
+    return s, f
 
 
 def cut_shape(program: Program, k: int) -> Shape:
@@ -74,14 +96,20 @@ def cut_shape(program: Program, k: int) -> Shape:
         if dim == 2 and curve.dim == 3:
             curve = Nurbs(curve.degree, curve.knots, curve.control_points[:, :2], curve.weights)
         return Shape(name=name, curve=curve, source=source, path=path,
-                     notes="one G5.2 block, LinuxCNC's uniform clamped knot vector on [0, 1]")
-    pts = cut_points(program, k)
+                     notes="one G5.2 block, LinuxCNC's uniform clamped knot vector on [0, 1]",
+                     programmed_feed=programmed_feed(program, moves, np.array([curve.length])))
+    pts, owner = _cut_points(program, k, ARC_TOLERANCE_MM)
+    # each move's length along the polyline: the chords of the points it ends
+    chord = np.linalg.norm(np.diff(pts[:, :dim], axis=0), axis=1)
+    along = np.zeros(moves.size)
+    np.add.at(along, np.searchsorted(moves, owner[1:]), chord)
     notes = "G1 polyline"
     if (kinds == ARC).any():
         notes += f" with G2/G3 arcs flattened within {ARC_TOLERANCE_MM} mm"
     if (kinds == NURBS).any():
         notes += f"; G5.2 block(s) sampled at {NURBS_IMPORT_POINTS_PER_SPAN} points per knot span"
-    return polyline_shape(pts[:, :dim], name=name, source=source, path=path, notes=notes)
+    shape = polyline_shape(pts[:, :dim], name=name, source=source, path=path, notes=notes)
+    return replace(shape, programmed_feed=programmed_feed(program, moves, along))
 
 
 def _checked(path: str | os.PathLike) -> Program:

@@ -26,3 +26,7 @@ class Shape:
     #: For paths imported as point sequences (G-code/CSV/DXF polylines): the points, (N, 2|3) mm.
     #: ``curve`` is then the degree-1 NURBS through them (chord-length knots).
     polyline: np.ndarray | None = None
+    #: For a cut of a G-code program: the F in force along it, as (s_mm, feed_mm_min) — arc length
+    #: along ``curve`` and the feed from there on; an arc length given twice is a step (the next
+    #: move's F). The program's F is the ceiling of every feed there (DESIGN, "Feeds in a program").
+    programmed_feed: tuple[np.ndarray, np.ndarray] | None = None
