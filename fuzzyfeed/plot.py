@@ -186,9 +186,11 @@ def plot_rule_surface(table, output: str | os.PathLike, points: int = 241) -> No
     save_figure(fig, output)
 
 
-def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike | None = None):
+def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike | None = None,
+                  feed_cap=None):
     """SLW trajectory: feed against arc length with the feed limit (and the time-optimal bound),
-    and feed, tangential acceleration and jerk against time with their limits."""
+    and feed, tangential acceleration and jerk against time with their limits. ``feed_cap``
+    ((s_mm, feed_mm_s), e.g. a program's F words) is drawn as part of the feed limit."""
     from fuzzyfeed.limits import feed_limits
     from fuzzyfeed.sampling import sample_by_arc_length
 
@@ -197,7 +199,12 @@ def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike |
     fig, axes = plt.subplots(4, 1, figsize=(11, 11))
     ax = axes[0]
     samples = sample_by_arc_length(traj.curve, n=min(20000, max(2000, int(traj.s_mm[-1] / 0.05))))
-    ax.plot(samples.s, feed_limits(samples, lim) * 60, color="0.6", lw=1.0, label="feed limit")
+    limit = feed_limits(samples, lim)
+    if feed_cap is not None:
+        from fuzzyfeed.slw.feed_cap import FeedCap
+
+        limit = np.minimum(limit, FeedCap(*feed_cap, float(samples.s[-1]))(samples.s))
+    ax.plot(samples.s, limit * 60, color="0.6", lw=1.0, label="feed limit")
     if bound is not None:  # a Bound (its own grid) or a FeedProfile
         b_s, b_v = ((bound.s_mm, bound.feed_mm_s) if hasattr(bound, "s_mm")
                     else (bound.samples.s, bound.feed_mm_s))

@@ -48,7 +48,7 @@ def compute(args: argparse.Namespace):
     except InputError as exc:  # the message names the user's file
         raise InputError(f"{args.shape}: {exc}") from None
     bound = path_bound(traj.curve, limits, feed_cap=cap)  # of the path followed (a polyline: blended)
-    return shape, traj, measure(traj), bound, note
+    return shape, traj, measure(traj), bound, note, cap
 
 
 def summary(shape_name: str, traj, m: dict, bound, feed_note: str | None = None) -> str:
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import sample_shape
 
-    shape, traj, m, bound_profile, feed_note = compute(args)
+    shape, traj, m, bound_profile, feed_note, cap = compute(args)
     samples = sample_shape(shape)
 
     def segment_feeds():
@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         from fuzzyfeed.plot import plot_schedule
 
-        plot_schedule(traj, bound_profile, title=shape.name, output=args.plot)
+        plot_schedule(traj, bound_profile, title=shape.name, output=args.plot, feed_cap=cap)
         print(f"wrote {args.plot}")
     for path in gcode.write():
         print(f"wrote {path}")
