@@ -393,6 +393,27 @@ def test_contour_that_does_not_close_names_the_gap(tmp_path, capsys):
     assert "does not close" in line and "gap of 0.02 mm" in line
 
 
+def test_a_gap_elsewhere_does_not_stop_the_contour_picked(tmp_path, capsys):
+    """LibreCAD's tux.dxf has one 0.047 mm gap between two ARCs: the whole drawing was refused,
+    even with another contour picked. The picked contour is followed; the broken one, or the
+    drawing without a pick, is refused naming the gap."""
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    for a, b in [((0, 0), (30, 0)), ((30, 0), (30, 20)), ((30, 20), (0, 20)), ((0, 20), (0, 0))]:
+        msp.add_line(a, b)
+    msp.add_arc((60, 10), 10, 90, 270)
+    msp.add_arc((60.05, 10), 10, 270, 90)    # 0.05 mm off: its ends miss the first arc's
+    doc.saveas(tmp_path / "two.dxf")
+    shape = load_shapes(str(tmp_path / "two.dxf#path=1"))[0]
+    assert shape.curve.length == pytest.approx(100.0)
+    assert main(["schedule", str(tmp_path / "two.dxf#path=1"), "-o", str(tmp_path / "s.csv")]) == 0
+    capsys.readouterr()
+    for spec in ("two.dxf#path=2", "two.dxf"):
+        line = run_bad(["schedule", str(tmp_path / spec)], capsys, tmp_path)
+        assert "do not meet: gap of 0.05 mm" in line, line
+
+
 def test_text_only_and_unreadable_drawings_are_one_line(tmp_path, capsys):
     doc = ezdxf.new("R2000")
     doc.modelspace().add_text("NOTHING TO CUT")

@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fuzzyfeed.errors import PathFormatError
 
 #: End points closer than this (mm) are one joint of a contour.
 CHAIN_TOLERANCE_MM = 1e-3
@@ -116,6 +115,9 @@ def _flatten_nurbs(curve) -> np.ndarray:
 class Contour:
     pieces: list[Piece]
     closed: bool
+    #: Why the contour cannot be followed (an end that nearly meets a free end: a gap in the
+    #: drawing), or None. Only the contour a user picks must be whole.
+    problem: str | None = None
 
     @property
     def layer(self) -> str:
@@ -210,7 +212,8 @@ def _fmt_point(p: np.ndarray) -> str:
 
 def _check_gaps(contours: list[Contour], where: str) -> None:
     """An open contour whose end nearly meets a free end (beyond the chain tolerance, within
-    :data:`GAP_REPORT_MM`) is refused, naming the gap: a drawing error, not a path."""
+    :data:`GAP_REPORT_MM`) gets a :attr:`Contour.problem` naming the gap: a drawing error, not a
+    path (both contours of a gap get it)."""
     from scipy.spatial import cKDTree
 
     free = []
@@ -227,5 +230,8 @@ def _check_gaps(contours: list[Contour], where: str) -> None:
             continue
         what = (f"{contours[na].describe()} does not close" if na == nb else
                 f"{piece_a.where} and {piece_b.where} do not meet")
-        raise PathFormatError(f"{where}: {what}: gap of {gap:.6g} mm between {_fmt_point(pa)} and "
-                              f"{_fmt_point(pb)} (chain tolerance {CHAIN_TOLERANCE_MM:g} mm)")
+        problem = (f"{where}: {what}: gap of {gap:.6g} mm between {_fmt_point(pa)} and "
+                   f"{_fmt_point(pb)} (chain tolerance {CHAIN_TOLERANCE_MM:g} mm)")
+        for n in (na, nb):
+            if contours[n].problem is None:
+                contours[n].problem = problem

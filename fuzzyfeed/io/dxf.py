@@ -373,10 +373,20 @@ def _names(path: Path, contours: list[Contour]) -> list[str]:
     return names
 
 
+def _whole(contour: Contour) -> Contour:
+    """``contour``, or PathFormatError naming its gap."""
+    if contour.problem is not None:
+        raise PathFormatError(contour.problem)
+    return contour
+
+
 def load_dxf_shapes(path: str | os.PathLike) -> list:
-    """Every contour of a drawing as a :class:`Shape`, in file order of their first pieces."""
+    """Every contour of a drawing as a :class:`Shape`, in file order of their first pieces
+    (refused if any has a gap)."""
     path = Path(path)
     contours, units = _contours(path)
+    for c in contours:
+        _whole(c)
     return [_contour_shape(c, path, units, name) for c, name in zip(contours, _names(path, contours))]
 
 
@@ -415,5 +425,9 @@ def load_dxf(path: str | os.PathLike, selector: str | None = None):
     """One contour of a drawing: the only one, or the one ``selector`` names."""
     path = Path(path)
     contours, units = _contours(path)
+    if selector is None and len(contours) > 1:   # a gap first: it may be what splits the contour
+        for c in contours:
+            _whole(c)
+    # a gap elsewhere in the drawing does not stop the contour picked (LibreCAD's tux.dxf has one)
     index = select_contour(path, contours, selector)
-    return _contour_shape(contours[index], path, units, _names(path, contours)[index])
+    return _contour_shape(_whole(contours[index]), path, units, _names(path, contours)[index])
