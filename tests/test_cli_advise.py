@@ -140,3 +140,23 @@ def test_filter_flag_offers_every_filter_the_advisor_has():
     advise = build_parser()._subparsers._group_actions[0].choices["advise"]
     flag = next(a for a in advise._actions if "--filter" in a.option_strings)
     assert set(flag.choices) == set(FILTER_KINDS)
+
+
+def test_a_point_list_is_advised_along_its_long_sides(tmp_path):
+    """A CSV rectangle of 60 x 40 mm was advised at its points only: every side at its corners'
+    feed (700 mm/min of 6000 over 60 mm of straight line). Samples every 0.25 mm inside long
+    segments let the advice rise between the corners; the given points stay samples."""
+    points = tmp_path / "rect.csv"
+    points.write_text("x_mm,y_mm\n0,0\n60,0\n60,40\n0,40\n0,0\n")
+    out = tmp_path / "a.csv"
+    assert main(["advise", str(points), "-o", str(out)]) == 0
+    with open(out, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    s = np.array([float(r["s_mm"]) for r in rows])
+    feed = np.array([float(r["feed_mm_min"]) for r in rows])
+    assert np.diff(s).max() <= 0.25 + 1e-9
+    assert np.all(np.isin([0.0, 60.0, 100.0, 160.0, 200.0], np.round(s, 9)))
+    middle = np.abs(s - 30.0) < 1.0        # the middle of the first long side
+    assert feed[middle].min() > 0.8 * 6000.0
+    corner = np.argmin(np.abs(s - 60.0))
+    assert feed[corner] < 0.2 * 6000.0

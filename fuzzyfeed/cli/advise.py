@@ -12,7 +12,7 @@ from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.cuts import DEFAULT_STEP_MM
 from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.limits import DEFAULT_FEED_MM_S
-from fuzzyfeed.sampling import DEFAULT_POINTS
+from fuzzyfeed.sampling import DEFAULT_POINTS, POINT_STEP_MM
 
 #: Default maximum feed F (mm/min) when --feed-mm-min is not given: the machine default's feed.
 DEFAULT_FEED_MM_MIN = DEFAULT_FEED_MM_S * 60.0
@@ -80,7 +80,7 @@ def compute(args: argparse.Namespace, shape=None):
     table = table_from_args(args)
     shape = load_shape(args.shape) if shape is None else shape
     try:
-        samples = sample_shape(shape, args.points)
+        samples = sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM)
         return shape, advise_details(samples, table, feed_mm_min / 60.0)
     except InputError as exc:  # the message names the user's file
         raise InputError(f"{args.shape}: {exc}") from None
@@ -172,7 +172,8 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
     table = table_from_args(args)
     parts, lines = [], []
     for number, shape in enumerate(shapes, start=1):
-        advice = advise_details(sample_shape(shape, args.points), table, feed_mm_min / 60.0)
+        advice = advise_details(sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM), table,
+                                feed_mm_min / 60.0)
         cols = advice_columns(advice, args.rule_strengths)
         parts.append({"path": np.full(len(advice.profile.samples), number), **cols})
         p = advice.profile
