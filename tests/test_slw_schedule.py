@@ -320,3 +320,29 @@ def test_two_joins_closer_than_a_stair_are_one_corner():
     for axis in "xy":
         count, worst = metrics.violations[f"axis_acc_{axis}"]
         assert count == 0 and worst <= 1.0 + 1e-6, (axis, count, worst)
+
+
+def test_a_corner_keeps_its_cap_in_the_blocks_reference():
+    """A corner is a critical point, and its cap also stays in the reference points of the blocks
+    either side: the look-ahead merges a short block into the next and drops the junction, and
+    the check then holds the cap at the point. It lay on a knot the grid has too, and the grid's
+    point (the machine's limit) won: CAMotics jellyfish.dxf#5 passed a 7 degree join at 12.6
+    mm/s against its cap of 10.1, 115 % of the axis acceleration at exit 0."""
+    from fuzzyfeed.io.points import polyline_shape
+    from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks
+
+    turns = np.radians([0.0, 13.0, 5.0, 7.0, 30.0])
+    lengths = np.array([5.0, 0.365, 1.1, 3.0, 5.0])
+    ang = np.cumsum(turns)
+    pts = np.vstack([[0.0, 0.0], np.cumsum(np.column_stack([np.cos(ang), np.sin(ang)]) * lengths[:, None], axis=0)])
+    curve = polyline_shape(pts, name="joins").curve
+    limits = MachineLimits()
+    corner_s, corner_cap, _ = corner_plan(curve, limits)
+    assert corner_s.size == 4
+    blocks = list(iter_blocks(curve, limits))
+    for s, cap in zip(corner_s, corner_cap):
+        holding = [b for b in blocks if b.s0 <= s <= b.s1]
+        assert len(holding) == 2
+        for b in holding:
+            k = int(np.argmin(np.abs(b.ref.s - s)))
+            assert b.ref.s[k] == s and b.ref.vlim[k] <= cap * (1 + 1e-12), (s, cap, b.ref.vlim[k])

@@ -349,14 +349,14 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
         last_chunk = c0 + CHUNK_POINTS >= grid.size
         hi_s = grid[min(c0 + CHUNK_POINTS, grid.size - 1)]
         in_chunk = (corner_s >= grid[c0]) & ((corner_s < hi_s) | last_chunk)
+        forced: dict[float, float] = {}   # corner arc length -> its cap (a critical point)
         if in_chunk.any():
+            # the corners on the grid with the machine's limit (its minima are found without the
+            # corner caps: a capped corner is a critical point already), their caps held apart
             cref = evaluate_reference(curve, limits, corner_s[in_chunk])
-            cref = Reference(cref.s, cref.u, np.minimum(cref.vlim, corner_caps[in_chunk]),
-                             cref.tangent, cref.kn)
-            chunk = Reference.concat([chunk, cref]).sorted_unique()
-            forced = dict(zip(corner_s[in_chunk].tolist(), _capped(cref, cap).vlim.tolist()))
-        else:
-            forced = {}
+            chunk = Reference.concat([cref, chunk]).sorted_unique()
+            held = _capped(cref, cap).vlim
+            forced = dict(zip(corner_s[in_chunk].tolist(), np.minimum(held, corner_caps[in_chunk]).tolist()))
         if prev_tail is not None:
             ctx_machine = Reference.concat([prev_tail, chunk])
             offset = len(prev_tail)
@@ -378,8 +378,9 @@ def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = Non
                 extras_by_region += extras
                 located = np.concatenate([located, at])
         fine = Reference.concat(extras_by_region) if extras_by_region else None
-        # new coarse points of this chunk (context minus the carried tail)
-        new = ctx.slice(offset, len(ctx) - 1) if offset else ctx
+        # new coarse points of this chunk (context minus the carried tail), a corner at its cap:
+        # merged into a block by the look-ahead, the block must still hold it
+        new = _hold(ctx.slice(offset, len(ctx) - 1) if offset else ctx, forced)
         merged = [new] if fine is None else [new, fine]
         pending.append(Reference.concat(merged))
         # cut blocks at every located minimum that is now final (all of them are: their
@@ -412,6 +413,19 @@ def _is_min(v: np.ndarray, mid: np.ndarray, command: float) -> np.ndarray:
     below = v[mid] < command * (1 - 1e-12)
     return below & (((v[mid] < v[mid - 1]) & (v[mid] <= v[mid + 1]))
                     | ((v[mid] <= v[mid - 1]) & (v[mid] < v[mid + 1])))
+
+
+def _hold(ref: Reference, caps: dict[float, float]) -> Reference:
+    """``ref`` with the feed limit at the arc lengths of ``caps`` lowered to their caps."""
+    if not caps:
+        return ref
+    s = np.fromiter(caps, dtype=float)
+    v = np.fromiter(caps.values(), dtype=float)
+    i = np.minimum(np.searchsorted(ref.s, s), len(ref) - 1)
+    on = ref.s[i] == s
+    vlim = ref.vlim.copy()
+    vlim[i[on]] = np.minimum(vlim[i[on]], v[on])
+    return Reference(ref.s, ref.u, vlim, ref.tangent, ref.kn)
 
 
 def _capped(ref: Reference, cap: FeedCap | None) -> Reference:
