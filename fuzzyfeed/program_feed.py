@@ -23,7 +23,7 @@ from fuzzyfeed.errors import InputError, PathFormatError
 from fuzzyfeed.fuzzy.advisor import FuzzyAdvice, advise_details
 from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.rules import RuleTable
-from fuzzyfeed.io.program import NURBS, Program
+from fuzzyfeed.io.program import NO_FEED_RULE, NURBS, Program
 
 #: Default feed quantisation for programs (mm/min).
 DEFAULT_PROGRAM_FEED_STEP_MM_MIN = 10.0
@@ -79,8 +79,7 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         bad = ~(feed[moves] > 0)
         if bad.any():
             line = int(program.move_line[moves[np.argmax(bad)]]) + 1
-            raise PathFormatError(f"{program.path}:{line}: feed move with no F in force (F = 0); "
-                                  "the program must give an F word before its first feed move")
+            raise PathFormatError(f"{program.path}:{line}: {NO_FEED_RULE}")
     cut_samples, advices, ceilings = [], [], []
     pm, pe, pf = [], [], []
     for k in chosen:

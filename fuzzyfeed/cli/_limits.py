@@ -50,7 +50,7 @@ def limits_from_args(args: argparse.Namespace) -> MachineLimits:
                          chord_tol_mm=args.chord_tol_mm, ts_s=args.ts_s)
 
 
-def programmed_feed(shape, limits: MachineLimits):
+def program_feed_limits(shape, limits: MachineLimits):
     """A cut of a G-code program runs at the program's own F words (DESIGN, "Feeds in a
     program": the F a program has at a place is the ceiling there), each capped by
     ``--feed-mm-min``. Returns (limits with that command feed: the highest of them; the feed cap
@@ -61,13 +61,13 @@ def programmed_feed(shape, limits: MachineLimits):
     import numpy as np
 
     from fuzzyfeed.errors import PathFormatError
+    from fuzzyfeed.io.program import NO_FEED_RULE
 
     if shape.programmed_feed is None:
         return limits, None, None
     s, f_mm_min = (np.asarray(a, dtype=float) for a in shape.programmed_feed)
     if not (f_mm_min > 0).all():
-        raise PathFormatError(f"{shape.source}: a feed move with no F in force (F = 0); the program "
-                              "must give an F word before its first feed move")
+        raise PathFormatError(f"{shape.source}: {NO_FEED_RULE}")
     capped = np.minimum(f_mm_min, limits.feed_mm_min)
     low, high = float(capped.min()), float(capped.max())
     words = f"F{low:g}" if low == high else f"F{low:g}-F{high:g}"

@@ -9,7 +9,7 @@ import numpy as np
 
 from fuzzyfeed.cli._common import add_shape_argument
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, programmed_feed
+from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, program_feed_limits
 from fuzzyfeed.errors import InputError
 
 
@@ -41,7 +41,7 @@ def compute(args: argparse.Namespace):
     from fuzzyfeed.slw import measure, path_bound, schedule
 
     shape = load_shape(args.shape)
-    limits, cap, note = programmed_feed(shape, limits_from_args(args))
+    limits, cap, note = program_feed_limits(shape, limits_from_args(args))
     try:  # a progress bar on a terminal (tqdm.auto), none in a pipe or a log
         traj = schedule(shape.curve, limits, progress=True if sys.stderr.isatty() else None,
                         approach=args.approach, feed_cap=cap)

@@ -22,6 +22,9 @@ import numpy as np
 #: File suffixes read as G-code.
 GCODE_SUFFIXES = (".ngc", ".nc", ".gcode", ".gc", ".tap", ".cnc")
 MM_PER_INCH = 25.4
+#: Why a feed move without an F in force is refused (LinuxCNC refuses it too).
+NO_FEED_RULE = ("feed move with no F in force (F = 0); the program must give an F word before its "
+                "first feed move")
 
 # move kinds
 RAPID, LINE, ARC, NURBS, CYCLE, KEPT, HOME = range(7)

@@ -27,7 +27,7 @@ import numpy as np
 from fuzzyfeed.limits import MachineLimits
 from fuzzyfeed.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
-from fuzzyfeed.slw.preprocess import Block, Reference, corners, evaluate_reference
+from fuzzyfeed.slw.preprocess import Block, Reference, corner_plan, evaluate_reference
 from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, lowest_end_speed, max_start_speed,
                                    transition_distance,
                                    segment_state, stop_distance)
@@ -141,7 +141,8 @@ class SlidingWindow:
         self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk)
         self.window_mm = WINDOW_STOPS * self.stop
         self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
-        self._corner_s = corners(curve, limits)[0] if curve is not None else np.empty(0)
+        # the corners that are critical points (the junctions a merge may drop)
+        self._corner_s = corner_plan(curve, limits)[0] if curve is not None else np.empty(0)
         self.blocks: list[_WBlock] = []
         self.stats = LookaheadStats()
         self._front_checks = 0

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed._cache import per_curve
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.limits import MachineLimits, curvature_vectors, feed_limits
 from fuzzyfeed.nurbs import Nurbs
@@ -257,6 +258,12 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
 
 
 def corner_plan(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray, FeedCap | None]:
+    """:func:`_corner_plan`, computed once per curve and limits (the schedule, its blocks and
+    its look-ahead all ask; arrays read-only)."""
+    return per_curve(curve, ("corner plan", limits), lambda: _corner_plan(curve, limits))
+
+
+def _corner_plan(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray, FeedCap | None]:
     """How the scheduler passes the corners of :func:`corners`: (arc lengths and caps of the
     corners that are critical points, the cap of the others or None).
 
@@ -272,6 +279,7 @@ def corner_plan(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.nda
     stay critical points; the profile peaks between them."""
     s, cap = corners(curve, limits)
     if s.size < 2:
+        s.flags.writeable = cap.flags.writeable = False
         return s, cap, None
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
 
@@ -301,7 +309,9 @@ def corner_plan(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.nda
         pts.append(np.array([curve.length]))
         vals.append(np.array([limits.feed_mm_s]))
         dense = FeedCap(np.concatenate(pts), np.concatenate(vals), curve.length)
-    return crit_s[order], crit_cap[order], dense
+    crit_s, crit_cap = crit_s[order], crit_cap[order]
+    crit_s.flags.writeable = crit_cap.flags.writeable = False
+    return crit_s, crit_cap, dense
 
 
 def iter_blocks(curve: Nurbs, limits: MachineLimits, step_mm: float | None = None,

@@ -212,7 +212,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     cap = _feed_cap(feed_cap, total)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
     # corners closer together than a stair step needs are a cap, not critical points
-    dense = per_curve(curve, ("corner cap", limits), lambda: corner_plan(curve, limits)[2])
+    dense = corner_plan(curve, limits)[2]
     if dense is not None:
         cap = dense if cap is None else lower(cap, dense)
     if cap is not None:  # followed in stairs planned once, not repaired crossing by crossing
