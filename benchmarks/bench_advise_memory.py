@@ -1,6 +1,7 @@
-"""Peak memory (RSS) of `fuzzyfeed advise butterfly --points N -o x.csv` at 10⁶ and 10⁷ points.
+"""Peak memory (RSS) of `fuzzyfeed advise butterfly --points N -o x.csv` at 2.5·10⁵ and 10⁶ points
+(10⁶ is the largest sampling `advise` accepts: fuzzyfeed.sampling.MAX_POINTS).
 
-    python benchmarks/bench_advise_memory.py [--points 1000000 10000000]
+    python benchmarks/bench_advise_memory.py [--points 250000 1000000]
 
 Each run is one child process; its own peak RSS comes from os.wait4. Printed beside two floors
 measured in the same run: the start-up floor (`advise infinity`, 2000 points: interpreter, numpy,
@@ -34,7 +35,7 @@ def run_child(cmd: list[str]) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--points", type=int, nargs="+", default=[1_000_000, 10_000_000])
+    parser.add_argument("--points", type=int, nargs="+", default=[250_000, 1_000_000])
     args = parser.parse_args()
     sizes = sorted(args.points)
     with tempfile.TemporaryDirectory(prefix="ff_bench_mem_") as tmp:
