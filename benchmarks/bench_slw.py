@@ -11,7 +11,9 @@ at Ts (feed, axis velocity, axis acceleration, chord error; jerk from the profil
 over the acceleration-limited time-optimal bound (path_bound, adaptive grid) of the path followed
 (a polyline is followed as blended within G64 P0.01, fuzzyfeed.polyline_fit); the cycle time over a
 jerk-limited floor (jerk_floor: legs between true corners as rest-to-rest moves) — where the floor
-alone is over 1.5x the bound, no jerk-limited planner meets the issue's 1.5; the CPU time of
+alone is over 1.5x the bound, no jerk-limited planner meets the issue's 1.5; on the shipped
+shapes, the time the same blocks would take with seven-phase transitions instead of seed 000's
+cosine ones (what the cosine shape costs, scurve_same_blocks); the CPU time of
 ``schedule``. Anchors in the same run: the bound against toppra 0.6 on infinity (DESIGN §6:
 4.9008 s) and seed 000's approach 1 beside the default approach 2 on the shipped shapes.
 
@@ -110,6 +112,38 @@ def jerk_floor(curve, limits: MachineLimits, stop_fraction: float = 0.01) -> flo
     return total
 
 
+def scurve_same_blocks(traj, limits: MachineLimits) -> float:
+    """The cycle time the same blocks would take with seven-phase (trapezoidal-acceleration)
+    transitions instead of seed 000's cosine ones: each block from its junction feed to the next,
+    through a peak no higher than the SLW's own, under the block's acceleration and the jerk J.
+    What the cosine shape (required by the issue) costs on a path: its jerk is J only at the
+    transition's ends, the seven-phase profile's all through its ramps."""
+    jerk = limits.jerk_mm_s3
+
+    def ramp(dv: float, acc: float) -> float:  # duration of a symmetric seven-phase change of dv
+        dv = abs(dv)
+        return dv / acc + acc / jerk if dv >= acc * acc / jerk else 2.0 * np.sqrt(dv / jerk)
+
+    total = 0.0
+    for b in traj.blocks:
+        top = max([seg.v1 for seg in b.segments] + [b.v_start, b.v_end])
+        length = b.s1 - b.s0
+
+        def dist(v: float) -> float:
+            return 0.5 * (b.v_start + v) * ramp(v - b.v_start, b.acc_mm_s2) + \
+                0.5 * (v + b.v_end) * ramp(v - b.v_end, b.acc_mm_s2)
+
+        lo, hi = max(b.v_start, b.v_end), top
+        if dist(hi) > length:
+            for _ in range(80):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if dist(mid) <= length else (lo, mid)
+            hi = lo
+        total += ramp(hi - b.v_start, b.acc_mm_s2) + ramp(hi - b.v_end, b.acc_mm_s2) + \
+            max(length - dist(hi), 0.0) / max(hi, 1e-12)
+    return total
+
+
 def run_case(name: str, curve, limits: MachineLimits, approach: int = 2) -> dict:
     t0 = time.process_time()
     try:
@@ -127,7 +161,7 @@ def run_case(name: str, curve, limits: MachineLimits, approach: int = 2) -> dict
             "ratio": traj.cycle_time_s / bound.time_s, "floor": floor,
             "ratio_floor": traj.cycle_time_s / floor, "worst": max(m[k] for k in LIMITS),
             "limit": max(LIMITS, key=lambda k: m[k]), "crit": traj.n_critical,
-            "long": curve.length > 2 * stop}
+            "long": curve.length > 2 * stop, "scurve": scurve_same_blocks(traj, limits)}
 
 
 def line(r: dict) -> str:
@@ -206,6 +240,9 @@ def main() -> None:
     print(f"ratio to the jerk-limited floor max(bound, legs rest-to-rest): median {np.median(floors):.3f}, "
           f"worst {worst_f['ratio_floor']:.3f} ({worst_f['name']}); paths over 1.5x the bound whose floor "
           f"alone is over 1.5x (no jerk-limited planner reaches 1.5): {len(inherent)} {inherent[:8]}")
+    shapes = [r for r in results[:len(shape_names())] if "fail" not in r]
+    print("seed 000's cosine transitions against seven-phase ones on the same blocks (ratio to the bound): "
+          + ", ".join(f"{r['name']} {r['ratio']:.3f} -> {r['scurve'] / r['bound']:.3f}" for r in shapes))
     print(f"compute: worst {slow['cpu']:.2f} s ({slow['name']}, {slow['length']:.0f} mm); worst per 100 mm "
           f"{100 * per_100['cpu'] / per_100['length']:.2f} s ({per_100['name']})")
     print()

@@ -70,6 +70,21 @@ def test_infinity_within_ten_percent_of_the_bound(trajectories):
     assert bound.time_s <= traj.cycle_time_s <= 1.10 * bound.time_s
 
 
+def test_critical_points_are_passed_near_their_limit(trajectories):
+    # trident2 at s = 23.5 mm: leaving the minimum (31.19 mm/s), the profile's first
+    # acceleration added 0.04 % to the x axis's centripetal part, and the repair put a junction a
+    # whole stair (3 %) below the profile there: every junction of the block pair dropped to 30.26
+    from fuzzyfeed.limits import feed_limits
+    from fuzzyfeed.sampling import samples_at
+
+    traj = trajectories["trident2"]
+    ends = np.array([b.s1 for b in traj.blocks[:-1]])
+    feeds = np.array([b.v_end for b in traj.blocks[:-1]])
+    limit = feed_limits(samples_at(traj.curve, traj.curve.param_at_length(ends), s=ends), MachineLimits())
+    assert np.all(feeds >= 0.99 * limit), (feeds / limit).round(4)
+    assert np.all(feeds <= limit * (1 + 1e-9))
+
+
 def test_bound_agrees_with_toppra():
     toppra = pytest.importorskip("toppra")
     import toppra.algorithm as algo

@@ -48,6 +48,11 @@ MAX_SETTLE = 100_000
 #: the next profile has room to rise, so a slowly rising limit is followed in stairs of a few per
 #: cent (a bounded number of splits) instead of a staircase of tiny steps.
 SPLIT_ROOM = 0.97
+#: A junction added where the centripetal part nearly uses an axis up is capped at the feed that
+#: brings that axis back within its limit (centripetal ∝ v²), with this much room, and at most a
+#: SPLIT_ROOM lower: a profile leaving a minimum brushed the limit by 0.04 % and the minimum's
+#: junctions fell a whole stair (trident2: 3 % at two of its five minima).
+NEAR_ROOM = 0.999
 #: A block whose acceleration an axis-acceleration repair would take below this share of the
 #: machine's tangential acceleration gets a junction at the offending point instead (a 28 mm
 #: block crawled at 17 % of it for one point of one axis; random curve 199 of bench_slw).
@@ -298,8 +303,9 @@ class SlidingWindow:
         seg = segs[int(seg_id[k])]
         if cen_ratio > 0.9 or tan_ratio < 0.05:
             # the centripetal part nearly uses the axis up: a junction here (zero tangential
-            # acceleration), a little slower than the profile was
-            self._split(i, s[k], cap=SPLIT_ROOM * float(v[k]))
+            # acceleration), as much slower than the profile as the excess needs (NEAR_ROOM)
+            room = max(SPLIT_ROOM, min(NEAR_ROOM, NEAR_ROOM / math.sqrt(float(r[k]))))
+            self._split(i, s[k], cap=room * float(v[k]))
             self.stats.caps_lowered += 1
             return False
         peak = max(abs(seg.v1 - seg.v0) * math.pi / (2 * seg.duration_s), 1e-9) if seg.duration_s else b.acc
