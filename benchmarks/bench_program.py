@@ -9,12 +9,15 @@ every 50 lines, comments, a tool change and rapids — what a CAM post writes), 
 - ``plain``: the anchor — Python reads the file, splits every line into words and parses every
   number with ``float`` (no G-code meaning at all);
 - ``parse``: :func:`fuzzyfeed.io.gcode_read.read_program` (modal state, positions, cuts);
-- ``advise``: read + advice of every cut + the program written back with its F words
-  (what ``fuzzyfeed advise PROGRAM --gcode OUT`` computes);
-- ``advise+csv``: the same plus the per-sample CSV (full-precision floats).
+- ``advise -o x.csv``: read + advice of every cut + the per-sample CSV (full-precision floats):
+  what ``fuzzyfeed advise PROGRAM -o x.csv`` computes, the issue's figure;
+- ``advise --gcode``: read + advice + the program written back with its F words
+  (``fuzzyfeed advise PROGRAM --gcode OUT``);
+- ``both``: read + advice + CSV + program written back.
 
-The last line: ``ratio_vs_plain_read=...`` (advise / plain), ``parse_ratio=...`` and
-``csv_ratio=...`` (advise+csv / plain).
+In-process (the command's start-up, imports and compiled kernels loaded once, is
+benchmarks/bench_first_run.py's). The last line: ``ratio_vs_plain_read=...`` (advise -o x.csv /
+plain), ``parse_ratio=...``, ``gcode_ratio=...`` and ``both_ratio=...``.
 """
 
 from __future__ import annotations
@@ -84,33 +87,45 @@ def main() -> None:
         path = Path(tmp) / "bench.ngc"
         make_program(path, args.lines)
 
-        def advise():
+        def read_advise():
             program = read_program(path)
-            pa = advise_program(program, table)
-            text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
-            (Path(tmp) / "out.ngc").write_text(text)
-            return pa
+            return program, advise_program(program, table)
 
-        def advise_csv():
-            pa = advise()
+        def write_csv(pa):
             write_columns(Path(tmp) / "out.csv", advice_columns(pa))
 
-        advise()                                   # warm-up (imports, compiled kernels)
+        def write_gcode(program, pa):
+            text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+            (Path(tmp) / "out.ngc").write_text(text)
+
+        def csv_command():
+            write_csv(read_advise()[1])
+
+        def gcode_command():
+            write_gcode(*read_advise())
+
+        def both():
+            program, pa = read_advise()
+            write_csv(pa)
+            write_gcode(program, pa)
+
+        both()                                     # warm-up (imports, compiled kernels)
         t_plain = best(lambda: plain_read(path), args.repeat)
         t_parse = best(lambda: read_program(path), args.repeat)
-        t_advise = best(advise, args.repeat)
-        t_csv = best(advise_csv, max(1, args.repeat - 1))
-        pa = advise()
+        t_csv = best(csv_command, args.repeat)
+        t_gcode = best(gcode_command, args.repeat)
+        t_both = best(both, args.repeat)
+        program, pa = read_advise()
         samples = sum(len(c.samples) for c in pa.cuts)
         print(f"program: {args.lines} lines, {pa.program.kind.size} moves, {pa.program.n_cuts} cut(s), "
               f"{samples} samples, {pa.piece_move.size} pieces")
         for name, t in (("plain read-split-float", t_plain), ("parse (read_program)", t_parse),
-                        ("advise (read+advice+write back)", t_advise), ("advise + CSV", t_csv)):
-            print(f"{name:34s} {t:8.3f} s CPU  {args.lines / t / 1e3:9.1f} k lines/s  "
+                        ("advise -o x.csv (read+advice+CSV)", t_csv),
+                        ("advise --gcode (read+advice+write back)", t_gcode), ("both outputs", t_both)):
+            print(f"{name:40s} {t:8.3f} s CPU  {args.lines / t / 1e3:9.1f} k lines/s  "
                   f"{t / t_plain:6.2f} x plain")
-        print(f"ratio_vs_plain_read={t_advise / t_plain:.2f} parse_ratio={t_parse / t_plain:.2f} "
-              f"csv_ratio={t_csv / t_plain:.2f}")
-
+        print(f"ratio_vs_plain_read={t_csv / t_plain:.2f} parse_ratio={t_parse / t_plain:.2f} "
+              f"gcode_ratio={t_gcode / t_plain:.2f} both_ratio={t_both / t_plain:.2f}")
 
 if __name__ == "__main__":
     main()
