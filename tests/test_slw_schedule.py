@@ -361,3 +361,20 @@ def test_a_corner_keeps_its_cap_in_the_blocks_reference():
         for b in holding:
             k = int(np.argmin(np.abs(b.ref.s - s)))
             assert b.ref.s[k] == s and b.ref.vlim[k] <= cap * (1 + 1e-12), (s, cap, b.ref.vlim[k])
+
+
+def test_a_corner_inside_a_merged_block_is_held():
+    """A corner whose junction the look-ahead merged away is one reference point with its cap,
+    between neighbours at the machine's limit: the check read the limit at its samples, 1-2 µm
+    either side, interpolated far above the cap, and passed the corner too fast. CAMotics
+    jellyfish.dxf#1: 126 % of the axis acceleration at exit 0; this chain of short segments
+    (its corners 0.02-0.2 mm apart) 116 %. Now the profile is checked at the reference points too."""
+    turns = np.radians(np.cumsum([74.0, -22.0, -22.0, -60.0, 24.0, -19.6]))
+    lengths = np.array([3.0, 0.076, 0.203, 0.02, 0.047, 5.0])
+    pts = np.vstack([[0.0, 0.0], np.cumsum(np.column_stack([np.cos(turns), np.sin(turns)])
+                                           * lengths[:, None], axis=0)])
+    from slw_cases import polyline
+
+    traj = schedule(polyline(pts), MachineLimits(), blend=False)
+    assert traj.stats.merged >= 1  # the case: a corner's junction merged into a block
+    assert_feasible(traj)

@@ -279,6 +279,15 @@ class SlidingWindow:
         ratio = np.abs(total) / self.axis_acc[None, :]
         worst_axis = np.argmax(ratio, axis=1)
         r = ratio[np.arange(ratio.shape[0]), worst_axis]
+        # and at the reference points themselves: a corner's cap is one point, and samples either
+        # side of it read the limit interpolated towards its neighbours, far above it
+        inner = np.flatnonzero((ref.s > s[0]) & (ref.s < s[-1]))
+        over_ref = np.interp(ref.s[inner], s, v) - ref.vlim[inner] * (1.0 + CHECK_RTOL) - 1e-12
+        if over_ref.size and over_ref.max() > 0.0 and over_v.max() <= 0.0:
+            k = int(inner[np.argmax(over_ref / np.maximum(ref.vlim[inner], 1e-12))])
+            self._split(i, float(ref.s[k]), cap=float(ref.vlim[k]))
+            self.stats.caps_lowered += 1
+            return False
         if over_v.max() <= 0.0 and r.max() <= 1.0 + CHECK_RTOL:
             b.checked = key
             return True
