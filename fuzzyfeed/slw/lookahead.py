@@ -48,6 +48,11 @@ MAX_SETTLE = 100_000
 #: the next profile has room to rise, so a slowly rising limit is followed in stairs of a few per
 #: cent (a bounded number of splits) instead of a staircase of tiny steps.
 SPLIT_ROOM = 0.97
+#: The profile read at a block's reference points may exceed their limit by this fraction: the
+#: samples hold the limit between them (CHECK_RTOL); the points catch a limit held at one point
+#: (a corner's cap, far below its neighbours), not the 1e-5 by which a sampled profile passes a
+#: smooth minimum (a junction for each cost a random curve 4 %).
+POINT_RTOL = 1e-3
 #: A junction added where the centripetal part nearly uses an axis up is capped at the feed that
 #: brings that axis back within its limit (centripetal ∝ v²), with this much room, and at most a
 #: SPLIT_ROOM lower: a profile leaving a minimum brushed the limit by 0.04 % and the minimum's
@@ -282,7 +287,7 @@ class SlidingWindow:
         # and at the reference points themselves: a corner's cap is one point, and samples either
         # side of it read the limit interpolated towards its neighbours, far above it
         inner = np.flatnonzero((ref.s > s[0]) & (ref.s < s[-1]))
-        over_ref = np.interp(ref.s[inner], s, v) - ref.vlim[inner] * (1.0 + CHECK_RTOL) - 1e-12
+        over_ref = np.interp(ref.s[inner], s, v) - ref.vlim[inner] * (1.0 + POINT_RTOL) - 1e-12
         if over_ref.size and over_ref.max() > 0.0 and over_v.max() <= 0.0:
             k = int(inner[np.argmax(over_ref / np.maximum(ref.vlim[inner], 1e-12))])
             self._split(i, float(ref.s[k]), cap=float(ref.vlim[k]))
