@@ -67,12 +67,19 @@ def toppra_bound(curve, limits: MachineLimits, grid_points: int = 4000) -> float
     return None if traj is None else float(traj.duration)
 
 
+def seven_phase_s(dv: float, acc: float, jerk: float) -> float:
+    """Duration of the fastest change of feed by |dv| under |a| ≤ acc, |j| ≤ jerk (the classic
+    seven-phase ramp; symmetric, so it covers (v0 + v1)·T/2)."""
+    dv = abs(dv)
+    return dv / acc + acc / jerk if dv >= acc * acc / jerk else 2.0 * np.sqrt(dv / jerk)
+
+
 def rest_to_rest_s(length: float, vel: float, acc: float, jerk: float) -> float:
     """Least time of a rest-to-rest move of ``length`` mm under |v| ≤ vel, |a| ≤ acc, |j| ≤ jerk
     (the classic seven-phase profile: the peak feed found by bisection)."""
 
-    def ramp(v: float) -> float:  # duration of 0 → v; its distance is v·T/2 (symmetric)
-        return v / acc + acc / jerk if v >= acc * acc / jerk else 2.0 * np.sqrt(v / jerk)
+    def ramp(v: float) -> float:  # duration of 0 → v
+        return seven_phase_s(v, acc, jerk)
 
     lo, hi = 0.0, vel
     if hi * ramp(hi) > length:
@@ -120,9 +127,8 @@ def scurve_same_blocks(traj, limits: MachineLimits) -> float:
     transition's ends, the seven-phase profile's all through its ramps."""
     jerk = limits.jerk_mm_s3
 
-    def ramp(dv: float, acc: float) -> float:  # duration of a symmetric seven-phase change of dv
-        dv = abs(dv)
-        return dv / acc + acc / jerk if dv >= acc * acc / jerk else 2.0 * np.sqrt(dv / jerk)
+    def ramp(dv: float, acc: float) -> float:
+        return seven_phase_s(dv, acc, jerk)
 
     total = 0.0
     for b in traj.blocks:

@@ -318,7 +318,7 @@ class SlidingWindow:
         if cen_ratio > 0.9 or tan_ratio < 0.05:
             # the centripetal part nearly uses the axis up: a junction here (zero tangential
             # acceleration), as much slower than the profile as the excess needs (NEAR_ROOM)
-            room = max(SPLIT_ROOM, min(NEAR_ROOM, NEAR_ROOM / math.sqrt(float(r[k]))))
+            room = max(SPLIT_ROOM, NEAR_ROOM / math.sqrt(float(r[k])))  # r[k] > 1 here
             self._split(i, s[k], cap=room * float(v[k]))
             self.stats.caps_lowered += 1
             return False
