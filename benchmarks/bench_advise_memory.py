@@ -1,5 +1,5 @@
 """Peak memory (RSS) of `fuzzyfeed advise butterfly --points N -o x.csv` at 2.5·10⁵ and 10⁶ points
-(10⁶ is the largest sampling `advise` accepts: fuzzyfeed.sampling.MAX_POINTS).
+(10⁶ is the largest sampling `advise` accepts: fuzzyfeed.geometry.sampling.MAX_POINTS).
 
     python benchmarks/bench_advise_memory.py [--points 250000 1000000]
 

@@ -1,4 +1,4 @@
-"""Point-sequence curvature (fuzzyfeed.polyline) against the paper's three-point estimate
+"""Point-sequence curvature (fuzzyfeed.geometry.polyline) against the paper's three-point estimate
 (seed 002 eq. 4–9, a few vectorised numpy lines: the anchor), on the infinity shape sampled
 uniformly in arc length, rounded to 3 decimals (what a CAM post writes) and at full precision.
 
@@ -6,7 +6,7 @@ uniformly in arc length, rounded to 3 decimals (what a CAM post writes) and at f
 
 Prints points/s of both and their ratio, plus the error of both against the NURBS curvature
 (max and 95th percentile, relative to the largest κ). The first call is timed on its own line
-(``first call``: from :data:`fuzzyfeed.polyline.COMPILED_MIN_VERTICES` vertices on it includes
+(``first call``: from :data:`fuzzyfeed.geometry.polyline.COMPILED_MIN_VERTICES` vertices on it includes
 importing numba and loading, or once after an install compiling, the run search), the figures
 after it are the best of --repeat later calls. The last line is slowdown_vs_three_point=X
 (rounded points).
@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 from fuzzyfeed.io.shapes import load_shape
-from fuzzyfeed.polyline import polyline_curvature
-from fuzzyfeed.sampling import sample_by_arc_length, three_point_curvature
+from fuzzyfeed.geometry.polyline import polyline_curvature
+from fuzzyfeed.geometry.sampling import sample_by_arc_length, three_point_curvature
 
 
 def best(fn, repeat: int) -> float:

@@ -8,7 +8,7 @@ every 50 lines, comments, a tool change and rapids — what a CAM post writes), 
 
 - ``plain``: the anchor — Python reads the file, splits every line into words and parses every
   number with ``float`` (no G-code meaning at all);
-- ``parse``: :func:`fuzzyfeed.io.gcode_read.read_program` (modal state, positions, cuts);
+- ``parse``: :func:`fuzzyfeed.program.read.read_program` (modal state, positions, cuts);
 - ``advise -o x.csv``: read + advice of every cut + the per-sample CSV (full-precision floats):
   what ``fuzzyfeed advise PROGRAM -o x.csv`` computes, the issue's figure;
 - ``advise --gcode``: read + advice + the program written back with its F words
@@ -78,9 +78,9 @@ def main() -> None:
 
     from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.csv import write_columns
-    from fuzzyfeed.io.gcode_read import read_program
-    from fuzzyfeed.io.gcode_rewrite import rewrite_program
-    from fuzzyfeed.program_feed import advice_columns, advise_program
+    from fuzzyfeed.program.read import read_program
+    from fuzzyfeed.program.rewrite import rewrite_program
+    from fuzzyfeed.program.feeds import advice_columns, advise_program
 
     table = load_rule_table(None)
     with tempfile.TemporaryDirectory() as tmp:

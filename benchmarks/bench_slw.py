@@ -9,7 +9,7 @@ and on one with unequal axes.
 Per path: failure or not; the worst ratio to every limit measured from the interpolated positions
 at Ts (feed, axis velocity, axis acceleration, chord error; jerk from the profile); the cycle time
 over the acceleration-limited time-optimal bound (path_bound, adaptive grid) of the path followed
-(a polyline is followed as blended within G64 P0.01, fuzzyfeed.polyline_fit); the cycle time over a
+(a polyline is followed as blended within G64 P0.01, fuzzyfeed.geometry.polyline_fit); the cycle time over a
 jerk-limited floor (jerk_floor: legs between true corners as rest-to-rest moves) — where the floor
 alone is over 1.5x the bound, no jerk-limited planner meets the issue's 1.5; on the shipped
 shapes, the time the same blocks would take with seven-phase transitions instead of seed 000's
@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import slw_cases  # noqa: E402
 
 from fuzzyfeed.io.shapes import load_shape, shape_names  # noqa: E402
-from fuzzyfeed.limits import MachineLimits  # noqa: E402
+from fuzzyfeed.machine.limits import MachineLimits  # noqa: E402
 from fuzzyfeed.slw import measure, path_bound, schedule  # noqa: E402
 from fuzzyfeed.slw.profile import stop_distance  # noqa: E402
 
@@ -53,7 +53,7 @@ def toppra_bound(curve, limits: MachineLimits, grid_points: int = 4000) -> float
         import toppra.constraint as constraint
     except ImportError:
         return None
-    from fuzzyfeed.sampling import sample_by_arc_length
+    from fuzzyfeed.geometry.sampling import sample_by_arc_length
 
     ta.setup_logging("WARNING")
     smp = sample_by_arc_length(curve, n=4 * grid_points)

@@ -35,8 +35,8 @@ import numpy as np
 CHILD = r"""
 import json, resource, sys, time
 import numpy as np
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw import schedule
 spans, what = int(sys.argv[1]), sys.argv[2]
 rng = np.random.default_rng(spans)
@@ -47,15 +47,15 @@ knots = np.concatenate([[0.0] * 4, np.linspace(0, 1, spans + 1)[1:-1], [1.0] * 4
 curve = Nurbs(3, knots, pts)
 lim = MachineLimits()
 small = Nurbs(3, [0, 0, 0, 0, 1, 1, 1, 1], [[0, 0], [5, 5], [10, -5], [15, 0]])
-from fuzzyfeed._kernels import nurbs_kernel
+from fuzzyfeed.geometry._kernels import nurbs_kernel
 nurbs_kernel()  # the compiled NURBS loop long paths use: loaded in the anchor too
 
 
 def run(path):  # the measured command; run once on a small curve first (imports, first calls)
     if what == "schedule":
         return schedule(path, lim).t_s.size
-    from fuzzyfeed.compare import compare
-    from fuzzyfeed.sampling import sample_uniform_u
+    from fuzzyfeed.report.compare import compare
+    from fuzzyfeed.geometry.sampling import sample_uniform_u
     c = compare(sample_uniform_u(path, 2000), lim)
     return sum(sim.law.s_mm.size for sim in c.simulations.values())
 

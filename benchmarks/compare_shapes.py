@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import argparse
 
-from fuzzyfeed.compare import compare
+from fuzzyfeed.report.compare import compare
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.limits import MachineLimits
+from fuzzyfeed.machine.limits import MachineLimits
 
 SHAPES = ("infinity", "trident", "butterfly", "wm")
 

@@ -17,9 +17,9 @@ import argparse
 import statistics
 
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.servo import ServoModel
-from fuzzyfeed.tradeoff import (PAPER_ERROR_REDUCTION_PCT, PAPER_TIME_REDUCTION_PCT, claims_vs_constant,
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.machine.servo import ServoModel
+from fuzzyfeed.report.tradeoff import (PAPER_ERROR_REDUCTION_PCT, PAPER_TIME_REDUCTION_PCT, claims_vs_constant,
                                 pareto_points)
 
 SHAPES = ("infinity", "trident", "butterfly")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fuzzyfeed.io.shapes import load_shape, shape_names
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.geometry.nurbs import Nurbs
 
 SQRT_HALF = np.sqrt(0.5)
 

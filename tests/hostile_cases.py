@@ -394,16 +394,16 @@ def api_cases() -> list:
     import numpy as np
 
     from fuzzyfeed import Nurbs, sample_by_arc_length, sample_uniform_u
-    from fuzzyfeed.compare import compare
+    from fuzzyfeed.report.compare import compare
     from fuzzyfeed.fuzzy.advisor import advise, advise_details, average_filter
     from fuzzyfeed.fuzzy.engine import feed_pct
     from fuzzyfeed.fuzzy.features import features
     from fuzzyfeed.fuzzy.rules import load_rule_table, parse_rule_table, set_cell_text
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import load_shape, sample_shape, shape_from_mapping
-    from fuzzyfeed.limits import MachineLimits, feed_limits
-    from fuzzyfeed.profile import FeedProfile
-    from fuzzyfeed.sampling import PathSamples, samples_from_points, three_point_curvature
+    from fuzzyfeed.machine.limits import MachineLimits, feed_limits
+    from fuzzyfeed.machine.profile import FeedProfile
+    from fuzzyfeed.geometry.sampling import PathSamples, samples_from_points, three_point_curvature
     from fuzzyfeed.slw import schedule
 
     good = dict(degree=2, knots=[0, 0, 0, 0.5, 1, 1, 1], control_points=[[0, 0], [10, 5], [20, -5], [30, 0]])

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.nurbs import Nurbs
 
 
 def random_limits(rng: np.random.Generator) -> MachineLimits:

@@ -9,8 +9,6 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "fuzzyfeed"
-CORE = ("nurbs", "sampling", "profile", "limits", "interpolate", "servo", "simulate", "errors", "_kernels",
-        "_nurbs_jit")
 HEAVY = ("matplotlib", "pandas", "ezdxf", "skfuzzy", "tqdm")
 
 
@@ -30,17 +28,62 @@ def sources(sub: str = "") -> list[Path]:
     return sorted((PACKAGE / sub).rglob("*.py")) if sub else sorted(PACKAGE.rglob("*.py"))
 
 
+#: The flow as layers (README, *How it is built*): a module may import its own package and the
+#: layers below it, never a layer above; the two planners sit side by side and never import each
+#: other. Every module of the package is in exactly one layer.
+LAYERS = {
+    "errors": 0,
+    "base": 1,
+    "geometry": 2,
+    "machine": 3,
+    "fuzzy": 4, "slw": 4,
+    "program": 5,
+    "io": 6,
+    "report": 7,
+    "batch": 8, "designer": 8,
+    "cli": 9,
+    "__main__": 10,
+}
+
+
+def layer_of(module: str) -> tuple[str, int] | None:
+    """(package, layer) of a fuzzyfeed module name, or None for the package itself."""
+    parts = module.split(".")
+    if parts[0] != "fuzzyfeed" or len(parts) == 1:
+        return None
+    return parts[1], LAYERS[parts[1]]
+
+
+def test_every_package_has_a_layer():
+    tops = {p.stem if p.is_file() else p.name for p in PACKAGE.iterdir()
+            if (p.suffix == ".py" or (p / "__init__.py").is_file()) and p.name != "__init__.py"}
+    assert tops <= set(LAYERS), f"not in a layer: {sorted(tops - set(LAYERS))}"
+    loose = sorted(p.name for p in PACKAGE.glob("*.py") if p.stem not in ("__init__", "__main__", "errors"))
+    assert not loose, f"modules loose at the top of the package: {loose}"
+
+
 @pytest.mark.parametrize("path", sources(), ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_layering(path):
     rel = path.relative_to(PACKAGE)
-    imports = module_imports(path, top_level_only=False)
-    planners = {i for i in imports if i.startswith(("fuzzyfeed.fuzzy", "fuzzyfeed.slw", "fuzzyfeed.compare"))}
-    if rel.parts[0] == "fuzzy":
-        assert not {i for i in planners if i.startswith(("fuzzyfeed.slw", "fuzzyfeed.compare"))}
-    elif rel.parts[0] == "slw":
-        assert not {i for i in planners if i.startswith(("fuzzyfeed.fuzzy", "fuzzyfeed.compare"))}
-    elif rel.stem in CORE and len(rel.parts) == 1:
-        assert not planners, f"core module {rel} imports {planners}"
+    parts = rel.with_suffix("").parts
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    own = layer_of(".".join(("fuzzyfeed", *parts)))
+    if own is None:          # fuzzyfeed/__init__.py: the public API, imported lazily
+        return
+    package, rank = own
+    for name in module_imports(path, top_level_only=False):
+        other = layer_of(name) if name.startswith("fuzzyfeed.") else None
+        if other is None or other[0] == package:
+            continue
+        assert other[1] < rank, (f"{rel} (layer {rank}, {package}) imports {name} "
+                                 f"(layer {other[1]}, {other[0]}): a layer never imports one above or beside it")
+
+
+def test_a_package_init_says_what_it_may_import():
+    for init in sorted(PACKAGE.glob("*/__init__.py")):
+        doc = ast.get_docstring(ast.parse(init.read_text())) or ""
+        assert "import" in doc.lower(), f"{init.relative_to(PACKAGE)}: its docstring must say what it may import"
 
 
 @pytest.mark.parametrize("path", sources(), ids=lambda p: str(p.relative_to(PACKAGE)))

@@ -7,11 +7,11 @@ import pandas as pd
 import pytest
 
 from fuzzyfeed.cli import main
-from fuzzyfeed.compare import METHODS, compare
+from fuzzyfeed.report.compare import METHODS, compare
 from fuzzyfeed.fuzzy.advisor import advise
 from fuzzyfeed.io.shapes import load_shape, sample_shape, shape_names
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.simulate import simulate
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.machine.simulate import simulate
 from fuzzyfeed.slw import schedule
 from fuzzyfeed.slw.trajectory import measure
 
@@ -154,7 +154,7 @@ def test_table_jerk_is_measured_at_the_table_resolution():
     samples = sample_shape(load_shape("infinity"), 2000)
     limits = MachineLimits()
     table = schedule(samples.curve, limits).feed_at(samples)
-    from fuzzyfeed.simulate import simulate_profile
+    from fuzzyfeed.machine.simulate import simulate_profile
 
     m = simulate_profile(table, limits).metrics
     assert m.tan_jerk_max_mm_s3 <= 1.2 * limits.jerk_mm_s3

@@ -12,8 +12,8 @@ from hypothesis.extra.numpy import arrays
 from fuzzyfeed.errors import ExportError, PathFormatError
 from fuzzyfeed.io.csv import write_columns
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import sample_uniform_u
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import sample_uniform_u
 
 pd = pytest.importorskip("pandas")
 

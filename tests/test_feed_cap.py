@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.io.shapes import load_shape
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.sampling import sample_uniform_u
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.sampling import sample_uniform_u
 from fuzzyfeed.slw import measure, schedule
 from fuzzyfeed.slw.feed_cap import MACHINE_ROOM, STAIR_PLATEAU, STAIR_RATIO, FeedCap, lower, stairs
 from fuzzyfeed.slw.profile import transition_distance
@@ -141,7 +141,7 @@ def test_a_dip_faster_than_a_transition_is_kept_as_it_is():
 
 def test_a_sharp_dip_of_the_cap_is_held_from_the_positions():
     # end to end, from the positions: a V of the cap whose bottom lies between reference points
-    from fuzzyfeed.nurbs import Nurbs
+    from fuzzyfeed.geometry.nurbs import Nurbs
 
     line = Nurbs(1, [0, 0, 1, 1], [[0.0, 0.0], [100.0, 0.0]])
     s = np.array([0.0, 50.0, 50.5333, 51.1, 100.0])
@@ -172,7 +172,7 @@ def test_a_wandering_advice_is_followed_without_a_repair_storm():
     rng = np.random.default_rng(300)
     ang = np.cumsum(rng.uniform(-0.6, 0.6, 80))
     pts = np.cumsum(np.column_stack([np.cos(ang), np.sin(ang)]) * rng.uniform(1.5, 2.5, 80)[:, None], axis=0)
-    from fuzzyfeed.nurbs import Nurbs
+    from fuzzyfeed.geometry.nurbs import Nurbs
 
     knots = np.concatenate([[0.0] * 4, np.linspace(0, 1, 78)[1:-1], [1.0] * 4])
     curve = Nurbs(3, knots, pts)

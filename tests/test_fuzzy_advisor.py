@@ -17,8 +17,8 @@ from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.features import features, forward_window_max, normalise
 from fuzzyfeed.fuzzy.rules import load_rule_table
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.sampling import PathSamples, sample_uniform_u
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.sampling import PathSamples, sample_uniform_u
 
 from conftest import circle_nurbs
 
@@ -233,7 +233,7 @@ def _l_path(step_first_leg: float) -> np.ndarray:
 
 
 def test_point_sequence_windows_are_lengths_not_point_counts(paper):
-    from fuzzyfeed.sampling import POINT_STEP_MM, samples_from_points
+    from fuzzyfeed.geometry.sampling import POINT_STEP_MM, samples_from_points
 
     coarse = advise_details(samples_from_points(_l_path(1.0)), paper, 100.0)
     fine = advise_details(samples_from_points(_l_path(0.1)), paper, 100.0)
@@ -254,7 +254,7 @@ def test_point_sequence_windows_are_lengths_not_point_counts(paper):
 
 
 def test_point_sequence_keeps_lengths_the_table_gives(paper):
-    from fuzzyfeed.sampling import samples_from_points
+    from fuzzyfeed.geometry.sampling import samples_from_points
 
     table = replace(paper, window_mm=2.0, filter_mm=1.0)
     adv = advise_details(samples_from_points(_l_path(1.0)), table, 100.0)

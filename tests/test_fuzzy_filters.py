@@ -162,7 +162,7 @@ def test_corner_mean_never_exceeds_the_controller_at_a_peak(data, m):
 def test_windows_in_mm_make_the_advice_independent_of_the_sampling():
     """Issue 9 item 4: WS and M in mm. The trident sampled 2000 × uniform in u (the paper) and
     6000 × uniform in arc length gets the same advice along s with lengths, not with points."""
-    from fuzzyfeed.sampling import sample_by_arc_length, sample_uniform_u
+    from fuzzyfeed.geometry.sampling import sample_by_arc_length, sample_uniform_u
 
     curve = load_shape("trident").curve
     a = sample_uniform_u(curve, 2000)
@@ -210,9 +210,9 @@ def test_g52_reimport_of_the_trident_gets_the_same_advice_in_mm(tmp_path, capsys
     differently (≈ 400 points on its moves instead of 2000 in u); with WS and M in points the advice
     changes with the sampling, in mm it agrees."""
     from fuzzyfeed.cli import main
-    from fuzzyfeed.cuts import sample_cut
-    from fuzzyfeed.io.gcode_nurbs import nurbs_gcode_program
-    from fuzzyfeed.io.gcode_read import read_program
+    from fuzzyfeed.program.cuts import sample_cut
+    from fuzzyfeed.program.g52 import nurbs_gcode_program
+    from fuzzyfeed.program.read import read_program
 
     ngc = tmp_path / "t.ngc"     # the trident alone (the CLI's program adds a plunge from safe Z)
     ngc.write_text("\n".join(nurbs_gcode_program(load_shape("trident").curve, 6000.0, split="spans")) + "\n")

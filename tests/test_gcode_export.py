@@ -18,9 +18,9 @@ from fuzzyfeed.errors import ExportError
 from fuzzyfeed.io.gcode import (check_g52_curve, gcode_program, linuxcnc_knots, write_gcode,
                                 write_gcode_nurbs)
 from fuzzyfeed.io.shapes import load_shape, shape_names
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import sample_uniform_u, samples_from_points
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import sample_uniform_u, samples_from_points
 
 UNIFORM_SHAPES = ("infinity", "trident", "trident2")
 NON_UNIFORM_SHAPES = ("wm", "butterfly")

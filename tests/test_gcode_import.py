@@ -10,8 +10,8 @@ from fuzzyfeed.cli import main
 from fuzzyfeed.errors import PathFormatError, ShapeFileError
 from fuzzyfeed.io.gcode import write_gcode, write_gcode_nurbs
 from fuzzyfeed.io.shapes import load_shape, load_shapes, sample_shape
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import sample_uniform_u
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import sample_uniform_u
 
 
 def write(tmp_path, text, name="prog.ngc"):
@@ -125,7 +125,7 @@ M2
     np.testing.assert_allclose(shape.polyline[-2:], [[3, 1], [4, 1]])
     # the sampled block's points lie on LinuxCNC's uniform clamped NURBS (order 3, 4 points)
     from fuzzyfeed.io.gcode import linuxcnc_knots
-    from fuzzyfeed.nurbs import Nurbs
+    from fuzzyfeed.geometry.nurbs import Nurbs
     ref = Nurbs(2, linuxcnc_knots(4, 3), [[0, 0], [1, 2], [2, 0], [3, 1]], [1, 1, 2, 1])
     block = shape.polyline[3:-1]
     assert len(block) == 2 * 32

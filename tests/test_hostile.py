@@ -154,8 +154,8 @@ def test_tangent_breaks_find_corners_not_tangent_continuous_double_knots():
     unit square of degree 1 turns 90 deg at each of its 3 interior vertices (closed form)."""
     import numpy as np
     from conftest import circle_nurbs
-    from fuzzyfeed.nurbs import Nurbs
-    from fuzzyfeed.sampling import tangent_breaks
+    from fuzzyfeed.geometry.nurbs import Nurbs
+    from fuzzyfeed.geometry.sampling import tangent_breaks
 
     u, angle = tangent_breaks(circle_nurbs(5.0))
     assert u.size == 0

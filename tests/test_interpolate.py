@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.interpolate import METHODS, feed_fluctuation, interpolate_u, max_fluctuation_pct
+from fuzzyfeed.geometry.interpolate import METHODS, feed_fluctuation, interpolate_u, max_fluctuation_pct
 from fuzzyfeed.io.shapes import load_shape
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.geometry.nurbs import Nurbs
 
 
 def circle(radius: float) -> Nurbs:
@@ -85,10 +85,10 @@ def test_best_keeps_improving_until_it_stalls_at_sharp_turns():
     # a constant 100 mm/s on butterfly: at its sharp turns no chord can match the arc, and the
     # chord-exact fixed point improves there for three passes (20.5 %, 11.1 %, 7.2 %) before it
     # stalls; stopping once a pass did not halve the error left 11.1 %
-    from fuzzyfeed.limits import MachineLimits
-    from fuzzyfeed.profile import FeedProfile
-    from fuzzyfeed.sampling import sample_uniform_u
-    from fuzzyfeed.simulate import time_law_from_profile
+    from fuzzyfeed.machine.limits import MachineLimits
+    from fuzzyfeed.machine.profile import FeedProfile
+    from fuzzyfeed.geometry.sampling import sample_uniform_u
+    from fuzzyfeed.machine.simulate import time_law_from_profile
 
     lim = MachineLimits()
     curve = load_shape("butterfly").curve

@@ -14,13 +14,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from conftest import circle_nurbs, random_nurbs_definition
 
-from fuzzyfeed import _kernels
-from fuzzyfeed._kernels import COMPILED_MIN_POINTS, evaluate_power_basis, use_compiled
+from fuzzyfeed.geometry import _kernels
+from fuzzyfeed.geometry._kernels import COMPILED_MIN_POINTS, evaluate_power_basis, use_compiled
 from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.rules import load_rule_table
 from fuzzyfeed.io.shapes import load_shape, shape_names
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.sampling import max_curvature
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.sampling import max_curvature
 
 
 def both_forms(curve: Nurbs, u: np.ndarray, order: int = 2):
@@ -116,7 +116,7 @@ CACHED_MODULE = """
 import sys
 import numba
 sys.stderr.isatty = lambda: True
-from fuzzyfeed._kernels import compile_once
+from fuzzyfeed.geometry._kernels import compile_once
 
 @numba.njit(cache=True)
 def twice(x):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from fuzzyfeed.errors import MachineLimitsError
-from fuzzyfeed.limits import MachineLimits, feed_limit_components, feed_limits
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.sampling import sample_by_arc_length, samples_from_points
+from fuzzyfeed.machine.limits import MachineLimits, feed_limit_components, feed_limits
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.sampling import sample_by_arc_length, samples_from_points
 
 
 def circle(radius: float) -> Nurbs:

@@ -8,7 +8,7 @@ from geomdl import NURBS as GeomdlNURBS
 
 from conftest import circle_nurbs, random_nurbs_definition
 from fuzzyfeed.errors import NurbsError
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.geometry.nurbs import Nurbs
 
 RTOL = 1e-9
 
@@ -165,7 +165,7 @@ def test_errors_are_value_errors_and_one_line():
 def test_arc_length_streamed_blocks_do_not_change_results(monkeypatch):
     """Blocks of 3 intervals and blocks of 8192 give the same s(u) and u(s) to 1e-12 relative,
     and both match closed forms: a circle's arcs r·θ and a line's |P1 − P0|·u."""
-    from fuzzyfeed import nurbs as nurbs_mod
+    from fuzzyfeed.geometry import nurbs as nurbs_mod
 
     r = 7.5
     circle = circle_nurbs(r)

@@ -1,4 +1,4 @@
-"""The output transaction (fuzzyfeed.io.outputs): nothing lost, whatever the destination or signal.
+"""The output transaction (fuzzyfeed.base.outputs): nothing lost, whatever the destination or signal.
 
 Every data-loss case of issue 10 is here: an output equal to an input (also via a symlink or a hard
 link), two outputs naming one file, a bad second destination after a good first one, symlinks,
@@ -20,8 +20,8 @@ from pathlib import Path
 import pytest
 
 from fuzzyfeed.cli import main
-from fuzzyfeed.io.atomic import atomic_write
-from fuzzyfeed.io.outputs import OutputPathError, OutputSet
+from fuzzyfeed.base.atomic import atomic_write
+from fuzzyfeed.base.outputs import OutputPathError, OutputSet
 
 from hostile_cases import FAST, SHAPE  # the catalogue's tiny shape and quick sampling
 
@@ -252,7 +252,7 @@ SIGNAL_SCRIPT = textwrap.dedent("""
     signal.signal(signal.SIGHUP, signal.SIG_DFL)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
-    from fuzzyfeed.io import outputs
+    from fuzzyfeed.base import outputs
     marker = sys.argv[1]
     real_open = outputs.OutputSet.open
     calls = []

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fuzzyfeed.sampling import samples_from_points
+from fuzzyfeed.geometry.sampling import samples_from_points
 
 
 def test_colored_path_leaves_out_jumps_between_pieces():
@@ -13,7 +13,7 @@ def test_colored_path_leaves_out_jumps_between_pieces():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fuzzyfeed.plot import colored_path
+    from fuzzyfeed.report.plot import colored_path
 
     a = samples_from_points(np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]]))
     b = samples_from_points(np.array([[50.0, 50.0], [60.0, 50.0]]))

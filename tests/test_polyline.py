@@ -1,4 +1,4 @@
-"""Curvature of point sequences within their rounding (fuzzyfeed.polyline): rounded circles advised
+"""Curvature of point sequences within their rounding (fuzzyfeed.geometry.polyline): rounded circles advised
 like the exact NURBS circle, collinear runs, corners as the controller's blend (LinuxCNC G64 P),
 reversals, duplicates and jogs — through the API, G-code programs and CSV point lists."""
 
@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 from conftest import circle_nurbs
 from fuzzyfeed.fuzzy.advisor import advise_details
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.limits import MachineLimits, feed_limits
-from fuzzyfeed.polyline import (DEFAULT_PATH_TOLERANCE_MM, KAPPA_MAX_1_MM, polyline_curvature,
+from fuzzyfeed.machine.limits import MachineLimits, feed_limits
+from fuzzyfeed.geometry.polyline import (DEFAULT_PATH_TOLERANCE_MM, KAPPA_MAX_1_MM, polyline_curvature,
                                 rounding_quantum)
-from fuzzyfeed.sampling import sample_by_arc_length, sample_uniform_u, three_point_curvature
+from fuzzyfeed.geometry.sampling import sample_by_arc_length, sample_uniform_u, three_point_curvature
 
 F_MM_S = 4000 / 60
 
@@ -66,7 +66,7 @@ def test_rounded_circle_is_advised_like_the_exact_nurbs_circle(radius, sagitta, 
 def test_the_paper_three_point_curvature_would_fail_the_same_circle():
     """The failure of issue 9: the seed's estimate on a rounded r = 20 circle, normalised, spreads
     the advice far beyond ±3 % (so the test above can fail)."""
-    from fuzzyfeed.sampling import PathSamples
+    from fuzzyfeed.geometry.sampling import PathSamples
 
     pts = rounded_circle(20.0, 0.001)
     ours = sample_shape_points(pts)
@@ -77,7 +77,7 @@ def test_the_paper_three_point_curvature_would_fail_the_same_circle():
 
 
 def sample_shape_points(pts):
-    from fuzzyfeed.sampling import samples_from_points
+    from fuzzyfeed.geometry.sampling import samples_from_points
     return samples_from_points(pts)
 
 
@@ -265,7 +265,7 @@ def wavy_spiral(n: int, decimals: int = 4) -> tuple[np.ndarray, np.ndarray]:
 
 def test_compiled_run_search_constants_match():
     pytest.importorskip("numba")
-    from fuzzyfeed import _polyline_jit, polyline
+    from fuzzyfeed.geometry import _polyline_jit, polyline
 
     assert _polyline_jit.MIN_RUN == polyline.MIN_RUN
 
@@ -275,7 +275,7 @@ def test_compiled_run_search_gives_the_numpy_result(case, monkeypatch):
     """Both forms of the run search (numpy below COMPILED_MIN_VERTICES, numba from there on) find
     the same runs and κ on circles, corners, random polygons and 3-D walks."""
     pytest.importorskip("numba")
-    import fuzzyfeed.polyline as pl
+    import fuzzyfeed.geometry.polyline as pl
 
     rng = np.random.default_rng(3)
     sq = np.array([[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]], dtype=float)
@@ -300,7 +300,7 @@ def test_both_forms_see_the_curvature_of_a_rounded_free_form_curve(monkeypatch):
     tolerance to the last bits (their sums run in another order), so they are compared with the
     truth, not bit for bit."""
     pytest.importorskip("numba")
-    import fuzzyfeed.polyline as pl
+    import fuzzyfeed.geometry.polyline as pl
 
     pts, exact = wavy_spiral(100_000)
     pts, exact = pts[20_000:24_000], exact[20_000:24_000]
@@ -319,7 +319,7 @@ def test_a_small_polyline_does_not_import_numba():
     import subprocess
     import sys
 
-    code = ("import sys, numpy as np\nfrom fuzzyfeed.polyline import polyline_curvature\n"
+    code = ("import sys, numpy as np\nfrom fuzzyfeed.geometry.polyline import polyline_curvature\n"
             "t = np.linspace(0, 6, 800)\n"
             "polyline_curvature(np.round(np.column_stack([20 * np.cos(t), 20 * np.sin(t)]), 3))\n"
             "print('numba' in sys.modules)")

@@ -1,4 +1,4 @@
-"""The path a blending controller follows along a polyline (fuzzyfeed.polyline_fit), and the SLW
+"""The path a blending controller follows along a polyline (fuzzyfeed.geometry.polyline_fit), and the SLW
 schedule on it: true corners stop, rounding-level kinks are blended within the path tolerance P."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.polyline_fit import fit_polyline
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.polyline_fit import fit_polyline
 from fuzzyfeed.slw import measure, path_bound, schedule
 from slw_cases import polyline
 

@@ -38,11 +38,11 @@ def test_no_import_circle():
 
 def test_readers_import_the_shape_module_not_the_dispatcher():
     graph = _graph()
-    for reader in ("fuzzyfeed.io.points", "fuzzyfeed.io.dxf", "fuzzyfeed.io.gcode_shapes"):
+    for reader in ("fuzzyfeed.io.points", "fuzzyfeed.io.dxf", "fuzzyfeed.io.gcode_paths"):
         assert "fuzzyfeed.io.shape" in graph[reader]
         assert "fuzzyfeed.io.shapes" not in graph[reader]
     # reading and writing apart; knot insertion in the core
-    assert not {m for m in graph["fuzzyfeed.io.gcode_read"] if "write" in m or "rewrite" in m}
-    assert "fuzzyfeed.io.gcode_read" not in graph["fuzzyfeed.io.gcode_rewrite"]
-    from fuzzyfeed import nurbs
+    assert not {m for m in graph["fuzzyfeed.program.read"] if "write" in m or "rewrite" in m}
+    assert "fuzzyfeed.program.read" not in graph["fuzzyfeed.program.rewrite"]
+    from fuzzyfeed.geometry import nurbs
     assert callable(nurbs.insert_knot) and callable(nurbs.bezier_segments)

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from canon import _nums, canon
-from fuzzyfeed.io.gcode_read import read_program
-from fuzzyfeed.io.program import ARC, CYCLE, KEPT, LINE, NURBS, PLANE_AXES
+from fuzzyfeed.program.read import read_program
+from fuzzyfeed.program.model import ARC, CYCLE, KEPT, LINE, NURBS, PLANE_AXES
 
 CORPUS = sorted((Path(__file__).parent / "programs" / "corpus").glob("*.ngc"))
 _PLANES = {"CANON_PLANE_XY": 17, "CANON_PLANE_XZ": 18, "CANON_PLANE_YZ": 19}

@@ -12,10 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzyfeed.fuzzy.rules import load_rule_table
-from fuzzyfeed.io.gcode_read import parse_program
-from fuzzyfeed.io.gcode_rewrite import rewrite_program
-from fuzzyfeed.io.program import ARC, PLANE_AXES
-from fuzzyfeed.program_feed import advise_program
+from fuzzyfeed.program.read import parse_program
+from fuzzyfeed.program.rewrite import rewrite_program
+from fuzzyfeed.program.model import ARC, PLANE_AXES
+from fuzzyfeed.program.feeds import advise_program
 
 TABLE = load_rule_table(None)
 

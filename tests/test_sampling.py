@@ -8,7 +8,7 @@ import pytest
 from conftest import circle_nurbs
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.io.shapes import load_shape
-from fuzzyfeed.sampling import (sample_by_arc_length, sample_uniform_u, samples_from_points,
+from fuzzyfeed.geometry.sampling import (sample_by_arc_length, sample_uniform_u, samples_from_points,
                                 three_point_curvature)
 
 

@@ -12,12 +12,12 @@ from scipy import signal
 
 from conftest import circle_nurbs
 from fuzzyfeed.errors import MachineLimitsError
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import sample_uniform_u
-from fuzzyfeed.servo import ServoModel, following_errors, nearest_on_curve, steady_circle_error_mm
-from fuzzyfeed.simulate import simulate_profile
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import sample_uniform_u
+from fuzzyfeed.machine.servo import ServoModel, following_errors, nearest_on_curve, steady_circle_error_mm
+from fuzzyfeed.machine.simulate import simulate_profile
 
 #: A machine whose limits never bind here (the servo is what is tested).
 LOOSE = MachineLimits(feed_mm_s=200.0, axis_vel_mm_s=1e4, axis_acc_mm_s2=1e6, jerk_mm_s3=1e9, chord_tol_mm=1.0)

@@ -7,10 +7,10 @@ import pytest
 
 from conftest import circle_nurbs
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import sample_uniform_u
-from fuzzyfeed.simulate import simulate_profile, time_law_from_profile
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import sample_uniform_u
+from fuzzyfeed.machine.simulate import simulate_profile, time_law_from_profile
 
 
 @pytest.mark.parametrize("radius, feed", [(10.0, 50.0), (2.0, 20.0), (40.0, 100.0)])
@@ -76,7 +76,7 @@ def test_a_trajectory_simulates_the_same_with_its_own_positions():
     """Trajectory.simulate hands its u and positions to the simulator (no second evaluation, no
     copies): the metrics equal a simulation that evaluates them itself; positions of the wrong
     shape, or without their u, are refused."""
-    from fuzzyfeed.simulate import simulate
+    from fuzzyfeed.machine.simulate import simulate
     from fuzzyfeed.slw import schedule
 
     curve = circle_nurbs(10.0)

@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 
 from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.io.shapes import load_shape, shape_names
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.sampling import sample_by_arc_length, sample_uniform_u
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.sampling import sample_by_arc_length, sample_uniform_u
 from fuzzyfeed.slw import measure, path_bound, schedule, time_optimal_bound
 from fuzzyfeed.slw.preprocess import iter_blocks
 
@@ -54,7 +54,7 @@ def test_approach_1_is_feasible_and_the_default_not_slower(trajectories, name):
 def test_approach_1_keeps_seed_000_figures_on_wm():
     # seed 000 on WM: critical points located by fine pre-interpolation, and the interpolated feed
     # follows the schedule (fluctuation with parameter compensation ≤ 0.001 %)
-    from fuzzyfeed.interpolate import feed_fluctuation
+    from fuzzyfeed.geometry.interpolate import feed_fluctuation
 
     traj = schedule(load_shape("wm").curve, approach=1)
     assert traj.n_critical >= 4 and traj.n_blocks == traj.n_critical + 1
@@ -74,8 +74,8 @@ def test_critical_points_are_passed_near_their_limit(trajectories):
     # trident2 at s = 23.5 mm: leaving the minimum (31.19 mm/s), the profile's first
     # acceleration added 0.04 % to the x axis's centripetal part, and the repair put a junction a
     # whole stair (3 %) below the profile there: every junction of the block pair dropped to 30.26
-    from fuzzyfeed.limits import feed_limits
-    from fuzzyfeed.sampling import samples_at
+    from fuzzyfeed.machine.limits import feed_limits
+    from fuzzyfeed.geometry.sampling import samples_at
 
     traj = trajectories["trident2"]
     ends = np.array([b.s1 for b in traj.blocks[:-1]])
@@ -218,7 +218,7 @@ def test_bound_kernels_are_cached_once(tmp_path):
     import sys
 
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    code = ("from fuzzyfeed.io.shapes import load_shape; from fuzzyfeed.limits import MachineLimits; "
+    code = ("from fuzzyfeed.io.shapes import load_shape; from fuzzyfeed.machine.limits import MachineLimits; "
             "from fuzzyfeed.slw import path_bound; path_bound(load_shape('wm').curve, MachineLimits())")
     counts = []
     for _ in range(2):

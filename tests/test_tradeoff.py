@@ -9,10 +9,10 @@ import pytest
 
 from conftest import circle_nurbs
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.sampling import sample_uniform_u
-from fuzzyfeed.servo import ServoModel
-from fuzzyfeed.tradeoff import claims_vs_constant, equal_error_feed, pareto_points
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.sampling import sample_uniform_u
+from fuzzyfeed.machine.servo import ServoModel
+from fuzzyfeed.report.tradeoff import claims_vs_constant, equal_error_feed, pareto_points
 
 
 def test_on_a_circle_the_advice_is_a_constant_feed():

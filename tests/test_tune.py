@@ -11,8 +11,8 @@ from fuzzyfeed.cli import main
 from fuzzyfeed.fuzzy.rules import load_rule_table
 from fuzzyfeed.fuzzy.tune import evaluate, excess, partition_feed, peaks_of, tune_output_terms
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.servo import ServoModel
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.machine.servo import ServoModel
 
 
 def test_the_paper_feed_terms_are_their_own_partition():

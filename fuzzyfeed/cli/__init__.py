@@ -3,7 +3,7 @@
 Errors fuzzyfeed raises on purpose (and unreadable/unwritable files) print one line,
 ``fuzzyfeed: error: ...``, and exit with code 2; argparse does the same for bad arguments (one
 line, no usage block). Every command runs inside one output transaction
-(:class:`fuzzyfeed.io.outputs.OutputSet`): its output flags are checked before any work, and its
+(:class:`fuzzyfeed.base.outputs.OutputSet`): its output flags are checked before any work, and its
 files appear together at the end or not at all (error, Ctrl-C, SIGTERM, SIGHUP).
 Plotting and dataframe libraries are imported inside the commands that need them, so
 ``fuzzyfeed --version`` and ``--help`` stay fast.
@@ -86,7 +86,7 @@ def _error_line(exc: BaseException, args: argparse.Namespace) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from fuzzyfeed.io.outputs import OutputSet, Terminated
+    from fuzzyfeed.base.outputs import OutputSet, Terminated
 
     parser = build_parser()
     args = parser.parse_args(argv)

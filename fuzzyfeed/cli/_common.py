@@ -19,7 +19,7 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
-    from fuzzyfeed.limits import MAX_LIMIT
+    from fuzzyfeed.machine.limits import MAX_LIMIT
 
     if value > MAX_LIMIT:
         raise argparse.ArgumentTypeError(f"{text!r} is too large; at most {MAX_LIMIT:g}")
@@ -45,7 +45,7 @@ def count_at_least(minimum: int, unit: str, maximum: int | None = None):
 
 def point_count(text: str) -> int:
     """argparse type: an integer number of sample points, 3 to the sampling budget."""
-    from fuzzyfeed.sampling import MAX_POINTS
+    from fuzzyfeed.geometry.sampling import MAX_POINTS
 
     return count_at_least(3, "points", MAX_POINTS)(text)
 
@@ -96,7 +96,7 @@ def shape_context(args: argparse.Namespace):
             raise ShapeFileError(f"--units {units}: applies to DXF drawings only; {base} states its "
                                  "own units (G20/G21 in G-code, mm in CSV and shape files)")
         token = UNITS_OVERRIDE.set(units)
-    from fuzzyfeed.polyline import TOLERANCES
+    from fuzzyfeed.geometry.polyline import TOLERANCES
 
     tolerances = TOLERANCES.set((getattr(args, "point_tolerance", None),
                                  getattr(args, "path_tolerance", None)))
@@ -128,7 +128,7 @@ def check_feed_mm_min(value: float) -> float:
     if not math.isfinite(value) or value <= 0:
         raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
                                  "number > 0 mm/min")
-    from fuzzyfeed.limits import MAX_LIMIT
+    from fuzzyfeed.machine.limits import MAX_LIMIT
 
     if value > MAX_LIMIT:
         raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be at most "

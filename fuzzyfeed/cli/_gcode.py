@@ -75,7 +75,7 @@ class PreparedGcode:
     files: list[tuple[str, str]] = field(default_factory=list)
 
     def write(self) -> list[str]:
-        from fuzzyfeed.io.atomic import atomic_write
+        from fuzzyfeed.base.atomic import atomic_write
 
         for path, text in self.files:
             with atomic_write(path, "w", newline="\n") as handle:
@@ -90,7 +90,7 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[st
                   segment_feed_mm_min=None) -> PreparedGcode:
     """Build the programs the G-code flags ask for (none without --gcode/--gcode-g52).
 
-    ``profile`` is a :class:`~fuzzyfeed.profile.FeedProfile` or a function returning one (called
+    ``profile`` is a :class:`~fuzzyfeed.machine.profile.FeedProfile` or a function returning one (called
     only when a program is asked for); ``notes`` go into the header comment;
     ``segment_feed_mm_min`` (or a function returning it) gives the feed of every segment."""
     from fuzzyfeed.io.gcode import gcode_program, nurbs_gcode_program

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from fuzzyfeed.cli._common import positive_float
-from fuzzyfeed.limits import (DEFAULT_AXIS_ACC_MM_S2, DEFAULT_AXIS_VEL_MM_S, DEFAULT_CHORD_TOL_MM,
+from fuzzyfeed.machine.limits import (DEFAULT_AXIS_ACC_MM_S2, DEFAULT_AXIS_VEL_MM_S, DEFAULT_CHORD_TOL_MM,
                               DEFAULT_FEED_MM_S, DEFAULT_JERK_MM_S3, DEFAULT_TS_S, MachineLimits)
 
 
@@ -61,7 +61,7 @@ def program_feed_limits(shape, limits: MachineLimits):
     import numpy as np
 
     from fuzzyfeed.errors import PathFormatError
-    from fuzzyfeed.io.program import NO_FEED_RULE
+    from fuzzyfeed.program.model import NO_FEED_RULE
 
     if shape.programmed_feed is None:
         return limits, None, None

@@ -1,6 +1,6 @@
 """``fuzzyfeed advise PROGRAM.ngc``: advise every cut of a whole G-code program and write the
-same program back with the advised F words (``--gcode``), see :mod:`fuzzyfeed.program_feed`
-and :mod:`fuzzyfeed.io.gcode_rewrite`. ``PROGRAM.ngc#N`` advises cut N only (the other cuts keep
+same program back with the advised F words (``--gcode``), see :mod:`fuzzyfeed.program.feeds`
+and :mod:`fuzzyfeed.program.rewrite`. ``PROGRAM.ngc#N`` advises cut N only (the other cuts keep
 their feeds)."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from fuzzyfeed.errors import ExportError, MachineLimitsError
 
 def is_program(spec: str) -> bool:
     """True when SHAPE names a G-code file (with or without #N)."""
-    from fuzzyfeed.io.program import GCODE_SUFFIXES
+    from fuzzyfeed.program.model import GCODE_SUFFIXES
     from fuzzyfeed.io.shapes import split_selector
 
     base, _ = split_selector(spec)
@@ -26,8 +26,8 @@ def _combined_advice(pa):
     """One FuzzyAdvice over all advised cuts end to end (for the plot): arc length runs on."""
     from fuzzyfeed.fuzzy.advisor import FuzzyAdvice
     from fuzzyfeed.fuzzy.features import Features
-    from fuzzyfeed.profile import FeedProfile
-    from fuzzyfeed.sampling import PathSamples
+    from fuzzyfeed.machine.profile import FeedProfile
+    from fuzzyfeed.geometry.sampling import PathSamples
 
     parts = {k: [] for k in ("xyz", "s", "tangent", "k", "wmax", "dk", "raw", "pct", "feed")}
     offset = 0.0
@@ -57,14 +57,14 @@ def _combined_advice(pa):
 
 def run_program(args: argparse.Namespace) -> int:
     from fuzzyfeed.cli._common import check_feed_mm_min, table_from_args
-    from fuzzyfeed.cuts import DEFAULT_STEP_MM
-    from fuzzyfeed.io.atomic import atomic_write
+    from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
+    from fuzzyfeed.base.atomic import atomic_write
     from fuzzyfeed.io.csv import write_columns
-    from fuzzyfeed.io.gcode_read import read_program
-    from fuzzyfeed.io.gcode_rewrite import rewrite_program
+    from fuzzyfeed.program.read import read_program
+    from fuzzyfeed.program.rewrite import rewrite_program
     from fuzzyfeed.io.points import pick_by_index
     from fuzzyfeed.io.shapes import resolve_shape_path, split_selector
-    from fuzzyfeed.program_feed import (DEFAULT_PROGRAM_FEED_STEP_MM_MIN, advice_columns,
+    from fuzzyfeed.program.feeds import (DEFAULT_PROGRAM_FEED_STEP_MM_MIN, advice_columns,
                                         advise_program, program_times)
 
     cap = None if args.feed_mm_min is None else check_feed_mm_min(args.feed_mm_min)
@@ -107,7 +107,7 @@ def run_program(args: argparse.Namespace) -> int:
     record["F_mm_min"] = feed_note
     write_metadata(args.output, list(columns), record)
     if args.plot:
-        from fuzzyfeed.plot import plot_fuzzy_advice
+        from fuzzyfeed.report.plot import plot_fuzzy_advice
 
         plot_fuzzy_advice(_combined_advice(pa), f"{path.name}: {len(pa.cuts)} cut(s) end to end", args.plot)
     if text is not None:
@@ -130,5 +130,5 @@ def run_program(args: argparse.Namespace) -> int:
 
 
 def _default_points() -> int:
-    from fuzzyfeed.sampling import DEFAULT_POINTS
+    from fuzzyfeed.geometry.sampling import DEFAULT_POINTS
     return DEFAULT_POINTS

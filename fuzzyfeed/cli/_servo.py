@@ -6,7 +6,7 @@ import argparse
 import math
 
 from fuzzyfeed.cli._common import positive_float
-from fuzzyfeed.servo import DEFAULT_KV_1_S, ServoModel
+from fuzzyfeed.machine.servo import DEFAULT_KV_1_S, ServoModel
 
 
 def _fraction(text: str) -> float:

@@ -9,10 +9,10 @@ import numpy as np
 from fuzzyfeed.cli._common import (add_shape_argument, check_feed_mm_min, point_count, positive_float,
                                    table_from_args)
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.cuts import DEFAULT_STEP_MM
+from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
 from fuzzyfeed.errors import InputError, MachineLimitsError
-from fuzzyfeed.limits import DEFAULT_FEED_MM_S
-from fuzzyfeed.sampling import DEFAULT_POINTS, POINT_STEP_MM
+from fuzzyfeed.machine.limits import DEFAULT_FEED_MM_S
+from fuzzyfeed.geometry.sampling import DEFAULT_POINTS, POINT_STEP_MM
 
 #: Default maximum feed F (mm/min) when --feed-mm-min is not given: the machine default's feed.
 DEFAULT_FEED_MM_MIN = DEFAULT_FEED_MM_S * 60.0
@@ -213,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
     write_columns(args.output, columns)
     meta = write_metadata(args.output, list(columns), advice_provenance(args, shape, advice))
     if args.plot:
-        from fuzzyfeed.plot import plot_fuzzy_advice
+        from fuzzyfeed.report.plot import plot_fuzzy_advice
 
         plot_fuzzy_advice(advice, shape.name, args.plot)
     print(summary(shape.name, advice))

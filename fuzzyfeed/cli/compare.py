@@ -67,11 +67,11 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
     from tqdm import tqdm
 
-    from fuzzyfeed.compare import METHODS, compare
+    from fuzzyfeed.report.compare import METHODS, compare
     from fuzzyfeed.fuzzy.rules import load_rule_table
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import load_shape, sample_shape
-    from fuzzyfeed.sampling import POINT_STEP_MM
+    from fuzzyfeed.geometry.sampling import POINT_STEP_MM
 
     servo = servo_from_args(args)
     table = load_rule_table(args.rules)
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {line}")
     print(f"wrote {args.output}")
     if args.plot:
-        from fuzzyfeed.plot_compare import plot_comparison
+        from fuzzyfeed.report.plot_compare import plot_comparison
 
         plot_comparison(result, args.plot)
         print(f"wrote {args.plot}")

@@ -6,7 +6,7 @@ import argparse
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.io.shapes import load_shape, sample_shape
-from fuzzyfeed.sampling import sample_by_arc_length
+from fuzzyfeed.geometry.sampling import sample_by_arc_length
 
 
 def register(sub) -> None:
@@ -21,7 +21,7 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from fuzzyfeed.plot import plot_shape_curvature
+    from fuzzyfeed.report.plot import plot_shape_curvature
 
     shape = load_shape(args.shape)
     # a NURBS is drawn from points even in arc length; a polyline from its own vertices

@@ -157,7 +157,7 @@ def run_set(args: argparse.Namespace) -> int:
 
 def run_surface(args: argparse.Namespace) -> int:
     from fuzzyfeed.fuzzy.rules import load_rule_table
-    from fuzzyfeed.plot import plot_rule_surface
+    from fuzzyfeed.report.plot import plot_rule_surface
 
     table = load_rule_table(args.table)
     plot_rule_surface(table, args.output)
@@ -183,7 +183,7 @@ def run_import(args: argparse.Namespace) -> int:
 
     from fuzzyfeed.fuzzy.formats import import_table
     from fuzzyfeed.fuzzy.rules import load_rule_table, table_to_toml
-    from fuzzyfeed.io.atomic import atomic_write
+    from fuzzyfeed.base.atomic import atomic_write
 
     src = Path(args.file)
     if not src.is_file():

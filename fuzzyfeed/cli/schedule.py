@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     print(summary(shape.name, traj, m, bound_profile, feed_note))
     print(f"wrote {args.output}")
     if args.plot:
-        from fuzzyfeed.plot import plot_schedule
+        from fuzzyfeed.report.plot import plot_schedule
 
         plot_schedule(traj, bound_profile, title=shape.name, output=args.plot, feed_cap=cap)
         print(f"wrote {args.plot}")

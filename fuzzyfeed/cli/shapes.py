@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from fuzzyfeed.io.shapes import load_shape, shape_names
-from fuzzyfeed.sampling import max_curvature
+from fuzzyfeed.geometry.sampling import max_curvature
 
 
 def register(sub) -> None:

@@ -11,7 +11,7 @@
 - :mod:`~fuzzyfeed.fuzzy.provenance` — which table, F and path made an advice.
 - :mod:`~fuzzyfeed.fuzzy.skfuzzy_ref` — the same controller in scikit-fuzzy (cross-check).
 
-Importing this package loads neither numba's kernel nor scikit-fuzzy; both load on first use.
+Imports :mod:`fuzzyfeed.machine` and below (layer 4), never the SLW scheduler. Importing this package loads neither numba's kernel nor scikit-fuzzy; both load on first use.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Numba kernel of the exact Mamdani engine (imported lazily by :mod:`fuzzyfeed.fuzzy.engine` for
-calls of at least :data:`fuzzyfeed._kernels.COMPILED_MIN_POINTS` points; smaller calls use the numpy
+calls of at least :data:`fuzzyfeed.geometry._kernels.COMPILED_MIN_POINTS` points; smaller calls use the numpy
 form in :mod:`fuzzyfeed.fuzzy._centroid`, which does the same operations in the same order).
 
 Per point: memberships of the two (clipped) inputs, rule strengths w_r = min(μκ, μDκ) (AND = min),
@@ -20,7 +20,7 @@ from functools import cache
 import numba
 import numpy as np
 
-from fuzzyfeed._kernels import compile_once
+from fuzzyfeed.geometry._kernels import compile_once
 
 
 @numba.njit(cache=True, inline="always")

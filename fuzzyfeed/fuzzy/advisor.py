@@ -13,21 +13,21 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fuzzyfeed._checks import expect
+from fuzzyfeed.base.checks import expect
 from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
 from fuzzyfeed.fuzzy.filters import average_filter, smooth_feed  # noqa: F401  (average_filter: API)
 from fuzzyfeed.fuzzy.rules import RuleTable, load_rule_table
-from fuzzyfeed.limits import MAX_LIMIT
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import POINT_STEP_MM, PathSamples, tangent_breaks
+from fuzzyfeed.machine.limits import MAX_LIMIT
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import POINT_STEP_MM, PathSamples, tangent_breaks
 
 
 def point_sequence_table(table: RuleTable) -> RuleTable:
     """``table`` with its windows as lengths for a point sequence, whose points are where the file
     put them: ``window_mm`` and ``filter_mm`` as given, else the stretch WS and M points cover at
-    :data:`fuzzyfeed.sampling.POINT_STEP_MM` (the step whole programs are sampled at). Counted in
+    :data:`fuzzyfeed.geometry.sampling.POINT_STEP_MM` (the step whole programs are sampled at). Counted in
     points, a window would reach 30 mm along a line cut into 1 mm steps and 0.4 mm along an arc
     flattened finely beside it."""
     return replace(table,

@@ -8,7 +8,7 @@ the table's ``feed_floor_pct`` — scikit-fuzzy would drop the output there.
 
 The per-point loop is a numba kernel (``fuzzyfeed.fuzzy._kernel``, compiled once and cached on
 disk) for large calls and its numpy form (``fuzzyfeed.fuzzy._centroid``, the same floats) for calls
-below ``fuzzyfeed._kernels.COMPILED_MIN_POINTS`` points, so a small run never loads numba.
+below ``fuzzyfeed.geometry._kernels.COMPILED_MIN_POINTS`` points, so a small run never loads numba.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed._checks import expect, finite_vector
-from fuzzyfeed._kernels import use_compiled
+from fuzzyfeed.base.checks import expect, finite_vector
+from fuzzyfeed.geometry._kernels import use_compiled
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.rules import RuleTable, Variable
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed._checks import expect, float_array
+from fuzzyfeed.base.checks import expect, float_array
 from fuzzyfeed.errors import InputError
 
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fuzzyfeed._checks import finite_vector
+from fuzzyfeed.base.checks import finite_vector
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.windows import cell_lengths, centred_bounds, range_min, window_mean
 

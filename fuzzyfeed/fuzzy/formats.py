@@ -49,7 +49,7 @@ def parse_text(text: str, fmt: str, path: str | Path = "<rules>") -> Spec:
 def import_table(path: str | Path, fmt: str | None = None,
                  settings_from: RuleTable | None = None) -> RuleTable:
     """Read a FCL, FLL, ``.fis`` (or fuzzyfeed ``.toml``) file as a validated :class:`RuleTable`."""
-    from fuzzyfeed._files import read_text
+    from fuzzyfeed.base.files import read_text
 
     path = Path(path)
     if fmt is None:

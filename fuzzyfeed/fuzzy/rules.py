@@ -22,7 +22,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
+from fuzzyfeed.base.files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.filters import DEFAULT_FILTER, FILTER_KINDS
 
@@ -511,7 +511,7 @@ def _quote(s: str) -> str:
 
 def save_rule_table(t: RuleTable, path: str | Path) -> None:
     """Write ``t`` to ``path`` atomically (comments are not kept; use :func:`set_cell` for edits)."""
-    from fuzzyfeed.io.atomic import atomic_write
+    from fuzzyfeed.base.atomic import atomic_write
 
     with atomic_write(path, "w") as handle:
         handle.write(table_to_toml(t))
@@ -579,7 +579,7 @@ def _replace_cell_in_line(text: str, row: str, j: int, old: str, label: str) -> 
 
 def set_cell(path: str | Path, row: str, column: str, label: str) -> RuleTable:
     """Change one rule of the file at ``path`` in place (atomically, comments kept); returns the table."""
-    from fuzzyfeed.io.atomic import atomic_write
+    from fuzzyfeed.base.atomic import atomic_write
 
     path = Path(path)
     new_text = set_cell_text(_read_text(path), row, column, label, path)

@@ -26,11 +26,11 @@ import numpy as np
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.advisor import advise
 from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import PathSamples
-from fuzzyfeed.servo import ServoModel
-from fuzzyfeed.simulate import Metrics, simulate_profile
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import PathSamples
+from fuzzyfeed.machine.servo import ServoModel
+from fuzzyfeed.machine.simulate import Metrics, simulate_profile
 
 #: Relative weight of a constraint excess against the cycle time.
 PENALTY = 20.0

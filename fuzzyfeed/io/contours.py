@@ -10,7 +10,7 @@ A contour of one NURBS piece stays that NURBS. A contour of several pieces is a 
 points lie exactly on the pieces (chord turning ≤ :data:`FLATTEN_ANGLE_RAD`, so its length is
 within 2·10⁻⁷ of the exact one; straight segments cut into steps ≤ :data:`STRAIGHT_STEP_MM`),
 sampled at its own vertices with the curvature of
-:mod:`fuzzyfeed.polyline` (arcs fitted back to their exact κ = 1/R, corners blended as the
+:mod:`fuzzyfeed.geometry.polyline` (arcs fitted back to their exact κ = 1/R, corners blended as the
 controller blends them).
 
 ezdxf is imported inside the functions.
@@ -45,7 +45,7 @@ class Piece:
     where: str                  # "LINE 2F (layer CUT)" or "INSERT 3A > ARC #2 (layer 0)"
     layer: str
     handle: str
-    curve: object = None        # fuzzyfeed.nurbs.Nurbs (3-D control points) or None
+    curve: object = None        # fuzzyfeed.geometry.nurbs.Nurbs (3-D control points) or None
     points: np.ndarray | None = None
     reversed: bool = False
     how: str = ""               # how the curve was read (for notes)

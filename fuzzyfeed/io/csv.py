@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from fuzzyfeed.errors import ExportError
-from fuzzyfeed.io.atomic import atomic_write
+from fuzzyfeed.base.atomic import atomic_write
 
 
 def write_columns(path: str | os.PathLike, columns: Mapping[str, np.ndarray],

@@ -47,7 +47,7 @@ from fuzzyfeed.io.contours import FLATTEN_ANGLE_RAD, Contour, Piece, chain
 from fuzzyfeed.io.dxf_splines import spline_curves
 from fuzzyfeed.io.points import pick_by_index, polyline_shape
 from fuzzyfeed.io.shape import Shape
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.geometry.nurbs import Nurbs
 
 #: A bulge whose sagitta is below this (mm) is a straight segment (a bulge of 1e-300 has no arc).
 STRAIGHT_SAGITTA_MM = 1e-9

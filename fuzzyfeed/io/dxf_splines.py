@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.errors import NurbsError, PathFormatError
-from fuzzyfeed.nurbs import Nurbs, insert_knot
+from fuzzyfeed.geometry.nurbs import Nurbs, insert_knot
 
 
 def _clamp_start(p: int, knots: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,7 @@ the file, the row (the file's line number) and the column; a row that repeats th
 is dropped (a note says how many).
 
 A polyline shape keeps the points (``Shape.polyline``) — the planners sample it at its vertices
-with the curvature of :mod:`fuzzyfeed.polyline` (the path within the coordinates' rounding,
+with the curvature of :mod:`fuzzyfeed.geometry.polyline` (the path within the coordinates' rounding,
 corners as the controller's blend) — and carries as ``Shape.curve`` the degree-1
 NURBS through the points with chord-length knots, for plotting and arc length.
 """
@@ -23,16 +23,16 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzyfeed._files import read_text as read_file_text
+from fuzzyfeed.base.files import read_text as read_file_text
 from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.io.shape import Shape
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.geometry.nurbs import Nurbs
 
 _COLUMN_SETS = (("x_mm", "y_mm", "z_mm"), ("x", "y", "z"))
 
 
 def read_text(path: str | os.PathLike, kind: str) -> str:
-    """The text of a path file (CSV or G-code); see :func:`fuzzyfeed._files.read_text`. G-code may
+    """The text of a path file (CSV or G-code); see :func:`fuzzyfeed.base.files.read_text`. G-code may
     be Latin-1 (comments in old controllers' files often are)."""
     return read_file_text(path, kind, PathFormatError, latin1=kind == "G-code")
 
@@ -61,7 +61,7 @@ def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Pat
     if not np.isfinite(pts).all():
         i = int(np.argwhere(~np.isfinite(pts))[0, 0])
         raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must be finite")
-    from fuzzyfeed.nurbs import MAX_COORDINATE_MM
+    from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
 
     big = np.abs(pts) > MAX_COORDINATE_MM
     if big.any():

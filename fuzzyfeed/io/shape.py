@@ -1,6 +1,6 @@
 """The one shape value every reader returns: a named tool path (NURBS in mm) and its origin.
 
-Readers (:mod:`fuzzyfeed.io.points`, :mod:`fuzzyfeed.io.dxf`, :mod:`fuzzyfeed.io.gcode_shapes`)
+Readers (:mod:`fuzzyfeed.io.points`, :mod:`fuzzyfeed.io.dxf`, :mod:`fuzzyfeed.io.gcode_paths`)
 import only this module; :mod:`fuzzyfeed.io.shapes` is the one dispatcher that imports them.
 """
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.geometry.nurbs import Nurbs
 
 
 @dataclass(frozen=True, eq=False)

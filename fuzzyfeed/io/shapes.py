@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzyfeed._files import read_text, resolve_file, shipped_dir, shipped_names
+from fuzzyfeed.base.files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.errors import NurbsError, ShapeFileError
-from fuzzyfeed.io.program import GCODE_SUFFIXES
+from fuzzyfeed.program.model import GCODE_SUFFIXES
 from fuzzyfeed.io.shape import Shape
-from fuzzyfeed.nurbs import Nurbs, non_number
-from fuzzyfeed.sampling import DEFAULT_POINTS, PathSamples, sample_uniform_u, samples_from_points
+from fuzzyfeed.geometry.nurbs import Nurbs, non_number
+from fuzzyfeed.geometry.sampling import DEFAULT_POINTS, PathSamples, sample_uniform_u, samples_from_points
 
 #: Units a shape file may declare, with the factor that converts them to mm.
 UNIT_TO_MM = {"mm": 1.0, "inch": 25.4, "in": 25.4}
@@ -42,7 +42,7 @@ def shape_names() -> list[str]:
 def sample_shape(shape: Shape, points: int = DEFAULT_POINTS, max_step_mm: float | None = None) -> PathSamples:
     """The planners' samples of a shape: ``points`` uniform in u for a NURBS (seed 002); for a
     polyline the vertices themselves with the curvature of the path they describe
-    (:func:`fuzzyfeed.sampling.samples_from_points`), with samples added inside segments longer
+    (:func:`fuzzyfeed.geometry.sampling.samples_from_points`), with samples added inside segments longer
     than ``max_step_mm`` if given."""
     if not isinstance(shape, Shape):
         raise ShapeFileError(f"shape: {type(shape).__name__} {shape!r:.40}; expected a Shape (load_shape)")
@@ -192,12 +192,12 @@ SELECTOR_HELP = ("FILE#SELECTOR picks one path of a file with several: DXF FILE#
 
 
 def _load_gcode(path: Path, selector: str | None = None) -> Shape:
-    from fuzzyfeed.io.gcode_shapes import load_gcode
+    from fuzzyfeed.io.gcode_paths import load_gcode
     return load_gcode(path, selector)
 
 
 def _load_gcode_all(path: Path) -> list[Shape]:
-    from fuzzyfeed.io.gcode_shapes import load_gcode_shapes
+    from fuzzyfeed.io.gcode_paths import load_gcode_shapes
     return load_gcode_shapes(path)
 
 

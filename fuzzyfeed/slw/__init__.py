@@ -1,8 +1,8 @@
 """The SLW scheduler (seed 000): deterministic, jerk-limited, sliding look-ahead feed scheduling.
 
 ``schedule(curve, limits) -> Trajectory`` is the entry point; ``time_optimal_bound(samples,
-limits)`` the acceleration-limited reference every comparison uses. This package imports the core
-(nurbs, sampling, profile, limits, interpolate, errors) and never the fuzzy advisor.
+limits)`` the acceleration-limited reference every comparison uses. Imports :mod:`fuzzyfeed.machine`
+and below (layer 4), never the fuzzy advisor.
 """
 
 from fuzzyfeed.slw.bound import Bound, path_bound, time_optimal_bound

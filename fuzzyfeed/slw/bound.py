@@ -25,10 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed.limits import MachineLimits, curvature_vectors, feed_limit_components
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import PathSamples, samples_at
+from fuzzyfeed.machine.limits import MachineLimits, curvature_vectors, feed_limit_components
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import PathSamples, samples_at
 
 #: Largest grid step (mm) and least number of intervals of the base grid.
 MAX_STEP_MM = 0.25

@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fuzzyfeed.limits import MachineLimits
-from fuzzyfeed.nurbs import Nurbs
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
 from fuzzyfeed.slw.preprocess import Block, Reference, corner_plan, evaluate_reference
 from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, lowest_end_speed, max_start_speed,

@@ -2,7 +2,7 @@
 
 The path is pre-interpolated into reference points at a constant arc-length step (the distance the
 pre-interpolation feed covers in one servo period, seed 000 "Real-time NURBS curve preprocessing"),
-and the feasible feed of :func:`fuzzyfeed.limits.feed_limits` (eq. (8)-(12)) is computed at each.
+and the feasible feed of :func:`fuzzyfeed.machine.limits.feed_limits` (eq. (8)-(12)) is computed at each.
 Three consecutive points whose middle one is a local minimum below the command feed form a critical
 region (eq. (15)); the region is pre-interpolated again, ten times finer, until the minimum is
 located to ``1e-3`` of the coarse step (local fine pre-interpolation, Algorithm 1). The minima are
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed._cache import per_curve
+from fuzzyfeed.base.cache import per_curve
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.limits import MachineLimits, curvature_vectors, feed_limits
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.sampling import samples_at
+from fuzzyfeed.machine.limits import MachineLimits, curvature_vectors, feed_limits
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.sampling import samples_at
 from fuzzyfeed.slw.feed_cap import STAIR_RATIO, FeedCap
 from fuzzyfeed.slw.profile import transition_distance
 

@@ -1,7 +1,7 @@
 """The timed trajectory of the SLW scheduler: one row per servo period, and its measurement.
 
 :func:`schedule` runs preprocessing → sliding look-ahead window → sampling of the cosine profile at
-t_k = k·Ts → :func:`fuzzyfeed.interpolate.interpolate_u` ("best": chord-exact, second-order Taylor
+t_k = k·Ts → :func:`fuzzyfeed.geometry.interpolate.interpolate_u` ("best": chord-exact, second-order Taylor
 step + Newton on s(u)). The last tick lands exactly on the path's end (terminal-error compensation,
 seed 000): the profile reaches rest at t_end and the tick at ⌈t_end/Ts⌉·Ts is put on the end point.
 """
@@ -13,16 +13,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from fuzzyfeed._cache import per_curve
-from fuzzyfeed._checks import expect
+from fuzzyfeed.base.cache import per_curve
+from fuzzyfeed.base.checks import expect
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.interpolate import interpolate_u
-from fuzzyfeed.limits import AXES, MachineLimits
-from fuzzyfeed.nurbs import Nurbs
-from fuzzyfeed.polyline_fit import PolylineFit, fit_polyline
-from fuzzyfeed.profile import FeedProfile
-from fuzzyfeed.sampling import PathSamples
-from fuzzyfeed.simulate import Simulation, TimeLaw, simulate
+from fuzzyfeed.geometry.interpolate import interpolate_u
+from fuzzyfeed.machine.limits import AXES, MachineLimits
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.polyline_fit import PolylineFit, fit_polyline
+from fuzzyfeed.machine.profile import FeedProfile
+from fuzzyfeed.geometry.sampling import PathSamples
+from fuzzyfeed.machine.simulate import Simulation, TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, machine_cap
@@ -83,7 +83,7 @@ class Trajectory:
                        duration_s=self.cycle_time_s)
 
     def simulate(self, method: str = "slw", bound_time_s: float | None = None, servo=None) -> Simulation:
-        """The trajectory through the one simulator (:func:`fuzzyfeed.simulate.simulate`) on the
+        """The trajectory through the one simulator (:func:`fuzzyfeed.machine.simulate.simulate`) on the
         path it follows, with its own interpolated parameters."""
         return simulate(self.curve, self.time_law(), self.limits, method, bound_time_s=bound_time_s,
                         servo=servo, u=self.u, xyz=self.xyz)
@@ -185,7 +185,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
 
     A polyline (degree 1) is followed as a blending controller follows it (``blend``, default):
     smooth within the path tolerance P (``path_tolerance_mm``, default G64 P0.01) between its true
-    corners, which are passed within one servo period (:func:`fuzzyfeed.polyline_fit.fit_polyline`);
+    corners, which are passed within one servo period (:func:`fuzzyfeed.geometry.polyline_fit.fit_polyline`);
     ``blend=False`` takes every vertex as a corner. The fit is ``Trajectory.polyline_fit``.
 
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
@@ -264,7 +264,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
 
 # ---------------------------------------------------------------------- measurement
 def measure(traj: Trajectory) -> dict[str, float]:
-    """Worst ratio to each limit, measured by the one simulator (:func:`fuzzyfeed.simulate.simulate`).
+    """Worst ratio to each limit, measured by the one simulator (:func:`fuzzyfeed.machine.simulate.simulate`).
 
     From the positions (differences at Ts): feed, axial velocity, axial acceleration, chord
     error. From the scheduled profile: tangential acceleration (over the smallest axis limit, a

@@ -1,0 +1,189 @@
+"""Sample a cut of a program on its exact geometry, for the advisor.
+
+A cut's moves are sampled at most ``step_mm`` apart (arcs also every :data:`ARC_STEP_RAD`):
+lines at evenly spaced points on the line, arcs on the exact circle (helical too), G5.2 blocks
+uniformly in their parameter. The curvature of every sample is exact where the path is smooth —
+0 inside a line, r / (r² + c²) inside an arc of radius r and rise c per radian (1/r when planar),
+the NURBS's own κ inside a G5.2 block — and the three-point estimate of seed 002 (eq. 4–9,
+:func:`fuzzyfeed.geometry.sampling.three_point_curvature`) at the points where moves meet, taken over the
+sequence of move ends and arc/NURBS points (so a corner between two lines is seen at its own
+scale, not at the sampling step). Each segment between consecutive samples belongs to one move,
+between two fractions of it (``seg_move``, ``seg_f0``, ``seg_f1``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzyfeed.program.model import ARC, LINE, Program, arc_geometry, arc_points
+from fuzzyfeed.geometry.sampling import POINT_STEP_MM, PathSamples, segment_pieces, three_point_curvature
+
+#: Default largest distance between samples along a cut (mm).
+DEFAULT_STEP_MM = POINT_STEP_MM
+#: Largest angle between samples on an arc (rad): 10°.
+ARC_STEP_RAD = np.pi / 18
+
+
+@dataclass(frozen=True, eq=False)
+class CutSamples:
+    """The samples of one cut and, per segment between samples, the move it lies on."""
+
+    cut: int
+    samples: PathSamples
+    seg_move: np.ndarray     # (N-1,) move index
+    seg_f0: np.ndarray       # (N-1,) fraction of the move where the segment starts
+    seg_f1: np.ndarray       # (N-1,) ... and ends
+    sample_move: np.ndarray  # (N,) the move each sample lies on (a move end: the arriving move)
+
+
+def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> CutSamples:
+    """Samples of cut ``k`` (see the module docstring)."""
+    moves = program.cut_moves(k)
+    start, end = program.start, program.end
+    kinds = program.kind[moves]
+    chord = np.linalg.norm(end[moves] - start[moves], axis=1)
+    keep = (chord > 0) | (kinds != LINE)
+    moves, kinds, chord = moves[keep], kinds[keep], chord[keep]
+    if np.all(kinds == LINE):
+        counts = segment_pieces(chord, step_mm)
+        total = int(counts.sum())
+        seg_move = np.repeat(moves, counts)
+        first = np.repeat(np.cumsum(counts) - counts, counts)
+        idx = np.arange(total) - first + 1
+        cnt = np.repeat(counts, counts)
+        f1 = idx / cnt
+        f0 = (idx - 1) / cnt
+        s0 = start[seg_move]
+        pts = s0 + (end[seg_move] - s0) * f1[:, None]
+        pts[idx == cnt] = end[seg_move[idx == cnt]]
+        pts = np.vstack([start[moves[0]][None, :], pts])
+        exact = np.where(idx == cnt, np.nan, 0.0)      # κ inside a line is 0
+        key = np.concatenate([[True], idx == cnt])
+    else:
+        parts, f0s, f1s, segm, exacts, keys = [start[moves[0]][None, :]], [], [], [], [], [True]
+        for m, kind, c in zip(moves, kinds, chord):
+            if kind == LINE:
+                n = int(segment_pieces(np.array([c]), step_mm)[0])
+                f = np.arange(1, n + 1) / n
+                p = start[m] + (end[m] - start[m]) * f[:, None]
+                p[-1] = end[m]
+                ex = np.zeros(n)
+                key = np.zeros(n, bool)
+            elif kind == ARC:
+                g = arc_geometry(program, m)
+                n = max(2, int(np.ceil(g["length"] / step_mm)), int(np.ceil(abs(g["sweep"]) / ARC_STEP_RAD)))
+                f = np.arange(1, n + 1) / n
+                p = arc_points(program, m, f)
+                ex = np.full(n, g["curvature"])
+                key = np.ones(n, bool)
+            else:  # NURBS
+                curve = program.nurbs[int(m)]
+                spans = max(1, curve.span_breaks.size - 1)
+                n = max(8 * spans, int(np.ceil(curve.length / step_mm)))
+                lo, hi = curve.domain
+                f = np.arange(1, n + 1) / n
+                u = lo + (hi - lo) * f
+                c3 = curve(u)
+                p = np.column_stack([c3[:, 0], c3[:, 1], np.full(n, start[m, 2])])
+                p[-1] = end[m]
+                ex = np.asarray(curve.curvature(u), dtype=float)
+                key = np.ones(n, bool)
+            ex = ex.copy()
+            ex[-1] = np.nan          # a move end: estimated where the moves meet
+            key[-1] = True
+            parts.append(p)
+            f0s.append(np.concatenate([[0.0], f[:-1]]))
+            f1s.append(f)
+            segm.append(np.full(f.size, m))
+            exacts.append(ex)
+            keys.append(key)
+        pts = np.vstack(parts)
+        f0, f1 = np.concatenate(f0s), np.concatenate(f1s)
+        seg_move = np.concatenate(segm)
+        exact = np.concatenate(exacts)
+        key = np.concatenate([np.asarray(kk, bool) for kk in keys[1:]])
+        key = np.concatenate([[True], key])
+    # curvature: exact inside moves, three-point estimate over the key points at move ends
+    kappa = np.concatenate([[np.nan], exact])
+    key_idx = np.flatnonzero(key)
+    if key_idx.size >= 3:
+        kp = pts[key_idx]
+        distinct = np.concatenate([[True], np.any(kp[1:] != kp[:-1], axis=1)])
+        kk = three_point_curvature(kp[distinct])
+        est = np.empty(key_idx.size)
+        est[distinct] = kk
+        est[~distinct] = np.nan
+        est = _ffill_nan(est)
+        at = np.isnan(kappa[key_idx])
+        kappa[key_idx[at]] = est[at]
+    _line_runs_curvature(kappa, pts, moves, kinds, seg_move, exact)
+    kappa = np.where(np.isnan(kappa), 0.0, kappa)
+    ds = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(ds)])
+    total = s[-1] if s[-1] > 0 else 1.0
+    tangent = np.zeros_like(pts)
+    d = np.diff(pts, axis=0)
+    nz = ds > 0
+    d[nz] /= ds[nz, None]
+    tangent[:-1] = d
+    tangent[-1] = d[-1]
+    nan = np.full_like(pts, np.nan)
+    samples = PathSamples(u=s / total, xyz=pts, s=s, tangent=tangent, curvature=kappa,
+                          d1=nan, d2=nan, dim=3, curve=None)
+    sample_move = np.concatenate([[seg_move[0]], seg_move])
+    return CutSamples(cut=k, samples=samples, seg_move=seg_move, seg_f0=f0, seg_f1=f1,
+                      sample_move=sample_move)
+
+
+def _line_runs_curvature(kappa: np.ndarray, pts: np.ndarray, moves: np.ndarray, kinds: np.ndarray,
+                         seg_move: np.ndarray, exact: np.ndarray) -> None:
+    """Curvature along runs of consecutive G1 moves, in place: the path the vertices describe within
+    their own rounding (:func:`fuzzyfeed.geometry.polyline.polyline_curvature`: straight runs κ = 0, a circle
+    written as rounded G1 chords its one κ = 1/R, a corner the LinuxCNC G64 P blend), not the
+    three-point estimate of rounded coordinates. The run's vertices get that κ (the ends too, unless
+    an arc or a G5.2 block meets them there); a sample inside a line move gets the smaller κ of the
+    move's two ends that are not corners (0 between two corners) — a chord of a circle run has the
+    circle's κ, a side of a polygon has 0."""
+    from fuzzyfeed.geometry.polyline import polyline_curvature
+
+    is_line = kinds == LINE
+    if is_line.sum() < 2:
+        return
+    vertex_sample = np.flatnonzero(np.concatenate([[True], np.isnan(exact)]))  # cut start + move ends
+    # moves[j] ends at sample vertex_sample[j + 1] and starts at vertex_sample[j]
+    j = 0
+    while j < moves.size:
+        if not is_line[j]:
+            j += 1
+            continue
+        k = j
+        while k + 1 < moves.size and is_line[k + 1]:
+            k += 1
+        if k > j:                                   # moves j..k: at least two lines in a row
+            at = vertex_sample[j:k + 2]
+            fit = polyline_curvature(pts[at])
+            est = fit.curvature
+            # inside a move: a corner end is the blend, not the move's own curvature
+            own = np.where(fit.corner, np.inf, est)
+            first = 0 if j == 0 else 1              # an arc/NURBS end keeps the junction estimate
+            last = est.size if k == moves.size - 1 else est.size - 1
+            kappa[at[first:last]] = est[first:last]
+            inside = np.isin(seg_move, moves[j:k + 1])
+            idx = np.flatnonzero(inside)[:-1] + 1   # samples strictly inside a move (not its end)
+            idx = idx[~np.isnan(exact[idx - 1])]
+            if idx.size:
+                move_of = np.searchsorted(moves[j:k + 1], seg_move[idx - 1])
+                inner = np.minimum(own[move_of], own[move_of + 1])
+                kappa[idx] = np.where(np.isfinite(inner), inner, 0.0)    # between two corners: 0
+        j = k + 1
+
+
+def _ffill_nan(values: np.ndarray) -> np.ndarray:
+    ok = ~np.isnan(values)
+    if ok.all():
+        return values
+    idx = np.where(ok, np.arange(values.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    return values[idx]

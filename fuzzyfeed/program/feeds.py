@@ -1,0 +1,195 @@
+"""Advised feeds for a whole program: the fuzzy advice per cut, applied under the program's own F.
+
+For every cut (:mod:`fuzzyfeed.program.model`) the advisor (seed 002) runs on the cut's exact
+geometry (:func:`fuzzyfeed.program.cuts.sample_cut`) and gives a fraction φ = feed % / 100 at every
+sample. The feed of a segment between two samples is min(φ_i, φ_i+1) × F, with F the feed the
+program has at that move (its ceiling, also for plunges and ramps), capped by ``cap_mm_min`` if
+given; it is rounded *down* to a multiple of ``feed_step_mm_min`` (one step is the floor, but
+never above F). A move is split only where that rounded feed changes inside it, into pieces of at
+least ``min_piece_mm`` (a shorter stretch joins its neighbour at the slower of the two feeds); a
+move shorter than 2 × ``min_piece_mm``, a G5.2 block, a move whose line also stops the program
+(M0/M1/M2/M30/M60) and a multi-turn arc keep one feed, the slowest over the move. Moves outside cuts (rapids, cycles, moves from unknown positions,
+G93/G95 moves) keep their programmed feed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzyfeed.program.cuts import DEFAULT_STEP_MM, CutSamples, sample_cut
+from fuzzyfeed.errors import InputError, PathFormatError
+from fuzzyfeed.fuzzy.advisor import FuzzyAdvice, advise_details
+from fuzzyfeed.fuzzy.engine import compile_table
+from fuzzyfeed.fuzzy.rules import RuleTable
+from fuzzyfeed.program.model import NO_FEED_RULE, NURBS, Program
+
+#: Default feed quantisation for programs (mm/min).
+DEFAULT_PROGRAM_FEED_STEP_MM_MIN = 10.0
+#: Shortest piece a move is split into (mm): a shorter stretch takes the slower neighbour's feed,
+#: and a move shorter than twice this keeps one feed (the slowest over it).
+DEFAULT_MIN_PIECE_MM = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramAdvice:
+    """Advice for a program: per advised cut its samples and fuzzy advice, and the pieces every
+    advised move is written as (move, end fraction, feed mm/min), in move order."""
+
+    program: Program
+    cuts: tuple[CutSamples, ...]
+    advice: tuple[FuzzyAdvice, ...]
+    ceiling_mm_min: tuple[np.ndarray, ...]   # per cut, per sample: the F the fraction applies to
+    piece_move: np.ndarray
+    piece_end: np.ndarray
+    piece_feed_mm_min: np.ndarray
+    feed_step_mm_min: float
+    cap_mm_min: float | None
+    table: RuleTable
+
+    def fraction(self, i: int) -> np.ndarray:
+        return self.advice[i].feed_pct / 100.0
+
+
+def quantise_down(feed_mm_min: np.ndarray, step: float, ceiling: np.ndarray) -> np.ndarray:
+    """Round down to a multiple of ``step``, at least one step, never above ``ceiling``."""
+    q = np.floor(feed_mm_min / step + 1e-9) * step
+    q = np.maximum(q, step)
+    return np.minimum(q, ceiling)
+
+
+def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None = None,
+                   step_mm: float = DEFAULT_STEP_MM, cap_mm_min: float | None = None,
+                   feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
+                   min_piece_mm: float = DEFAULT_MIN_PIECE_MM) -> ProgramAdvice:
+    """Advise the cuts ``cuts`` (default: all) of ``program`` (see the module docstring)."""
+    if not (np.isfinite(step_mm) and step_mm > 0):
+        raise InputError(f"step_mm = {step_mm!r}; the sampling step must be finite and > 0")
+    if not (np.isfinite(feed_step_mm_min) and feed_step_mm_min > 0):
+        raise InputError(f"feed_step_mm_min = {feed_step_mm_min!r}; must be finite and > 0")
+    if program.n_cuts == 0:
+        raise PathFormatError(f"{program.path}: no feed move (G1, G2/G3 or G5.2) in G94 found; "
+                              "nothing to advise")
+    chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
+    engine = compile_table(table)
+    feed = program.feed_mm_min
+    for k in chosen:
+        moves = program.cut_moves(k)
+        bad = ~(feed[moves] > 0)
+        if bad.any():
+            line = int(program.move_line[moves[np.argmax(bad)]]) + 1
+            raise PathFormatError(f"{program.path}:{line}: {NO_FEED_RULE}")
+    cut_samples, advices, ceilings = [], [], []
+    pm, pe, pf = [], [], []
+    for k in chosen:
+        cs = sample_cut(program, k, step_mm)
+        adv = advise_details(cs.samples, table, 100.0, engine=engine)
+        phi = adv.feed_pct / 100.0
+        ceiling_seg = feed[cs.seg_move]
+        if cap_mm_min is not None:
+            ceiling_seg = np.minimum(ceiling_seg, cap_mm_min)
+        seg_phi = np.minimum(phi[:-1], phi[1:])
+        q = quantise_down(seg_phi * ceiling_seg, feed_step_mm_min, ceiling_seg)
+        # one feed per move where it may not be split: the slowest over the move
+        seg_len = np.diff(cs.samples.s)
+        new_move = np.ones(q.size, bool)
+        new_move[1:] = cs.seg_move[1:] != cs.seg_move[:-1]
+        first = np.flatnonzero(new_move)
+        move_len = np.add.reduceat(seg_len, first)
+        move_min = np.minimum.reduceat(q, first)
+        grp = np.cumsum(new_move) - 1
+        whole = (program.no_split[cs.seg_move] | (program.kind[cs.seg_move] == NURBS)
+                 | (move_len[grp] < 2 * min_piece_mm))
+        q = np.where(whole, move_min[grp], q)
+        change = new_move.copy()
+        change[1:] |= q[1:] != q[:-1]
+        last = np.append(change[1:], True)          # last segment of each piece
+        p_move = cs.seg_move[last]
+        p_end = np.where(np.append(new_move[1:], True)[last], 1.0, cs.seg_f1[last])
+        p_feed = q[last]
+        starts = np.flatnonzero(change)
+        p_len = np.add.reduceat(seg_len, starts)
+        p_move, p_end, p_feed = _merge_short(p_move, p_end, p_feed, p_len, min_piece_mm)
+        pm.append(p_move)
+        pe.append(p_end)
+        pf.append(p_feed)
+        cut_samples.append(cs)
+        advices.append(adv)
+        ceil_sample = feed[cs.sample_move]
+        if cap_mm_min is not None:
+            ceil_sample = np.minimum(ceil_sample, cap_mm_min)
+        ceilings.append(ceil_sample)
+    return ProgramAdvice(program=program, cuts=tuple(cut_samples), advice=tuple(advices),
+                         ceiling_mm_min=tuple(ceilings), piece_move=np.concatenate(pm),
+                         piece_end=np.concatenate(pe), piece_feed_mm_min=np.concatenate(pf),
+                         feed_step_mm_min=feed_step_mm_min, cap_mm_min=cap_mm_min, table=table)
+
+
+def _merge_short(move, end, feed, length, min_len):
+    """Join pieces shorter than ``min_len`` to a neighbour of the same move (slower feed wins)."""
+    same_next = np.append(move[1:] == move[:-1], False)
+    multi = same_next | np.insert(same_next[:-1], 0, False)
+    if not (multi & (length < min_len)).any():
+        return move, end, feed
+    keep = ~multi
+    out_m, out_e, out_f = [move[keep]], [end[keep]], [feed[keep]]
+    idx = np.flatnonzero(multi)
+    starts = idx[np.insert(move[idx][1:] != move[idx][:-1], 0, True)]
+    for i in starts.tolist():
+        j = i
+        while j + 1 < move.size and move[j + 1] == move[i]:
+            j += 1
+        ends, feeds, lens = list(end[i:j + 1]), list(feed[i:j + 1]), list(length[i:j + 1])
+        k = 0
+        while len(lens) > 1 and k < len(lens):
+            if lens[k] < min_len:
+                other = k + 1 if k + 1 < len(lens) else k - 1
+                lo, hi = min(k, other), max(k, other)
+                ends[lo:hi + 1] = [ends[hi]]
+                feeds[lo:hi + 1] = [min(feeds[lo], feeds[hi])]
+                lens[lo:hi + 1] = [lens[lo] + lens[hi]]
+                k = lo
+            else:
+                k += 1
+        out_m.append(np.full(len(ends), move[i], dtype=move.dtype))
+        out_e.append(np.array(ends))
+        out_f.append(np.array(feeds))
+    m, e, f = np.concatenate(out_m), np.concatenate(out_e), np.concatenate(out_f)
+    order = np.lexsort((e, m))
+    return m[order], e[order], f[order]
+
+
+def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:
+    """CSV columns of a program's advice: one row per sample of every advised cut, with the cut
+    number (1-based) and the source line (1-based) of the move each sample lies on."""
+    cols: dict[str, list] = {}
+    for cs, adv, ceil in zip(pa.cuts, pa.advice, pa.ceiling_mm_min):
+        n = len(cs.samples)
+        part = {"cut": np.full(n, cs.cut + 1),
+                "source_line": pa.program.move_line[cs.sample_move] + 1}
+        part.update(cs.samples.columns())
+        part["curvature_window_max_1_mm"] = adv.features.window_max_1_mm
+        part["curvature_variation"] = adv.features.curvature_variation
+        part["feed_pct_controller"] = adv.controller_pct
+        part["feed_pct"] = adv.feed_pct
+        part["programmed_feed_mm_min"] = ceil
+        part["feed_mm_min"] = adv.feed_pct / 100.0 * ceil
+        for key, value in part.items():
+            cols.setdefault(key, []).append(np.asarray(value))
+    return {key: np.concatenate(parts) for key, parts in cols.items()}
+
+
+def program_times(pa: ProgramAdvice) -> tuple[float, float]:
+    """Time (s) of the advised cuts' feed moves at the programmed feeds and at the written
+    (advised, rounded) feeds, ignoring acceleration."""
+    program = pa.program
+    lengths = program.move_lengths()
+    moves = np.unique(pa.piece_move)
+    t_prog = float(np.sum(lengths[moves] / program.feed_mm_min[moves])) * 60.0
+    starts = np.concatenate([[0.0], pa.piece_end[:-1]])
+    same = np.concatenate([[False], pa.piece_move[1:] == pa.piece_move[:-1]])
+    starts = np.where(same, starts, 0.0)
+    frac = pa.piece_end - starts
+    t_adv = float(np.sum(lengths[pa.piece_move] * frac / pa.piece_feed_mm_min)) * 60.0
+    return t_prog, t_adv

@@ -1,0 +1,145 @@
+"""The program model: a whole G-code program as its original lines plus one row per motion.
+
+:func:`fuzzyfeed.program.read.read_program` builds it; :mod:`fuzzyfeed.program.rewrite`
+writes it back with changed F words. Every original line is kept (``lines``), with the modal
+state in force after it (per-line arrays). Every line that moves the tool gives one *move* row
+(per-move arrays, in mm, in the coordinate frame in force): its kind, start, end, the programmed
+F in force, and for arcs the exact circle. A *cut* is a chain of feed moves (lines, arcs, NURBS
+blocks) between rapids; ``cut`` numbers them from 0 (−1 for moves in no cut).
+
+Positions a program does not determine (after a change of work offset, tool length offset,
+G10, G92, a G28/G30/G53 move or a canned cycle) are tracked as *unknown*: a move from or to an
+unknown coordinate is kept as written (kind KEPT or its own kind) and never advised.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+#: File suffixes read as G-code.
+GCODE_SUFFIXES = (".ngc", ".nc", ".gcode", ".gc", ".tap", ".cnc")
+MM_PER_INCH = 25.4
+#: Why a feed move without an F in force is refused (LinuxCNC refuses it too).
+NO_FEED_RULE = ("feed move with no F in force (F = 0); the program must give an F word before its "
+                "first feed move")
+
+# move kinds
+RAPID, LINE, ARC, NURBS, CYCLE, KEPT, HOME = range(7)
+KIND_NAMES = ("rapid", "line", "arc", "nurbs", "cycle", "kept", "home")
+#: Kinds the advisor changes (their feed is advised per cut).
+ADVISED_KINDS = (LINE, ARC, NURBS)
+#: Plane codes: G17 (XY), G18 (XZ), G19 (YZ) -> (first axis, second axis, normal axis) indices,
+#: as LinuxCNC orders them (G18: Z then X).
+PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
+#: Centre words of each axis (X: I, Y: J, Z: K).
+CENTRE_LETTERS = "IJK"
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """A read program (see the module docstring). Arrays are read-only in spirit; lengths:
+    L = number of lines, M = number of moves."""
+
+    path: Path
+    lines: tuple[str, ...]
+    newline: str
+    end_line: int                     # 0-based index of the line with M2/M30 (L if none)
+    # per line (L)
+    inch: np.ndarray                  # bool: G20 in force after the line
+    absolute: np.ndarray              # bool: G90
+    ij_absolute: np.ndarray           # bool: G90.1
+    plane: np.ndarray                 # 17, 18, 19
+    feed_mode: np.ndarray             # 93, 94, 95
+    feed_value: np.ndarray            # programmed F in force (program units / min; 0 if none)
+    tool: np.ndarray                  # T selected (−1 if none)
+    work_offset: np.ndarray           # 54.0 … 59.3: the coordinate system in force
+    length_offset: np.ndarray         # 43.0, 43.1, 43.2 or 49.0: tool length offset mode
+    has_f: np.ndarray                 # bool: the line has an F word
+    # per move (M)
+    move_line: np.ndarray             # 0-based line index
+    kind: np.ndarray                  # RAPID, LINE, ...
+    start: np.ndarray                 # (M, 3) mm
+    end: np.ndarray                   # (M, 3) mm
+    feed_mm_min: np.ndarray           # programmed feed in force (mm/min, NaN for rapids)
+    cut: np.ndarray                   # cut number or −1
+    centre: np.ndarray                # (M, 3) arc centre (plane coords; NaN if not an arc)
+    turns: np.ndarray                 # signed: +n counter-clockwise (G3), −n clockwise (G2); 0 else
+    arc_plane: np.ndarray             # plane code of an arc (0 else)
+    no_split: np.ndarray              # bool: the move's line must stay one move (stop codes, P turns)
+    has_z_words: bool = False         # the program names Z somewhere (its paths are 3-D)
+    nurbs: dict = field(default_factory=dict)   # move index -> Nurbs (G5.2 block, in mm)
+    nurbs_lines: dict = field(default_factory=dict)  # move index -> (first, last) line of the block
+
+    @property
+    def n_cuts(self) -> int:
+        return int(self.cut.max()) + 1 if self.cut.size else 0
+
+    def cut_moves(self, k: int) -> np.ndarray:
+        """Move indices of cut ``k`` in order."""
+        return np.flatnonzero(self.cut == k)
+
+    @property
+    def scale(self) -> np.ndarray:
+        """mm per program unit on every line (25.4 under G20)."""
+        return np.where(self.inch, MM_PER_INCH, 1.0)
+
+    def move_lengths(self) -> np.ndarray:
+        """Length (mm) of every move: chord for lines and rapids, exact for arcs (helical
+        included), the NURBS's arc length for G5.2 blocks."""
+        d = self.end - self.start
+        out = np.linalg.norm(d, axis=1)
+        for m in np.flatnonzero(self.kind == ARC):
+            out[m] = arc_geometry(self, m)["length"]
+        for m, curve in self.nurbs.items():
+            out[m] = curve.length
+        return out
+
+
+def arc_geometry(program: Program, m: int) -> dict:
+    """The exact circle of arc move ``m``: plane axes (a, b, n), centre (a, b), radius (mm),
+    start angle, signed sweep (rad, + counter-clockwise), helical rise along n, length, curvature."""
+    a, b, n = PLANE_AXES[int(program.arc_plane[m])]
+    s, e, c = program.start[m], program.end[m], program.centre[m]
+    r0 = float(np.hypot(s[a] - c[a], s[b] - c[b]))
+    r1 = float(np.hypot(e[a] - c[a], e[b] - c[b]))
+    a0 = float(np.arctan2(s[b] - c[b], s[a] - c[a]))
+    a1 = float(np.arctan2(e[b] - c[b], e[a] - c[a]))
+    turns = int(program.turns[m])
+    if turns < 0:
+        sweep = -((a0 - a1) % (2 * np.pi))
+        sweep = sweep if sweep != 0 else -2 * np.pi
+        sweep -= 2 * np.pi * (-turns - 1)
+    else:
+        sweep = (a1 - a0) % (2 * np.pi)
+        sweep = sweep if sweep != 0 else 2 * np.pi
+        sweep += 2 * np.pi * (turns - 1)
+    rise = float(e[n] - s[n])
+    r = 0.5 * (r0 + r1)
+    planar = abs(sweep) * r
+    length = float(np.hypot(planar, rise))
+    pitch = rise / abs(sweep)                      # rise per radian
+    kappa = r / (r * r + pitch * pitch)            # helix curvature (1/r when planar)
+    return {"axes": (a, b, n), "centre": (float(c[a]), float(c[b])), "r0": r0, "r1": r1,
+            "radius": r, "a0": a0, "sweep": float(sweep), "rise": rise, "length": length,
+            "curvature": kappa}
+
+
+def arc_points(program: Program, m: int, fractions: np.ndarray) -> np.ndarray:
+    """Points (k, 3) mm at the given fractions (0..1) of arc move ``m``'s sweep: on the exact
+    circle (radius blended linearly from start to end radius, as LinuxCNC does), helical along
+    the plane's normal."""
+    g = arc_geometry(program, m)
+    a, b, n = g["axes"]
+    f = np.asarray(fractions, dtype=float)
+    ang = g["a0"] + g["sweep"] * f
+    rad = g["r0"] + (g["r1"] - g["r0"]) * f
+    out = np.empty((f.size, 3))
+    out[:, a] = g["centre"][0] + rad * np.cos(ang)
+    out[:, b] = g["centre"][1] + rad * np.sin(ang)
+    out[:, n] = program.start[m, n] + g["rise"] * f
+    out[f == 0] = program.start[m]
+    out[f == 1] = program.end[m]
+    return out

@@ -1,0 +1,542 @@
+"""Read a whole G-code program (LinuxCNC dialect) into a :class:`~fuzzyfeed.program.model.Program`.
+
+The reader tokenises the program once and works on arrays: the words of every line become one
+column per letter (NaN where absent), the modal groups are forward-filled per line, and the
+positions come from cumulative sums (G91) restarted at every absolute coordinate (G90) or at a
+change of frame. Only arcs, G5.2 blocks and the few lines that change the frame are visited one
+by one.
+
+Carried through unchanged (they do not change the programmed path): G43/G43.1/G43.2/G49 H,
+G54–G59.3, G10 L1/L2/L10/L11/L20, G20/G21, G90/G91 (.1), G93/G94/G95, G96/G97, G61/G61.1/G64,
+G40, G80, G98/G99, G4, G28/G30/G53 moves (rapids that end a cut), G28.1/G30.1, G92 family and
+G52 (offsets), G17/G18/G19, M0–M9, M30, M48–M53, M60–M66, M70–M73, M100–M199, T, S, H, D, N, E,
+``%``, ``/``, comments ``( )`` and ``;``. Canned cycles G73, G74, G81–G89 are moves of their
+own kind, kept as written. Arcs in any plane (I/J/K or R, helical, P turns) are exact.
+
+Refused with ``file:line``: parameters and expressions (``#``, ``[``, ``<``), O-words and
+M98/M99 subroutines, cutter compensation G41/G42 (.1), G5/G5.1 splines, threading G33/G76,
+probing G38.x, lathe diameter mode G7, the UVW planes, and arcs whose end radius does not fit
+the start radius (LinuxCNC's rule: more than 0.02 mm / 0.002 in *and* 0.1 %).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from fuzzyfeed.errors import PathFormatError
+from fuzzyfeed.program.motion import arc_centres, nurbs_blocks
+from fuzzyfeed.program.model import ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program
+
+_LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
+_NUMBER_CHARS = b"0123456789.+-"
+_TO_SPACE = str.maketrans({c: " " for c in _LETTERS + "\n"})
+
+# G codes by modal group (code × 10 as an integer)
+_GROUPS = {
+    "motion": [0, 10, 20, 30, 52, 53, 800, 730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890],
+    "plane": [170, 180, 190],
+    "distance": [900, 910],
+    "arc_distance": [901, 911],
+    "feed_mode": [930, 940, 950],
+    "units": [200, 210],
+    "comp": [400],
+    "length": [430, 431, 432, 490],
+    "coord": [540, 550, 560, 570, 580, 590, 591, 592, 593],
+    "control": [610, 611, 640],
+    "spindle": [960, 970],
+    "retract": [980, 990],
+    "nonmodal": [40, 100, 280, 281, 300, 301, 530, 920, 921, 922, 923, 520],
+    "lathe": [80],
+}
+_REFUSED_G = {
+    50: "cubic spline", 51: "quadratic spline", 410: "cutter compensation",
+    420: "cutter compensation", 411: "cutter compensation", 421: "cutter compensation",
+    330: "spindle-synchronised motion", 331: "rigid tapping", 760: "threading cycle",
+    382: "probing", 383: "probing", 384: "probing", 385: "probing", 70: "lathe diameter mode",
+    171: "UV plane", 181: "WU plane", 191: "VW plane",
+}
+_GROUP_ID = {name: k for k, name in enumerate(_GROUPS)}
+_G_LUT = np.full(1000, -1, dtype=np.int16)
+for _name, _codes in _GROUPS.items():
+    _G_LUT[_codes] = _GROUP_ID[_name]
+_CYCLES = {730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890}
+_M_ACCEPTED = set(range(0, 10)) | {30, 48, 49, 50, 51, 52, 53, 60, 61, 62, 63, 64, 65, 66,
+                                   67, 68, 70, 71, 72, 73} | set(range(100, 200))
+_M_STOP = {0, 1, 2, 30, 60}          # executed after the motion of their line
+_M_BREAK = {0, 1, 2, 6, 30, 60}      # the tool stops: a cut ends there
+
+
+def _fail(path: Path, line: int, message: str) -> None:
+    raise PathFormatError(f"{path}:{line}: {message}")
+
+
+def _strip_comments(raw: str, path: Path, number: int) -> str:
+    depth = 0
+    out = []
+    for ch in raw:
+        if ch == ";" and not depth:
+            break
+        if ch == "(":
+            if depth:
+                _fail(path, number, "nested comment '(' inside '(...)'")
+            depth = 1
+        elif ch == ")":
+            if not depth:
+                _fail(path, number, "')' without '('")
+            depth = 0
+        elif not depth:
+            out.append(ch)
+    if depth:
+        _fail(path, number, "comment '(' not closed on this line")
+    return "".join(out)
+
+
+def _clean_lines(lines: list[str], text: str, path: Path) -> list[str]:
+    """Program lines without comments, '%' lines or a leading '/', upper case, no blanks."""
+    clean = list(lines)
+    if "(" in text or ")" in text or ";" in text:
+        for i, raw in enumerate(lines):
+            if "(" in raw or ")" in raw or ";" in raw:
+                clean[i] = _strip_comments(raw, path, i + 1)
+    if "%" in text:
+        for i, raw in enumerate(clean):
+            if "%" in raw:
+                if raw.strip() != "%":
+                    _fail(path, i + 1, f"'%' in {lines[i].strip()!r}: '%' must stand alone on its line")
+                clean[i] = ""
+    return clean
+
+
+def _malformed(path: Path, body: str, pos: int, lines: list[str]) -> None:
+    line = body.count("\n", 0, pos) + 1
+    text = lines[line - 1].strip()
+    start = pos   # a parameter name reaches back to its '#<' (the checks may stop inside it)
+    while start > 0 and (body[start - 1].isalpha() or body[start - 1] in "_<"):
+        start -= 1
+    if start > 0 and body[start - 1] == "#":
+        pos = start - 1
+    frag = body[pos:pos + 12].split("\n")[0]
+    if frag[:1] in "#[<" or (frag[:1] == "O"):
+        _fail(path, line, f"'{frag}' in {text!r}: parameters, expressions and O-words are not "
+                          "supported (expand the program first)")
+    _fail(path, line, f"malformed word at '{frag}' in {text!r}; expected a letter followed by a number")
+
+
+def _tokenise(body: str, path: Path, lines: list[str]):
+    """(line index, letter index 0-25, value) arrays of every word of ``body``."""
+    raw = body.encode("ascii", errors="replace")
+    b = np.frombuffer(raw, dtype=np.uint8)
+    if b.size == 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    is_letter = (b >= 65) & (b <= 90)
+    is_nl = b == 10
+    is_num = np.isin(b, np.frombuffer(_NUMBER_CHARS, dtype=np.uint8))
+    bad = ~(is_letter | is_nl | is_num)
+    if bad.any():
+        _malformed(path, body, int(np.argmax(bad)), lines)
+    letter_pos = np.flatnonzero(is_letter)
+    nxt = np.append(b, 10)[letter_pos + 1]
+    no_number = ~np.isin(nxt, np.frombuffer(_NUMBER_CHARS, dtype=np.uint8))
+    if no_number.any():
+        _malformed(path, body, int(letter_pos[np.argmax(no_number)]), lines)
+    prev = np.insert(b, 0, 10)[:-1]
+    orphan = is_num & ((prev == 10) | ((prev != 10) & ~np.insert(is_letter | is_num, 0, False)[:-1]))
+    if orphan.any():
+        _malformed(path, body, int(np.argmax(orphan)), lines)
+    numbers = body.translate(_TO_SPACE).split()
+    try:
+        values = np.array(numbers, dtype=float)
+    except ValueError:
+        for k, text in enumerate(numbers):
+            try:
+                float(text)
+            except ValueError:
+                _malformed(path, body, int(letter_pos[k]), lines)
+        raise
+    if values.size != letter_pos.size:  # pragma: no cover - guarded by the checks above
+        _malformed(path, body, int(letter_pos[0]), lines)
+    line_of = np.cumsum(is_nl)[letter_pos]
+    return line_of, b[letter_pos].astype(np.int64) - 65, values
+
+
+def _ffill(values: np.ndarray, has: np.ndarray, default):
+    """Forward-fill ``values`` from the rows where ``has`` is true (``default`` before the first)."""
+    idx = np.where(has, np.arange(has.size), -1)
+    np.maximum.accumulate(idx, out=idx)
+    out = np.where(idx >= 0, values[np.maximum(idx, 0)], default)
+    return out
+
+
+def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarray,
+                    pre: np.ndarray, post: np.ndarray):
+    """Position of one axis after every line, and its epoch (0 = known; −(i+1) = unknown
+    constant since line i), from absolute sets, increments and frame resets (see module docs)."""
+    inc = np.where(post, 0.0, inc)
+    has = is_set | pre | post
+    base = np.where(is_set, setv, 0.0)
+    epoch_evt = np.where(is_set, 0, -(np.arange(n) + 1))
+    c = np.cumsum(inc)
+    d = c - inc
+    last = np.where(has, np.arange(n), -1)
+    np.maximum.accumulate(last, out=last)
+    known = last >= 0
+    li = np.maximum(last, 0)
+    pos = np.where(known, base[li] + c - d[li], c)
+    epoch = np.where(known, epoch_evt[li], 0)
+    return pos, epoch
+
+
+def read_program(path: str | os.PathLike, text: str | None = None) -> Program:
+    """Read a G-code program (see the module docstring); ``text`` if already read."""
+    path = Path(path)
+    if text is None:
+        from fuzzyfeed.base.files import read_text
+        # G-code may be Latin-1 (comments in old controllers' files often are)
+        text = read_text(path, "G-code", PathFormatError, latin1=True)
+    return parse_program(text, path)
+
+
+def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
+    path = Path(path)
+    newline = "\r\n" if "\r\n" in text else "\n"
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    if newline == "\r\n" or "\r" in text:
+        lines = [ln.rstrip("\r") for ln in lines]
+    clean = _clean_lines(lines, text, path)
+    body = "\n".join(clean).upper().replace(" ", "").replace("\t", "")
+    if "/" in body:
+        body = re.sub(r"(?m)^/", "", body)
+    # the program ends at the first M2/M30: nothing after it is read
+    end = re.search(r"(?m)M0*(?:2|30)(?![0-9.])", body)
+    n_all = len(lines)
+    if end is not None:
+        end_line = body.count("\n", 0, end.start())
+        cut_at = body.find("\n", end.start())
+        body = body if cut_at < 0 else body[:cut_at]
+        n = end_line + 1
+    else:
+        end_line = n_all
+        n = n_all
+    for special in ("O", "#", "[", "<"):
+        at = body.find(special)
+        if at >= 0:
+            _malformed(path, body, at, lines)
+    if n == 0 or not body.strip():
+        raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
+                              "nothing to advise")
+    tl, tc, tv = _tokenise(body, path, lines)
+    return _interpret(path, lines, newline, end_line, n, tl, tc, tv)
+
+
+def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
+    def fail(i: int, message: str):
+        _fail(path, int(i) + 1, message)
+
+    letter = {ch: tc == ord(ch) - 65 for ch in _LETTERS}
+    if letter["O"].any():
+        i = int(tl[np.argmax(letter["O"])])
+        fail(i, f"O-word in {lines[i].strip()!r}: O-word subroutines and control flow are not "
+                "supported (expand the program first)")
+    # --- one column per letter (single-valued letters) ---
+    cols = {}
+    for ch in "XYZABCUVWIJKRPQLFSTHDE":
+        mask = letter[ch]
+        if not mask.any():
+            cols[ch] = None
+            continue
+        li = tl[mask]
+        dup = np.flatnonzero(np.diff(li) == 0)
+        if dup.size:
+            fail(li[dup[0]], f"{ch} given twice")
+        col = np.full(n, np.nan)
+        col[li] = tv[mask]
+        cols[ch] = col
+
+    def col(ch):
+        c = cols[ch]
+        return c if c is not None else np.full(n, np.nan)
+
+    def has(ch):
+        c = cols[ch]
+        return ~np.isnan(c) if c is not None else np.zeros(n, bool)
+
+    # --- G codes by group ---
+    gmask = letter["G"]
+    g_line, g_val = tl[gmask], tv[gmask]
+    g10 = np.rint(g_val * 10).astype(np.int64)
+    odd = (np.abs(g_val * 10 - g10) > 1e-6) | (g10 < 0) | (g10 >= 1000)
+    if odd.any():
+        k = int(np.argmax(odd))
+        fail(g_line[k], f"G{g_val[k]:g}: unsupported G code")
+    for k in np.flatnonzero(np.isin(g10, list(_REFUSED_G))):
+        code = int(g10[k])
+        what = _REFUSED_G[code]
+        hint = " (cutter compensation: post the program with compensation done by the CAM)" \
+            if what == "cutter compensation" else ""
+        fail(g_line[k], f"G{code / 10:g} ({what}) is not supported; the path would be read "
+                        f"wrong{hint}")
+    grp = _G_LUT[g10]
+    if (grp < 0).any():
+        k = int(np.argmax(grp < 0))
+        fail(g_line[k], f"G{g_val[k]:g}: unsupported G code")
+    gcol = {}
+    for name, gid in _GROUP_ID.items():
+        sel = grp == gid
+        if not sel.any():
+            gcol[name] = None
+            continue
+        li = g_line[sel]
+        if name != "nonmodal":
+            dup = np.flatnonzero(np.diff(li) == 0)
+            if dup.size:
+                codes = g_val[sel]
+                fail(li[dup[0]], f"two G codes of one modal group on one line: G{codes[dup[0]]:g} "
+                                 f"and G{codes[dup[0] + 1]:g}")
+        c = np.full(n, -1, dtype=np.int64)
+        c[li] = g10[sel]
+        gcol[name] = c
+
+    def gany(name):
+        c = gcol[name]
+        return c >= 0 if c is not None else np.zeros(n, bool)
+
+    def gline(name, code):
+        """Lines that have G<code> (code × 10)."""
+        sel = g10 == code
+        out = np.zeros(n, bool)
+        out[g_line[sel]] = True
+        return out
+
+    # --- M codes ---
+    mmask = letter["M"]
+    m_line, m_val = tl[mmask], tv[mmask]
+    m_int = np.rint(m_val).astype(np.int64)
+    for k in range(m_val.size):
+        if m_val[k] != m_int[k] or int(m_int[k]) not in _M_ACCEPTED:
+            what = " (subroutine calls are not supported)" if m_int[k] in (98, 99) else ""
+            fail(m_line[k], f"M{m_val[k]:g}: unsupported M code{what}")
+    e_col = cols["E"]
+    if e_col is not None:        # LinuxCNC's rule: an E word needs a code that uses it
+        e_users = np.zeros(n, bool)
+        e_users[m_line[np.isin(m_int, [66, 67, 68])]] = True
+        stray = ~np.isnan(e_col) & ~e_users
+        if stray.any():
+            i = int(np.argmax(stray))
+            fail(i, f"E word with no M66, M67 or M68 to use it in {lines[i].strip()!r} (LinuxCNC "
+                    "refuses it; a number written as 1e6 reads as 1 E6)")
+    m_stop = np.zeros(n, bool)
+    m_stop[m_line[np.isin(m_int, list(_M_STOP))]] = True
+    m_break = np.zeros(n, bool)
+    m_break[m_line[np.isin(m_int, list(_M_BREAK))]] = True
+
+    # --- modal state per line ---
+    def modal(name, default):
+        c = gcol[name]
+        if c is None:
+            return np.full(n, default, dtype=np.int64)
+        return _ffill(c, c >= 0, default)
+
+    units = modal("units", 210)
+    inch = units == 200
+    scale = np.where(inch, MM_PER_INCH, 1.0)
+    absolute = modal("distance", 900) == 900
+    ij_absolute = modal("arc_distance", 911) == 901
+    plane = modal("plane", 170) // 10
+    feed_mode = modal("feed_mode", 940) // 10
+    coord = modal("coord", 540)
+    length_mode = modal("length", 490)
+    motion_col = gcol["motion"]
+    motion_set = motion_col >= 0 if motion_col is not None else np.zeros(n, bool)
+    motion = _ffill(motion_col, motion_set, -1) if motion_col is not None else np.full(n, -1)
+    # G5.2 / G5.3 blocks: lines between them are control points
+    nurbs_open = np.zeros(n, bool)
+    g52_lines = np.flatnonzero(gline("motion", 52)) if motion_col is not None else np.zeros(0, int)
+    g53_lines = np.flatnonzero(gline("motion", 53)) if motion_col is not None else np.zeros(0, int)
+    blocks = []
+    if g52_lines.size or g53_lines.size:
+        opened = None
+        marks = sorted([(int(i), 52) for i in g52_lines] + [(int(i), 53) for i in g53_lines])
+        for i, code in marks:
+            if code == 52:
+                if opened is not None and opened != i:
+                    fail(i, "G5.2 inside a G5.2 block (close it with G5.3 first)")
+                opened = i
+            else:
+                if opened is None:
+                    fail(i, "G5.3 without an open G5.2 block")
+                blocks.append((opened, i))
+                nurbs_open[opened:i + 1] = True
+                opened = None
+        if opened is not None:
+            fail(n - 1 if end_line >= len(lines) else end_line,
+                 f"G5.2 block from line {opened + 1} is not closed by G5.3")
+        for a, b in blocks:
+            inner = motion_col[a + 1:b]
+            bad = np.flatnonzero((inner >= 0) & (inner != 53))
+            if bad.size:
+                fail(a + 1 + bad[0], f"G{inner[bad[0]] / 10:g} inside a G5.2 block (close it with G5.3 first)")
+            motion[b] = -1  # after G5.3 no motion mode is in force
+
+    # feed: F in force, reset to 0 where the feed mode changes (LinuxCNC does)
+    f_col = col("F")
+    has_f = ~np.isnan(f_col)
+    fm_change = np.zeros(n, bool)
+    fm_change[1:] = feed_mode[1:] != feed_mode[:-1]
+    fm_change[0] = feed_mode[0] != 94
+    feed_value = _ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0)
+    if has_f.any() and (f_col[has_f] < 0).any():
+        i = int(np.flatnonzero(has_f & (f_col < 0))[0])
+        fail(i, f"F{f_col[i]:g}: a feed must be >= 0")
+    t_col = col("T")
+    tool = _ffill(np.where(has("T"), t_col, -1), has("T"), -1).astype(np.int64)
+
+    # --- which lines move, and how ---
+    xyz_has = [has(ch) for ch in "XYZ"]
+    any_xyz = xyz_has[0] | xyz_has[1] | xyz_has[2]
+    abc_has = np.zeros(n, bool)
+    for ch in "ABCUVW":
+        abc_has |= has(ch)
+    nonmodal = gcol["nonmodal"]
+    nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
+    g10_l, g28, g30, g53, g92 = nm(100), nm(280), nm(300), nm(530), nm(920) | nm(921) | nm(922) | nm(923)
+    g52_local = nm(520)
+    takes_axes = g10_l | g92 | g52_local | g28 | g30  # axis words are not a target
+    arcs_words = has("I") | has("J") | has("K") | has("R")
+    is_arc_mode = (motion == 20) | (motion == 30)
+    full_circle = is_arc_mode & ~any_xyz & (has("I") | has("J") | has("K")) & ~takes_axes
+    moving = (any_xyz | abc_has | full_circle) & ~takes_axes & ~nurbs_open
+    no_motion = moving & (motion < 0) & ~g53
+    if no_motion.any():
+        fail(int(np.argmax(no_motion)), "axis words with no motion mode (G0, G1, G2, G3) in force")
+    bad_arcwords = arcs_words & ((motion == 0) | (motion == 10)) & moving
+    if bad_arcwords.any():
+        i = int(np.argmax(bad_arcwords))
+        which = "/".join(ch for ch in "IJKR" if has(ch)[i])
+        fail(i, f"{which} with G{motion[i] / 10:g}: arc words belong to G2/G3")
+    cycle_line = moving & np.isin(motion, list(_CYCLES))
+    control_point = nurbs_open & any_xyz
+    # frame resets: before the motion of their line (offsets), after it (homing, G53, cycles)
+    coord_change = np.zeros(n, bool)
+    coord_change[1:] = coord[1:] != coord[:-1]
+    coord_change[0] = coord[0] != 540
+    length_line = gany("length")
+    l_col = col("L")
+    tool_table = g10_l & np.isin(l_col, [1, 10, 11])
+    pre_all = coord_change | (g10_l & ~tool_table) | g92 | g52_local | (gline("length", 431) if gcol["length"] is not None else np.zeros(n, bool))
+    pre_z = length_line | tool_table
+    home_line = g28 | g30
+    post_named = g53 & moving
+    post = []
+    pre = []
+    for k in range(3):
+        p = pre_all | (pre_z if k == 2 else False)
+        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k])
+        if k == 2:
+            q = q | cycle_line
+        else:
+            q = q | (cycle_line & ~absolute)
+        pre.append(p)
+        post.append(q)
+
+    # --- positions ---
+    updates = (moving | control_point) & ~g53
+    pos_after = np.empty((n, 3))
+    epoch_after = np.empty((n, 3), dtype=np.int64)
+    for k, ch in enumerate("XYZ"):
+        v = col(ch) * scale
+        given = xyz_has[k] & updates
+        if k == 2:
+            given &= ~cycle_line
+        is_set = given & absolute
+        inc = np.where(given & ~absolute, v, 0.0)
+        pos_after[:, k], epoch_after[:, k] = _axis_positions(n, np.where(is_set, v, 0.0), is_set,
+                                                             inc, pre[k], post[k])
+    pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
+    epoch_before = np.vstack([np.zeros((1, 3), dtype=np.int64), epoch_after[:-1]])
+    for k in range(3):
+        epoch_before[:, k] = np.where(pre[k], -(np.arange(n) + 1), epoch_before[:, k])
+    known = np.all(epoch_before == epoch_after, axis=1)
+
+    # --- moves ---
+    nurbs_first = np.zeros(n, bool)
+    for a, _ in blocks:
+        nurbs_first[a] = True
+    move_rows = np.flatnonzero(moving | home_line | nurbs_first)
+    kind = np.full(move_rows.size, KEPT, dtype=np.int8)
+    mo = motion[move_rows]
+    kind[mo == 0] = RAPID
+    kind[mo == 10] = LINE
+    kind[(mo == 20) | (mo == 30)] = ARC
+    kind[np.isin(mo, list(_CYCLES))] = CYCLE
+    hl = home_line[move_rows] | g53[move_rows]
+    kind[hl & ((mo == 0) | home_line[move_rows])] = HOME
+    kind[g53[move_rows] & (mo != 0)] = KEPT
+    kind[nurbs_first[move_rows]] = NURBS
+    start = pos_before[move_rows].copy()
+    endp = pos_after[move_rows].copy()
+    fmode = feed_mode[move_rows]
+    kept = np.isin(kind, [LINE, ARC]) & (~known[move_rows] | abc_has[move_rows] | (fmode != 94))
+    kind[kept & (kind == ARC) & ~known[move_rows]] = KEPT
+    feed_mm = np.where(np.isin(kind, [RAPID, HOME]), np.nan, feed_value[move_rows] * scale[move_rows])
+    no_split = m_stop[move_rows].copy()
+    centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
+                                                       endp, col, inch, scale, ij_absolute)
+    no_split |= multi_turn
+    row_of = {int(r): k for k, r in enumerate(move_rows)}
+    nurbs, nurbs_lines = nurbs_blocks(fail, blocks, row_of, known, col, any_xyz, xyz_has,
+                                      pos_before, pos_after)
+    for m in nurbs:
+        endp[m] = nurbs[m].control_points[-1]
+
+    # --- cuts ---
+    moved = np.any(endp != start, axis=1) | (turns != 0) | (kind == NURBS)
+    advisable = np.isin(kind, [LINE, ARC, NURBS]) & (feed_mode[move_rows] == 94)
+    advisable &= known[move_rows] | (kind == NURBS)
+    advisable &= ~abc_has[move_rows]
+    breaker_line = m_break | pre_all | pre_z | home_line | g53
+    bcum = np.concatenate([[0], np.cumsum(breaker_line)])   # bcum[i] = breakers on lines < i
+    # a chain is broken by a move that is not advised (a rapid that moves, home, cycle, kept) and
+    # by a line where the tool stops or the frame changes; rapids that do not move are transparent
+    stopper = ~advisable & (moved | (kind != RAPID))
+    idx = np.where(advisable | stopper, np.arange(move_rows.size), -1)
+    np.maximum.accumulate(idx, out=idx)
+    prev_idx = np.concatenate([[-1], idx])[:-1].astype(np.int64)
+    if move_rows.size:
+        prev_is_adv = (prev_idx >= 0) & advisable[np.maximum(prev_idx, 0)]
+        prev_line = np.where(prev_idx >= 0, move_rows[np.maximum(prev_idx, 0)], 0)
+    else:
+        prev_is_adv = prev_line = prev_idx
+    brk = (bcum[move_rows + 1] - bcum[prev_line]) > 0
+    chain_start = advisable & (~prev_is_adv | brk)
+    cut = np.where(advisable, np.cumsum(chain_start) - 1, -1)
+    # a cut that does not move at all is no cut
+    if cut.size and cut.max() >= 0:
+        lengths = np.zeros(cut.max() + 1)
+        np.add.at(lengths, cut[cut >= 0], moved[cut >= 0].astype(float))
+        empty = lengths == 0
+        if empty.any():
+            remap = np.cumsum(~empty) - 1
+            cut = np.where(cut >= 0, np.where(empty[np.maximum(cut, 0)], -1, remap[np.maximum(cut, 0)]), -1)
+    return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line,
+                   inch=_pad(inch, len(lines)), absolute=_pad(absolute, len(lines)),
+                   ij_absolute=_pad(ij_absolute, len(lines)), plane=_pad(plane, len(lines)),
+                   feed_mode=_pad(feed_mode, len(lines)), feed_value=_pad(feed_value, len(lines)),
+                   tool=_pad(tool, len(lines)), work_offset=_pad(coord / 10.0, len(lines)),
+                   length_offset=_pad(length_mode / 10.0, len(lines)), has_f=_pad(has_f, len(lines), False),
+                   move_line=move_rows, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
+                   cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
+                   has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines)
+
+
+def _pad(arr: np.ndarray, total: int, value=None) -> np.ndarray:
+    """Per-line array extended to every line of the file (lines after the end keep the last state)."""
+    if arr.size >= total:
+        return arr[:total]
+    fill = arr[-1] if (value is None and arr.size) else (value if value is not None else 0)
+    return np.concatenate([arr, np.full(total - arr.size, fill, dtype=arr.dtype)])
