@@ -3,7 +3,7 @@
 Blocks from the preprocessor are pushed into a window. In the window the junction feeds are set by
 a backward scan (each junction no faster than what still stops — or reaches the next junction's
 feed — within its block) and a forward scan (no faster than what is reachable from the previous
-junction), both with bisection on the cosine transition's distance: the type-4 corrections of
+junction), both with bisection on the transition's distance (seed 000's cosine, or the seven-phase ramp): the type-4 corrections of
 seed 000 ("Feedrate correction for non-schedulable blocks", Heng & Erkorkmaz's bisection). The
 window assumes a stop at its far end; the first block is released only when its end feed is the
 same whether or not that stop is assumed, which needs at least a full stop from the command feed
@@ -11,7 +11,7 @@ of look-ahead (eq. (22)) — so the released profile equals the one the whole pa
 
 Every block's profile is checked against the path before release: the feed against the pointwise
 limit at the reference points, and the axial accelerations a_t·T_j + v²·κN_j against A_j. A feed
-above the limit inside a block adds a junction there (the limit curve rose slower than the cosine
+above the limit inside a block adds a junction there (the limit curve rose slower than the
 profile); an axial acceleration above its limit lowers the block's tangential acceleration, or the
 feed of the junction it approaches when the centripetal part alone nearly uses the axis up.
 """
@@ -28,9 +28,9 @@ from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
 from fuzzyfeed.slw.preprocess import Block, Reference, corner_plan, evaluate_reference
-from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, lowest_end_speed, max_start_speed,
-                                   transition_distance,
-                                   segment_state, stop_distance)
+from fuzzyfeed.slw.profile import (SEVEN_PHASE, Segment, block_segments, check_shape, lowest_end_speed,
+                                   max_end_speed, max_start_speed, peak_acceleration, segment_state, stop_distance,
+                                   transition_distance)
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
 CHECK_RTOL = 1e-6
@@ -138,17 +138,18 @@ class SlidingWindow:
     """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
 
     def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 2,
-                 cap: FeedCap | None = None):
+                 cap: FeedCap | None = None, transition: str = SEVEN_PHASE):
         if approach not in (1, 2):
             raise ValueError(f"approach = {approach!r}; seed 000 Table 1 has approaches 1 and 2")
         self.approach = approach
+        self.shape = check_shape(transition)
         self.cap = cap
         self.curve = curve
         self.limits = limits
         self.jerk = limits.jerk_mm_s3
         self.acc = limits.tangential_acc_mm_s2
         self.axis_acc = np.asarray(limits.axis_acc_mm_s2)
-        self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk)
+        self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk, self.shape)
         self.window_mm = WINDOW_STOPS * self.stop
         self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
         # the corners that are critical points (the junctions a merge may drop)
@@ -184,7 +185,7 @@ class SlidingWindow:
         if last.cap < prev.cap or last.cap < block.cap1:
             return False
         lo = min(prev.cap, block.cap1)
-        if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk):
+        if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk, self.shape):
             return False
         b = self.blocks[-1]
         head, acc = b.ref, min(b.acc, self._direction_acc(block.ref))
@@ -226,19 +227,19 @@ class SlidingWindow:
         v[n] = min(self.juncs[n].cap, end_feed)
         for i in range(n - 1, -1, -1):
             b = self.blocks[i]
-            v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc, self.jerk)
+            v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc, self.jerk, self.shape)
         return v
 
     def _plan(self, end_feed: float) -> None:
         v = self._backward(end_feed)
         v[0] = self.juncs[0].v  # committed
         for i, b in enumerate(self.blocks):
-            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc, self.jerk) > b.length:
+            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc, self.jerk, self.shape) > b.length:
                 # a committed junction may be faster than a junction found later allows: brake as
                 # hard as the block lets (the check then repairs the block before it is released)
-                v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+                v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk, self.shape)
             else:
-                v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+                v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk, self.shape)
         for j, vj in zip(self.juncs, v):
             j.v = vj
 
@@ -246,7 +247,7 @@ class SlidingWindow:
     def _segments(self, i: int):
         b = self.blocks[i]
         return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
-                              self.approach)
+                              self.approach, self.shape)
 
     def _check(self, i: int) -> bool:
         """Check block i; repair it and return False if it broke a limit."""
@@ -322,7 +323,7 @@ class SlidingWindow:
             self._split(i, s[k], cap=room * float(v[k]))
             self.stats.caps_lowered += 1
             return False
-        peak = max(abs(seg.v1 - seg.v0) * math.pi / (2 * seg.duration_s), 1e-9) if seg.duration_s else b.acc
+        peak = max(peak_acceleration(seg), 1e-9) if seg.duration_s else b.acc
         need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
         acc = max(min(b.acc, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
         if acc < ACC_KEEP * self.acc:
@@ -360,7 +361,7 @@ class SlidingWindow:
         left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
         cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
         if i == 0 and cap < self.juncs[0].v:  # the first junction is committed: reachable from it
-            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc, self.jerk)
+            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc, self.jerk, self.shape)
         crawl = CRAWL * self.limits.feed_mm_s
         bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, max(float(left.vlim.max()), crawl)))
         br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, max(float(right.vlim.max()), crawl)))

@@ -1,6 +1,6 @@
 """The timed trajectory of the SLW scheduler: one row per servo period, and its measurement.
 
-:func:`schedule` runs preprocessing → sliding look-ahead window → sampling of the cosine profile at
+:func:`schedule` runs preprocessing → sliding look-ahead window → sampling of the jerk-limited profile at
 t_k = k·Ts → :func:`fuzzyfeed.geometry.interpolate.interpolate_u` ("best": chord-exact, second-order Taylor
 step + Newton on s(u)). The last tick lands exactly on the path's end (terminal-error compensation,
 seed 000): the profile reaches rest at t_end and the tick at ⌈t_end/Ts⌉·Ts is put on the end point.
@@ -26,7 +26,7 @@ from fuzzyfeed.machine.simulate import Simulation, TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, machine_cap
-from fuzzyfeed.slw.profile import segment_state
+from fuzzyfeed.slw.profile import SEVEN_PHASE, TRANSITIONS, segment_state
 
 
 #: Most servo periods a trajectory may have (≈ 14 h at 1 ms).
@@ -169,12 +169,17 @@ def check_work(total_mm: float, limits: MachineLimits) -> None:
 
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
              progress: Callable[[float], None] | None = None, approach: int = 2,
-             feed_cap=None, blend: bool = True, path_tolerance_mm: float | None = None) -> Trajectory:
+             feed_cap=None, blend: bool = True, path_tolerance_mm: float | None = None,
+             transition: str = SEVEN_PHASE) -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
 
     ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 2 (default)
     rises to a peak between the two transitions (Table 1, figure (d)); 1, the paper's choice,
     cruises at the higher end feed (smoother, slower on paths of short blocks).
+
+    ``transition`` is the shape of every feed change: ``"seven-phase"`` (default; the
+    trapezoidal-acceleration ramp, jerk J all through its ramps) or ``"cosine"`` (seed 000's,
+    eq. (16)-(21); with ``approach=1`` the paper's scheduler as published).
 
     ``feed_cap`` (optional) is one more pointwise feed limit in mm/s: a :class:`FeedProfile`
     (its samples' arc lengths and feeds), a pair ``(s_mm, feed_mm_s)`` or a :class:`FeedCap`;
@@ -201,6 +206,8 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         raise InputError(f"path length {total!r} mm; a path to schedule must have a positive length")
     if approach not in (1, 2):
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
+    if transition not in TRANSITIONS:
+        raise InputError(f"transition = {transition!r}; use one of {', '.join(TRANSITIONS)}")
     check_work(total, limits)
     fit = None
     if blend and curve.degree == 1:
@@ -232,7 +239,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         def progress(s_mm: float) -> None:
             bar.update(round(s_mm - done[0], 3))
             done[0] = round(s_mm, 3)
-    window = SlidingWindow(limits, curve, approach, cap)
+    window = SlidingWindow(limits, curve, approach, cap, transition)
     blocks = []
     try:
         for block in window.run(iter_blocks(curve, limits, cap=cap)):
