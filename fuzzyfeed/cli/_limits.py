@@ -36,11 +36,16 @@ def add_limit_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_approach_argument(parser: argparse.ArgumentParser) -> None:
-    """``--approach`` (the SLW scheduler's short-block profile), the same on schedule and compare."""
+    """``--approach`` (the SLW scheduler's short-block profile) and ``--transition`` (the shape of
+    its feed changes), the same on schedule and compare."""
     parser.add_argument("--approach", type=int, choices=(1, 2), default=2,
                         help="SLW short blocks (seed 000 Table 1, types 2-3): 2 rises to a peak "
                              "between the two transitions (faster); 1 cruises at the higher end feed "
                              "(the paper's choice, smoother) (default: %(default)s)")
+    parser.add_argument("--transition", choices=("seven-phase", "cosine"), default="seven-phase",
+                        help="SLW feed changes: seven-phase (trapezoidal acceleration, jerk J all "
+                             "through its ramps; faster) or cosine (seed 000's; with --approach 1 the "
+                             "paper's scheduler) (default: %(default)s)")
 
 
 def limits_from_args(args: argparse.Namespace) -> MachineLimits:

@@ -88,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
             bar.update(1)
 
         result = compare(samples, limits, table, name=shape.name, progress=progress, servo=servo,
-                         approach=args.approach, feed_cap=cap)
+                         approach=args.approach, feed_cap=cap,
+                         transition=args.transition)
     rows = result.rows()
     columns = {key: np.array([row[key] for row in rows]) for key in rows[0]}
     write_columns(args.output, columns, allow_nan=("ratio_to_bound",))

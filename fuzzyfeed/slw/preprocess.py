@@ -147,8 +147,11 @@ def evaluate_reference(curve: Nurbs, limits: MachineLimits, s: np.ndarray,
     return ref
 
 
-def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: FeedCap | None = None) -> Reference:
-    u = np.asarray(curve.param_at_length(s), dtype=float)
+def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: FeedCap | None = None,
+              u: np.ndarray | None = None) -> Reference:
+    """Reference data at arc lengths ``s``; at parameters ``u`` instead of u(s) when given (the
+    caller's estimate of u(s): no arc-length inversion)."""
+    u = np.asarray(curve.param_at_length(s) if u is None else u, dtype=float)
     smp = samples_at(curve, u, s=np.asarray(s, dtype=float))
     tangent = np.nan_to_num(np.asarray(smp.tangent), nan=0.0)
     kn = np.nan_to_num(curvature_vectors(smp), nan=np.inf)
