@@ -27,7 +27,7 @@ import numpy as np
 from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
-from fuzzyfeed.slw.preprocess import Block, Reference, _evaluate, corner_plan, evaluate_reference
+from fuzzyfeed.slw.preprocess import Block, Reference, _evaluate, corner_plan, evaluate_reference, joins
 from fuzzyfeed.slw.profile import (SEVEN_PHASE, Segment, block_segments, check_shape, lowest_end_speed,
                                    max_end_speed, max_start_speed, peak_acceleration, segment_state, stop_distance,
                                    transition_distance)
@@ -69,6 +69,8 @@ CORNER_MARGIN = 0.9
 #: Samples of a block's profile within this share of a limit (axis acceleration or feed) are
 #: checked against the path evaluated at the samples themselves, not interpolated between points.
 EXACT_NEAR = 0.99
+#: A join whose unit tangent jumps by less than this (per axis) is no kink.
+KINK_MIN = 1e-9
 #: Blocks at the front of the window checked at the feeds of a continuing path before a release.
 FRONT_BLOCKS = 3
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
@@ -157,6 +159,14 @@ class SlidingWindow:
         self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
         # the corners that are critical points (the junctions a merge may drop)
         self._corner_s = corner_plan(curve, limits)[0] if curve is not None else np.empty(0)
+        # every kink (tangent break) of the path: arc lengths, tangents, |κn|, |ΔT| (joins)
+        self._kinks = None
+        if curve is not None:
+            s_j, t_j, c2, jump = joins(curve)
+            sel = jump.max(axis=1, initial=0.0) > KINK_MIN if s_j.size else np.zeros(0, dtype=bool)
+            if sel.any():
+                self._kinks = (s_j[sel], np.vstack([t_j[:s_j.size][sel], t_j[s_j.size:][sel]]),
+                               c2[sel], jump[sel])
         self.blocks: list[_WBlock] = []
         self.stats = LookaheadStats()
         self._front_checks = 0
@@ -293,6 +303,18 @@ class SlidingWindow:
             vlim[near] = np.minimum(vlim[near], exact.vlim)
             tan[near], kn[near] = exact.tangent, exact.kn
             r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        kinks = self._kink_samples(s, v, a)
+        if kinks is not None:  # a kink's tick, as one more sample (no feed limit of its own)
+            s_k, v_k, a_k, tan_k, cen_k, at = kinks
+            s, v, a = np.concatenate([s, s_k]), np.concatenate([v, v_k]), np.concatenate([a, a_k])
+            vlim = np.concatenate([vlim, 2.0 * v_k + 1.0])
+            seg_id = np.concatenate([seg_id, seg_id[at]])
+            tan, cen = np.vstack([tan, tan_k]), np.vstack([cen, cen_k])
+            ratio = (np.abs(a[:, None] * tan) + np.abs(cen)) / self.axis_acc[None, :]
+            ratio[:-s_k.size] = np.abs(a[:-s_k.size, None] * tan[:-s_k.size] + cen[:-s_k.size]) \
+                / self.axis_acc[None, :]
+            worst_axis = np.argmax(ratio, axis=1)
+            r = ratio[np.arange(ratio.shape[0]), worst_axis]
         over_v = v - vlim * (1.0 + CHECK_RTOL) - 1e-12
         # and at the reference points themselves: a corner's cap is one point, and samples either
         # side of it read the limit interpolated towards its neighbours, far above it
@@ -345,6 +367,33 @@ class SlidingWindow:
         self.stats.acc_lowered += 1
         self._invalidate()
         return False
+
+    def _kink_samples(self, s: np.ndarray, v: np.ndarray, a: np.ndarray):
+        """The ticks that pass a kink of the path inside the sampled stretch (a tangent break too
+        small to be a corner the profile stops its acceleration for: a join of a blended
+        polyline, 0.2°): there the axis sees |a·T_j| + v·|ΔT_j|/Ts + v²·|κn_j| at once (a slow
+        Y axis at 109 % of A_y, the tangential part alone using it up). Returns (s, v, a, |T_j|
+        of the steeper side, v·|ΔT_j|/Ts + v²·|κn_j|, index of the sample before) or None."""
+        if self._kinks is None:
+            return None
+        s_j, t_j, c2, jump = self._kinks
+        lo, hi = np.searchsorted(s_j, [s[0], s[-1]], side="right")
+        if hi <= lo:
+            return None
+        s_k = s_j[lo:hi]
+        if s_k[-1] >= s[-1]:
+            s_k = s_k[s_k < s[-1]]
+            hi = lo + s_k.size
+            if not s_k.size:
+                return None
+        order = np.argsort(s, kind="stable")
+        v_k = np.interp(s_k, s[order], v[order])
+        a_k = np.interp(s_k, s[order], a[order])
+        n = s_j.size
+        tan_k = np.maximum(np.abs(t_j[lo:hi]), np.abs(t_j[n + lo:n + hi]))
+        cen_k = v_k[:, None] * jump[lo:hi] / self.limits.ts_s + (v_k * v_k)[:, None] * c2[lo:hi]
+        at = np.clip(np.searchsorted(s, s_k), 0, s.size - 1)
+        return s_k, v_k, a_k, tan_k, cen_k, at
 
     def _axis_ratio(self, v: np.ndarray, a: np.ndarray, tan: np.ndarray, kn: np.ndarray):
         """Worst |a·T_j + v²·κN_j|/A_j per sample, its axis, and the centripetal parts v²·κN."""

@@ -23,10 +23,10 @@ from fuzzyfeed.geometry.polyline_fit import PolylineFit, fit_polyline
 from fuzzyfeed.machine.profile import FeedProfile
 from fuzzyfeed.geometry.sampling import PathSamples
 from fuzzyfeed.machine.simulate import Simulation, TimeLaw, simulate
-from fuzzyfeed.slw.lookahead import LookaheadStats, ScheduledBlock, SlidingWindow
+from fuzzyfeed.slw.lookahead import KINK_MIN, LookaheadStats, ScheduledBlock, SlidingWindow
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
 from fuzzyfeed.slw.check import check_ticks
-from fuzzyfeed.slw.preprocess import corner_plan, corners, iter_blocks, machine_cap
+from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, joins, machine_cap
 from fuzzyfeed.slw.profile import SEVEN_PHASE, TRANSITIONS, segment_state
 
 
@@ -265,7 +265,8 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if xyz.shape[1] == 2:
         xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 1))])
     # the motion the machine makes, tick by tick and axis by axis, within every limit
-    check_ticks(xyz, s, j, limits, corners(curve, limits)[0])
+    s_j, _, _, jump = joins(curve)
+    check_ticks(xyz, s, j, limits, s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j)
     critical = np.array([b.s1 for b in blocks[:-1]])
     for arr in (t, s, u, xyz, v, a, j):  # read-only: shared with the time law and simulations
         arr.flags.writeable = False
