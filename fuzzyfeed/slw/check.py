@@ -11,7 +11,8 @@ one per servo period Ts, each tick a straight chord travelled at constant speed 
   tick that crosses a true corner of the path are left out of this one — the turn there is the
   corner's, within one tick by the corner rule, and has no jerk of its own).
 
-A breach is an :class:`~fuzzyfeed.errors.InputError` naming the limit, the axis, the arc length
+The scheduler lowers the feed around a breach and schedules again (a few times at most); one left
+after that is an :class:`~fuzzyfeed.errors.InputError` naming the limit, the axis, the arc length
 and the ratio, never a schedule with a limit above 100 %.
 """
 
@@ -78,23 +79,25 @@ def worst(ratios: dict[str, np.ndarray]) -> tuple[str, int, float]:
     return name, k, r
 
 
-def check_ticks(xyz: np.ndarray, s_mm: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
-                corner_s_mm: np.ndarray) -> dict[str, float]:
-    """Raise InputError if any tick breaks a limit by more than TICK_RTOL; else return the worst
-    ratio of each limit."""
+def breach(xyz: np.ndarray, s_mm: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
+           corner_s_mm: np.ndarray) -> tuple[str, int, float] | None:
+    """The limit, tick and ratio of the worst tick over a limit by more than TICK_RTOL (the path
+    jerk by PATH_JERK_RTOL too), or None."""
     ratios = tick_ratios(xyz, jerk_mm_s3, limits, corner_ticks(s_mm, corner_s_mm))
     judged = dict(ratios, **{"path jerk": ratios["path jerk"] / (1.0 + PATH_JERK_RTOL)})
     name, k, r = worst(judged)
-    if r > 1.0 + TICK_RTOL:
-        r = float(ratios[name][k])
-        at = float(s_mm[min(k, s_mm.size - 1)])
-        unit = {"feed": "mm/s", "velocity": "mm/s", "acceleration": "mm/s^2"}.get(name.split()[0], "mm/s^3")
-        limit = {"feed": limits.feed_mm_s, "jerk": limits.jerk_mm_s3, "path jerk": limits.jerk_mm_s3}.get(name)
-        if limit is None:
-            axis = AXES.index(name.split()[1])
-            limit = (limits.axis_vel_mm_s if name.startswith("velocity") else limits.axis_acc_mm_s2)[axis]
-        raise InputError(f"{name} at s = {at:.6g} mm: {r:.4f} x its limit of {limit:g} {unit}; the "
-                         "schedule breaks a machine limit there and is not written (please report "
-                         "the path and the limits)")
-    return {key: float(np.nanmax(arr)) if arr.size and not np.isnan(arr).all() else 0.0
-            for key, arr in ratios.items()}
+    return (name, k, float(ratios[name][k])) if r > 1.0 + TICK_RTOL else None
+
+
+def breach_error(found: tuple[str, int, float], s_mm: np.ndarray, limits: MachineLimits) -> InputError:
+    """The one-line error of a breach: the limit, the axis, the arc length and the ratio."""
+    name, k, r = found
+    at = float(s_mm[min(k, s_mm.size - 1)])
+    unit = {"feed": "mm/s", "velocity": "mm/s", "acceleration": "mm/s^2"}.get(name.split()[0], "mm/s^3")
+    limit = {"feed": limits.feed_mm_s, "jerk": limits.jerk_mm_s3, "path jerk": limits.jerk_mm_s3}.get(name)
+    if limit is None:
+        axis = AXES.index(name.split()[1])
+        limit = (limits.axis_vel_mm_s if name.startswith("velocity") else limits.axis_acc_mm_s2)[axis]
+    return InputError(f"{name} at s = {at:.6g} mm: {r:.4f} x its limit of {limit:g} {unit}; the "
+                      "schedule breaks a machine limit there and is not written (please report "
+                      "the path and the limits)")
