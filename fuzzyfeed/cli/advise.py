@@ -47,11 +47,12 @@ def register(sub) -> None:
     p.add_argument("--points", type=point_count, default=DEFAULT_POINTS, metavar="N",
                    help="sample points, uniform in the parameter as in seed 002 (default: %(default)s; "
                         "point-sequence shapes use their own points)")
-    p.add_argument("--filter", choices=("corner-mean", "min-mean", "mean"), default=None,
-                   help="smoothing of the controller's feed: corner-mean (the shipped table's) "
+    p.add_argument("--filter", choices=("corner-mean", "min-mean", "mean", "none"), default=None,
+                   help="smoothing of the controller's feed: corner-mean (the paper table's) "
                         "averages but never lifts a curvature peak above the controller, min-mean "
                         "never exceeds the controller anywhere (slowest), mean is seed 002's "
-                        "average filter (default: the rule table's)")
+                        "average filter, none keeps the controller's output (the machine table's) "
+                        "(default: the rule table's)")
     p.add_argument("--window-mm", type=positive_float, default=None, metavar="L",
                    help="look-ahead WS as a length: Dk at a point is the largest curvature within "
                         "the next L mm of path, whatever the sampling (default: the table's "
