@@ -11,13 +11,16 @@ tolerance the part must hold. Every key carries its unit in its name::
     max_velocity_mm_s = 250.0
     max_acceleration_mm_s2 = [1500.0, 1500.0, 800.0]
     max_jerk_mm_s3 = 20000.0                  # tangential jerk (SLW scheduler)
-    path_acceleration_mm_s2 = 1000.0          # optional: the planner's limit along the path
+    path_acceleration_mm_s2 = 1000.0          # optional: the limit along the path (default: the
+                                              # slowest axis's)
 
     [servo]                                   # first order: kv_1_s (or kv_m_min_mm);
     kv_1_s = 30.0                             # second order: natural_freq_hz (+ damping)
     feedforward = 0.0                         # velocity feed-forward fraction 0..1
 
     [controller]
+    acceleration = "path"                     # "path": a limit along the path (LinuxCNC); "axes":
+                                              # each axis within its own only (GRBL: a diagonal is faster)
     corner = "junction-deviation"             # GRBL ($11) or "path-tolerance" (LinuxCNC G64 P)
     junction_deviation_mm = 0.01              # the corner setting, whichever kind (also path_tolerance_mm)
     chord_tolerance_mm = 0.002                # arcs followed as chords within this (GRBL $12)
@@ -51,10 +54,10 @@ from fuzzyfeed.machine.limits import (AXES, DEFAULT_AXIS_ACC_MM_S2, DEFAULT_AXIS
 from fuzzyfeed.machine.servo import ServoModel
 
 CORNER_KINDS = ("junction-deviation", "path-tolerance")
+ACCELERATION_KINDS = ("path", "axes")
 DEFAULT_CORNER_MM = 0.01
 DEFAULT_CHORD_TOLERANCE_MM = 0.002
 DEFAULT_CONTOUR_TOLERANCE_UM = 50.0
-DEFAULT_PATH_ACC_MM_S2 = 1000.0
 
 #: section -> key -> (Machine field, kind); kind: "axes" (scalar or 3), "pos" (> 0), "frac" (0..1),
 #: "int" (integer >= 0), "corner" (one of CORNER_KINDS), "text"
@@ -67,7 +70,7 @@ SCHEMA: dict[str, dict[str, tuple[str, str]]] = {
     "servo": {"kv_1_s": ("servo", "servo"), "kv_m_min_mm": ("servo", "servo"),
               "natural_freq_hz": ("servo", "servo"), "damping": ("servo", "servo"),
               "feedforward": ("servo", "servo")},
-    "controller": {"corner": ("corner", "corner"),
+    "controller": {"corner": ("corner", "corner"), "acceleration": ("acceleration", "acceleration"),
                    "junction_deviation_mm": ("corner_mm", "pos"),
                    "path_tolerance_mm": ("corner_mm", "pos"),
                    "chord_tolerance_mm": ("chord_tol_mm", "pos"),
@@ -108,8 +111,10 @@ class Machine:
     """A machine and the tolerance its parts must hold, validated at construction.
 
     ``axis_vel_mm_s``, ``axis_acc_mm_s2`` per axis (x, y, z; a scalar applies to all);
-    ``jerk_mm_s3`` tangential jerk (the SLW scheduler's); ``path_acc_mm_s2`` the planner's limit
-    along the path (None: only the axes limit it, as GRBL); ``servo`` the axis loops;
+    ``jerk_mm_s3`` tangential jerk (the SLW scheduler's); ``acceleration`` how the planner limits
+    a move's acceleration: ``"path"`` at most ``path_acc_mm_s2`` along the path (None: the slowest
+    axis's limit) and every axis within its own, or ``"axes"`` every axis within its own only
+    (GRBL: a diagonal accelerates faster); ``servo`` the axis loops;
     ``corner`` how the controller takes a corner between two moves — ``"junction-deviation"``
     (GRBL ``$11``: v² = a·δ·sin(θ/2)/(1 − sin(θ/2))) or ``"path-tolerance"`` (LinuxCNC ``G64 P``:
     the same speed on a blend arc that leaves the corner by at most δ) — with δ = ``corner_mm``;
@@ -121,7 +126,8 @@ class Machine:
     axis_vel_mm_s: tuple[float, float, float] = (DEFAULT_AXIS_VEL_MM_S,) * 3
     axis_acc_mm_s2: tuple[float, float, float] = (DEFAULT_AXIS_ACC_MM_S2,) * 3
     jerk_mm_s3: float = DEFAULT_JERK_MM_S3
-    path_acc_mm_s2: float | None = DEFAULT_PATH_ACC_MM_S2
+    path_acc_mm_s2: float | None = None
+    acceleration: str = "path"
     servo: ServoModel = field(default_factory=ServoModel)
     corner: str = "junction-deviation"
     corner_mm: float = DEFAULT_CORNER_MM
@@ -139,6 +145,9 @@ class Machine:
             object.__setattr__(self, name, _positive(name, getattr(self, name)))
         if self.path_acc_mm_s2 is not None:
             object.__setattr__(self, "path_acc_mm_s2", _positive("path_acc_mm_s2", self.path_acc_mm_s2))
+        if self.acceleration not in ACCELERATION_KINDS:
+            raise MachineLimitsError(f"acceleration = {self.acceleration!r}; must be one of "
+                                     f"{', '.join(repr(k) for k in ACCELERATION_KINDS)}")
         if self.corner not in CORNER_KINDS:
             raise MachineLimitsError(f"corner = {self.corner!r}; must be one of "
                                      f"{', '.join(repr(k) for k in CORNER_KINDS)}")
@@ -161,17 +170,25 @@ class Machine:
         return self.contour_tol_um * 1e-3
 
     @property
+    def path_limit_mm_s2(self) -> float | None:
+        """The limit along the path (None when only the axes limit a move)."""
+        if self.acceleration == "axes":
+            return None
+        return min(self.axis_acc_mm_s2) if self.path_acc_mm_s2 is None else self.path_acc_mm_s2
+
+    @property
     def tangential_acc_mm_s2(self) -> float:
         """The acceleration the planner allows whatever the direction: the path limit and the
         slowest axis."""
         a = min(self.axis_acc_mm_s2)
-        return a if self.path_acc_mm_s2 is None else min(a, self.path_acc_mm_s2)
+        cap = self.path_limit_mm_s2
+        return a if cap is None else min(a, cap)
 
     def move_acceleration(self, unit: np.ndarray) -> np.ndarray:
         """Largest tangential acceleration (mm/s²) along each unit direction (N, 3): every axis
         within its limit, |a·u_j| ≤ A_j (GRBL's ``limit_value_by_axis_maximum``), and the path
-        limit if set."""
-        return self._along(np.asarray(self.axis_acc_mm_s2), unit, self.path_acc_mm_s2)
+        limit unless ``acceleration = "axes"``."""
+        return self._along(np.asarray(self.axis_acc_mm_s2), unit, self.path_limit_mm_s2)
 
     def move_velocity(self, unit: np.ndarray) -> np.ndarray:
         """Largest speed (mm/s) along each unit direction: every axis within its velocity limit."""
@@ -197,7 +214,8 @@ class Machine:
             return f"{v[0]:g}" if len(set(v)) == 1 else ",".join(f"{x:g}" for x in v)
         corner = (f"junction deviation {self.corner_mm:g} mm" if self.corner == "junction-deviation"
                   else f"path tolerance (G64 P) {self.corner_mm:g} mm")
-        path_acc = "" if self.path_acc_mm_s2 is None else f", path {self.path_acc_mm_s2:g} mm/s^2"
+        cap = self.path_limit_mm_s2
+        path_acc = " (each axis on its own)" if cap is None else f", path {cap:g} mm/s^2"
         look = "unlimited" if self.lookahead_moves == 0 else f"{self.lookahead_moves} moves"
         return (f"machine {self.name!r}: axes {axes(self.axis_vel_mm_s)} mm/s, "
                 f"{axes(self.axis_acc_mm_s2)} mm/s^2{path_acc}; servo {self.servo.describe()}; "
@@ -209,7 +227,7 @@ class Machine:
         out: dict[str, object] = {
             "name": self.name, "axis_vel_mm_s": list(self.axis_vel_mm_s),
             "axis_acc_mm_s2": list(self.axis_acc_mm_s2), "jerk_mm_s3": self.jerk_mm_s3,
-            "path_acc_mm_s2": self.path_acc_mm_s2, "servo_kv_1_s": list(servo.kv_1_s),
+            "path_acc_mm_s2": self.path_limit_mm_s2, "acceleration": self.acceleration, "servo_kv_1_s": list(servo.kv_1_s),
             "servo_feedforward": list(servo.feedforward), "corner": self.corner,
             "corner_mm": self.corner_mm, "chord_tol_mm": self.chord_tol_mm,
             "lookahead_moves": self.lookahead_moves, "ts_s": self.ts_s,
@@ -302,6 +320,11 @@ def machine_from_mapping(data: Mapping, where: Locator | None = None, path: Path
                 if isinstance(v, bool) or not isinstance(v, int) or v < 0 or v == 1:
                     raise MachineLimitsError(f"{at}: {k} = {v!r}; must be an integer >= 2, or 0 for "
                                              "an unlimited look-ahead")
+                fields[target] = v
+            elif kind == "acceleration":
+                if v not in ACCELERATION_KINDS:
+                    raise MachineLimitsError(f"{at}: {k} = {v!r}; must be one of "
+                                             f"{', '.join(repr(c) for c in ACCELERATION_KINDS)}")
                 fields[target] = v
             elif kind == "corner":
                 if v not in CORNER_KINDS:
