@@ -18,10 +18,11 @@ PAIRS_PER_CHUNK = 2_000_000
 
 
 def windowed_distance(points: np.ndarray, s_vertex: np.ndarray, query: np.ndarray, s_lo: np.ndarray,
-                      s_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                      s_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distance from each ``query`` point (K, 3) to the polyline ``points`` (n+1, 3) restricted to
     the segments that overlap the arc-length window [s_lo_k, s_hi_k] (``s_vertex`` the arc
-    length at each vertex). Returns (distance (K,), index of the nearest segment (K,))."""
+    length at each vertex). Returns (distance (K,), index of the nearest segment (K,), the
+    nearest point on the path (K, 3))."""
     pts = np.asarray(points, dtype=float)
     n = pts.shape[0] - 1
     i_lo = np.clip(np.searchsorted(s_vertex, s_lo, side="right") - 1, 0, n - 1)
@@ -32,6 +33,7 @@ def windowed_distance(points: np.ndarray, s_vertex: np.ndarray, query: np.ndarra
     seg_l2 = np.einsum("ij,ij->i", seg_d, seg_d)
     dist = np.empty(query.shape[0])
     best = np.empty(query.shape[0], dtype=np.int64)
+    foot = np.empty((query.shape[0], 3))
     ends = np.cumsum(counts)
     k0 = 0
     while k0 < query.shape[0]:
@@ -55,5 +57,6 @@ def windowed_distance(points: np.ndarray, s_vertex: np.ndarray, query: np.ndarra
         first_min = pos[np.searchsorted(pos, starts)]
         dist[k0:k1] = np.sqrt(dmin)
         best[k0:k1] = seg[first_min]
+        foot[k0:k1] = seg_a[seg[first_min]] + seg_d[seg[first_min]] * t[first_min, None]
         k0 = k1
-    return dist, best
+    return dist, best, foot

@@ -20,8 +20,9 @@ cap of its speed. The plan, like GRBL's planner (``planner.c``):
 - the squared speed at every vertex is the largest that allows reaching the next and the previous
   cap with the acceleration: w_k = min_j (c_j + |D_k − D_j|), D the running sum of 2·a·L (one
   forward and one backward pass, each a running minimum); the program starts and ends at rest;
-- a finite look-ahead of N moves: a segment's entry speed must allow a stop within the next N
-  segments (what a full GRBL buffer allows);
+- a finite look-ahead of N moves: when segment i − 1 ends, the buffer holds segments i … i + N − 2
+  after it (GRBL plans a block once, when it starts, and the buffer's last block ends at rest),
+  so the speed at vertex i must allow a stop within them;
 - each segment: accelerate at a, cruise at the peak, decelerate at a (a trapezoid or triangle);
   its time and the position at any instant are closed forms.
 """
@@ -171,7 +172,7 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
     reach = 2.0 * acc * length                       # Δ(v²) a segment allows
     if machine.lookahead_moves:
         csum = np.concatenate([[0.0], np.cumsum(reach)])
-        end = np.minimum(np.arange(n + 1) + machine.lookahead_moves, n)
+        end = np.minimum(np.arange(n + 1) + machine.lookahead_moves - 1, n)
         cap = np.minimum(cap, csum[end] - csum[np.arange(n + 1)])
     w = reachable_squared_speed(cap, reach)
     w0, w1 = w[:-1], w[1:]

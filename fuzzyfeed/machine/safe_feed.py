@@ -31,7 +31,9 @@ from fuzzyfeed.machine.planner import Motion
 CORNER_ANGLES_DEG = np.array([0.0, 1.0, 2.0, 3.0, 5.0, 7.5, 10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 75.0,
                               90.0, 105.0, 120.0, 135.0, 150.0, 165.0, 180.0])
 CORNER_SPEEDS = 28
-LOWEST_SPEED_MM_S = 0.05
+#: The lowest speed of the table, as a fraction of the machine's top speed (a relative grid keeps
+#: the table's speeds in proportion when the machine is scaled).
+LOWEST_SPEED_FRACTION = 5e-4
 
 
 def curve_error_mm(machine: Machine, radius_mm: np.ndarray, feed_mm_s: np.ndarray) -> np.ndarray:
@@ -141,7 +143,7 @@ def _corner_errors(angle_rad: float, speeds: np.ndarray, machine: Machine, rapid
     actual = cmd - following_errors(machine.servo, cmd, ts)
     lookback = int(math.ceil(LOOKBACK_TIME_CONSTANTS * machine.servo.time_constant_s / ts))
     k = np.flatnonzero(np.concatenate(near))
-    dist, _ = windowed_distance(poly, s_vertex, actual[k], s_cmd[np.maximum(k - lookback, 0)] - WINDOW_MARGIN_MM,
+    dist, _, _ = windowed_distance(poly, s_vertex, actual[k], s_cmd[np.maximum(k - lookback, 0)] - WINDOW_MARGIN_MM,
                                 s_cmd[k] + WINDOW_MARGIN_MM)
     out = np.zeros(speeds.size)
     np.maximum.at(out, case[k], dist)
@@ -154,7 +156,7 @@ def corner_error_table(machine: Machine, rapid_lead: bool = False) -> tuple[np.n
     run at constant feed through the machine's planner and servo (``rapid_lead``: a cut's entry,
     the corner reached by a rapid at the machine's velocity, the feed move after it at the speed)."""
     top = max(machine.axis_vel_mm_s)
-    speeds = np.geomspace(LOWEST_SPEED_MM_S, top, CORNER_SPEEDS)
+    speeds = np.geomspace(LOWEST_SPEED_FRACTION * top, top, CORNER_SPEEDS)
     angles = np.radians(CORNER_ANGLES_DEG)
     err = np.vstack([_corner_errors(float(phi), speeds, machine, rapid_lead) for phi in angles])
     # the error grows with the speed: a non-monotone wiggle of the grid is taken at its worst

@@ -32,6 +32,7 @@ class Trace:
     contour_mm: np.ndarray
     tick_segment: np.ndarray
     nearest_segment: np.ndarray
+    nearest_xyz: np.ndarray         # (K, 3) the point of the path nearest to the tool
     speed_mm_s: np.ndarray          # commanded speed over the tick before
     lookback_segment: np.ndarray    # the segment commanded LOOKBACK_TIME_CONSTANTS before
 
@@ -54,10 +55,10 @@ def trace_motion(motion: Motion, machine: Machine, measured: np.ndarray | None =
     s_lo = s_cmd[np.maximum(idx - lookback, 0)] - WINDOW_MARGIN_MM
     s_hi = s_cmd[idx] + WINDOW_MARGIN_MM
     if idx.size:
-        dist, nearest = windowed_distance(motion.points, s_vertex, actual[idx], s_lo, s_hi)
+        dist, nearest, foot = windowed_distance(motion.points, s_vertex, actual[idx], s_lo, s_hi)
     else:
-        dist, nearest = np.zeros(0), np.zeros(0, dtype=np.int64)
+        dist, nearest, foot = np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
     speed = np.concatenate([[0.0], np.diff(s_cmd)]) / machine.ts_s
     return Trace(plan=plan, tick_time_s=t[idx], contour_mm=dist, tick_segment=seg[idx],
-                 nearest_segment=nearest, speed_mm_s=speed[idx],
+                 nearest_segment=nearest, nearest_xyz=foot, speed_mm_s=speed[idx],
                  lookback_segment=seg[np.maximum(idx - lookback, 0)])

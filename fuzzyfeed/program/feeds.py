@@ -159,17 +159,16 @@ def hold_min_length(q: np.ndarray, seg_len: np.ndarray, move_first: np.ndarray, 
                 break
             r = int(short[np.argmin(run_len[short])])
             s0, s1 = starts[r], ends[r]
-            left = seg[s0 - 1] if s0 > 0 else np.inf
-            right = seg[s1] if s1 < seg.size else np.inf
-            if seg[s0] <= min(left, right):
-                # slow and short: take the next segment of the faster side (the longer-run side on a tie)
-                if right >= left and s1 < seg.size:
-                    seg[s1] = seg[s0]
-                else:
-                    seg[s0 - 1] = seg[s0]
-            else:
-                slower = [v for v in (left, right) if v < seg[s0]]
+            sides = [v for v in ((seg[s0 - 1], s0 - 1) if s0 > 0 else None,
+                                 (seg[s1], s1) if s1 < seg.size else None) if v is not None]
+            slower = [f for f, _ in sides if f < seg[s0]]
+            if slower:
+                # short and faster than a neighbour: it takes the nearest slower neighbour's feed
                 seg[s0:s1] = max(slower)
+            else:
+                # short and slowest: it grows by one segment into its faster neighbour
+                _, at = max(sides)
+                seg[at] = seg[s0]
         q[a:b] = seg
     return q
 

@@ -152,6 +152,7 @@ class ChainRun:
     tick_move: np.ndarray
     tick_segment: np.ndarray
     nearest_segment: np.ndarray
+    nearest_xyz: np.ndarray
     speed_mm_s: np.ndarray
     lookback_segment: np.ndarray
 
@@ -183,15 +184,15 @@ class ProgramRun:
         return float(np.percentile(e, 99)) if e.size else 0.0
 
     def worst(self) -> tuple[int, np.ndarray] | None:
-        """(program line, 0-based) and position (mm) of the largest contour error, or None."""
+        """(program line, 0-based, of the move commanded then) and the point of the path nearest to
+        the tool (mm) at the largest contour error, or None."""
         best = None
         for r in self.runs:
             if r.contour_mm.size == 0:
                 continue
             k = int(np.argmax(r.contour_mm))
             if best is None or r.contour_mm[k] > best[0]:
-                seg = int(r.tick_segment[k])
-                best = (float(r.contour_mm[k]), int(r.tick_move[k]), r.plan.motion.points[seg + 1])
+                best = (float(r.contour_mm[k]), int(r.tick_move[k]), r.nearest_xyz[k])
         if best is None:
             return None
         return int(self.path.program.move_line[best[1]]), best[2]
@@ -217,7 +218,7 @@ def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = Non
     tr = trace_motion(motion, machine, chain.seg_measured)
     return ChainRun(plan=tr.plan, tick_time_s=tr.tick_time_s, contour_mm=tr.contour_mm,
                     tick_move=chain.seg_move[tr.tick_segment], tick_segment=tr.tick_segment,
-                    nearest_segment=tr.nearest_segment, speed_mm_s=tr.speed_mm_s,
+                    nearest_segment=tr.nearest_segment, nearest_xyz=tr.nearest_xyz, speed_mm_s=tr.speed_mm_s,
                     lookback_segment=tr.lookback_segment)
 
 

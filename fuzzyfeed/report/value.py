@@ -242,8 +242,9 @@ def feed_trace(written_path: ProgramPath, written: ProgramRun, advised_path: Pro
         pts = chain.motion.points
         lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1) * chain.seg_measured
         start = np.concatenate([[0.0], np.cumsum(lengths)])     # measured length before each segment
-        over_s.append(off + start[seg])
-        over_xyz.append(pts[seg])
+        into = np.linalg.norm(r.nearest_xyz[bad] - pts[seg], axis=1) * chain.seg_measured[seg]
+        over_s.append(off + start[seg] + into)
+        over_xyz.append(r.nearest_xyz[bad])
     os_ = np.concatenate(over_s) if over_s else np.zeros(0)
     ox = np.concatenate(over_xyz) if over_xyz else np.zeros((0, 3))
     if os_.size:
