@@ -156,11 +156,15 @@ def _entry_angle(program: Program, first: int) -> float:
     """The angle (rad) between the rapid that ends where move ``first`` starts and that move's
     start tangent, or NaN when no rapid leads into it."""
     prev = first - 1
+    # rapids that do not move (a repeated G0 Z) are transparent: the one before them leads in
+    while prev >= 0 and int(program.kind[prev]) in (RAPID, HOME) and \
+            np.array_equal(program.end[prev], program.start[prev]):
+        prev -= 1
     if prev < 0 or int(program.kind[prev]) not in (RAPID, HOME):
         return float("nan")
     d = program.end[prev] - program.start[prev]
     norm = float(np.linalg.norm(d))
-    if norm == 0 or not np.array_equal(program.end[prev], program.start[first]):
+    if not np.array_equal(program.end[prev], program.start[first]):
         return float("nan")
     t0, _ = move_end_tangents(program, first)
     return float(np.arccos(np.clip(np.dot(d / norm, t0), -1.0, 1.0)))
