@@ -11,6 +11,30 @@ from fuzzyfeed.designer.compute import (Projection, Surface, breakpoint_axis, br
 from fuzzyfeed.fuzzy.rules import UNITS, Variable
 
 TOOLS = "pan,wheel_zoom,box_zoom,reset,save"
+#: Once a plot is laid out: its canvas (operated by mouse only; the typed fields and the grid do the
+#: same by keyboard) leaves the tab order and is described to screen readers as an image.
+_LABEL_CANVAS = """
+const view = Bokeh.index.find_one(fig);
+if (view != null && view.canvas_view.events_el.getAttribute('role') != 'img') {
+  const el = view.canvas_view.events_el;
+  el.tabIndex = -1;
+  el.setAttribute('role', 'img');
+  el.setAttribute('aria-label', label);
+}
+"""
+
+
+def plot(name: str, label: str, **kw):
+    """A Bokeh figure named ``name`` (for tests), toolbar above, no logo link, its canvas
+    labelled ``label`` for screen readers."""
+    from bokeh.models import CustomJS
+    from bokeh.plotting import figure
+
+    kw.setdefault("tools", TOOLS)
+    fig = figure(name=name, toolbar_location="above", **kw)
+    fig.toolbar.logo = None
+    fig.js_on_change("inner_width", CustomJS(args={"fig": fig, "label": label}, code=_LABEL_CANVAS))
+    return fig
 
 
 def _palette(n: int) -> list[str]:
@@ -35,17 +59,17 @@ class MembershipFigure:
     """The membership functions of one variable; its breakpoints drag along x (PointDrawTool)."""
 
     def __init__(self, var: Variable, width: int = 440, height: int = 170):
-        from bokeh.models import ColumnDataSource, PointDrawTool
-        from bokeh.plotting import figure
+        from bokeh.models import ColumnDataSource, PointDrawTool, Range1d
 
         self.name = var.name
         self.colors = _palette(len(var.terms))
         self.lines = ColumnDataSource(name=f"mf-lines-{var.name}")
         self.points = ColumnDataSource(name=f"mf-points-{var.name}")
         self.labels = ColumnDataSource(name=f"mf-labels-{var.name}")
-        fig = figure(name=f"mf-{var.name}", width=width, height=height, tools=TOOLS,
-                     x_axis_label=unit_label(var.name) + ", spaced by breakpoints", y_axis_label="membership",
-                     y_range=(-0.08, 1.25), toolbar_location="right")
+        fig = plot(f"mf-{var.name}", f"membership functions of {var.name}; drag a breakpoint, or "
+                   "type it in the fields below", width=width, height=height, tools="wheel_zoom,reset",
+                   x_axis_label=unit_label(var.name) + ", spaced by breakpoints",
+                   y_axis_label="membership", y_range=(-0.08, 1.3), x_range=Range1d(0, 1))
         fig.multi_line("xs", "ys", source=self.lines, line_color="color", line_width=2)
         dots = fig.scatter("x", "y", source=self.points, size=9, fill_color="color",
                            line_color="black", name=f"mf-dots-{var.name}")
@@ -106,16 +130,16 @@ class SurfaceFigures:
     """The control surface as a heatmap (axes spaced by the breakpoints) and in 3-D."""
 
     def __init__(self, names: tuple[str, str, str], z_range: tuple[float, float], width: int = 420):
-        from bokeh.models import ColorBar, ColumnDataSource, LinearColorMapper
-        from bokeh.plotting import figure
+        from bokeh.models import ColorBar, ColumnDataSource, LinearColorMapper, Range1d
 
         self.names = names
         self.z_range = z_range
         self.mapper = LinearColorMapper(palette=feed_palette(), low=z_range[0], high=z_range[1])
         self.image = ColumnDataSource(name="surface-image")
-        heat = figure(name="surface-heatmap", width=width, height=320, tools=TOOLS,
-                      x_axis_label=unit_label(names[0]) + ", spaced by breakpoints",
-                      y_axis_label=unit_label(names[1]), title=f"{unit_label(names[2])} (exact centroid)")
+        heat = plot("surface-heatmap", f"control surface: {names[2]} over {names[0]} and {names[1]}",
+                    width=width, height=320, x_range=Range1d(0, 1), y_range=Range1d(0, 1),
+                    x_axis_label=unit_label(names[0]) + ", spaced by breakpoints",
+                    y_axis_label=unit_label(names[1]), title=f"{unit_label(names[2])} (exact centroid)")
         heat.image("image", x="x", y="y", dw="dw", dh="dh", source=self.image, color_mapper=self.mapper)
         heat.add_layout(ColorBar(color_mapper=self.mapper, width=10), "right")
         heat.grid.visible = False
@@ -123,8 +147,9 @@ class SurfaceFigures:
         self.quads = ColumnDataSource(name="surface-quads")
         self.edges = ColumnDataSource(name="surface-edges")
         self.axis_labels = ColumnDataSource(name="surface-labels")
-        view = figure(name="surface-3d", width=width, height=320, tools="pan,wheel_zoom,reset,save",
-                      match_aspect=True, title="control surface in 3-D")
+        view = plot("surface-3d", "control surface in 3-D; turn it with the sliders below", width=width,
+                    height=320, tools="pan,wheel_zoom,reset,save", match_aspect=True,
+                    title="control surface in 3-D")
         view.patches("xs", "ys", source=self.quads, fill_color={"field": "z", "transform": self.mapper},
                      line_color="#333333", line_width=0.3)
         view.multi_line("xs", "ys", source=self.edges, line_color="black")
@@ -156,13 +181,12 @@ class PathFigures:
 
     def __init__(self, samples, z_range: tuple[float, float], output: str, width: int = 460):
         from bokeh.models import ColorBar, ColumnDataSource, LinearColorMapper
-        from bokeh.plotting import figure
 
         self.mapper = LinearColorMapper(palette=feed_palette(), low=z_range[0], high=z_range[1])
         self.path = ColumnDataSource(name="path-feed",
                                      data={"x": samples.x, "y": samples.y, "feed": np.zeros(samples.s.size)})
-        plan = figure(name="path-plan", width=width, height=330, tools=TOOLS, match_aspect=True,
-                      x_axis_label="x (mm)", y_axis_label="y (mm)", title="path coloured by the advised feed")
+        plan = plot("path-plan", "the path coloured by the advised feed", width=width, height=330,
+                    match_aspect=True, x_axis_label="x (mm)", y_axis_label="y (mm)", title="path coloured by the advised feed")
         plan.scatter("x", "y", source=self.path, size=3,
                      color={"field": "feed", "transform": self.mapper})
         plan.add_layout(ColorBar(color_mapper=self.mapper, width=10, title=f"{output} %"), "right")
@@ -170,15 +194,15 @@ class PathFigures:
         self.along = ColumnDataSource(name="path-along", data={"s": samples.s, "feed": np.zeros(samples.s.size),
                                                                "disk": np.zeros(samples.s.size),
                                                                "curvature": samples.curvature})
-        feed = figure(name="path-feed-s", width=width, height=190, tools=TOOLS,
-                      y_axis_label=f"{output} (%)", title="advised feed along the path")
+        feed = plot("path-feed-s", "advised feed along the path, draft and table on disk", width=width,
+                    height=210, y_axis_label=f"{output} (%)", title="advised feed along the path")
         feed.line("s", "disk", source=self.along, line_dash="dashed", color="gray",
                   legend_label="table on disk")
         feed.line("s", "feed", source=self.along, color="#1f77b4", line_width=2, legend_label="draft")
         feed.legend.location = "bottom_right"
         feed.legend.label_text_font_size = "8pt"
-        kappa = figure(name="path-curvature-s", width=width, height=150, tools=TOOLS, x_range=feed.x_range,
-                       x_axis_label="arc length s (mm)", y_axis_label="curvature (1/mm)")
+        kappa = plot("path-curvature-s", "curvature along the path", width=width, height=170,
+                     x_range=feed.x_range, x_axis_label="arc length s (mm)", y_axis_label="curvature (1/mm)")
         kappa.line("s", "curvature", source=self.along, color="black")
         self.feed, self.kappa = feed, kappa
 

@@ -20,6 +20,8 @@ from fuzzyfeed.errors import FileConflictError, FuzzyfeedError
 #: A label that stays for screen readers but takes no room (the headers show it).
 HIDDEN_LABEL = (":host label { position: absolute !important; width: 1px; height: 1px; margin: -1px; "
                 "overflow: hidden; clip: rect(0 0 0 0); white-space: nowrap; border: 0; padding: 0; }")
+#: Number fields without their step buttons (unlabelled tab stops; the arrow keys step instead).
+NO_SPIN = ".bk-spin-btn { display: none !important; }"
 ROLES = ("input 1 (grid rows)", "input 2 (grid columns)", "output")
 EXPORTS = (("fcl", ".fcl", "Export FCL"), ("fll", ".fll", "Export FLL"), ("fis", ".fis", "Export .fis"))
 SETTINGS = (("window_points", "int", "window WS (points)"), ("dk_clip_1_mm", "float", "Dk clip (1/mm)"),
@@ -62,15 +64,15 @@ class DesignerView:
                               width=470)
         f_lo, f_hi = table.variables[2].universe
         self.surface = SurfaceFigures(self.names, (f_lo, f_hi))
-        self.azimuth = pn.widgets.IntSlider(name="3-D view: azimuth (deg)", start=-180, end=180,
+        self.azimuth = pn.widgets.IntSlider(label="3-D view: azimuth (deg)", start=-180, end=180,
                                             step=5, value=-60, width=200)
-        self.elevation = pn.widgets.IntSlider(name="3-D view: elevation (deg)", start=5, end=85,
+        self.elevation = pn.widgets.IntSlider(label="3-D view: elevation (deg)", start=5, end=85,
                                               step=5, value=30, width=200)
         for w in (self.azimuth, self.elevation):
             w.param.watch(lambda e: self.surface.rotate(self.azimuth.value, self.elevation.value), "value")
         middle = pn.Column(self._grid(pn), pn.pane.Bokeh(self.surface.heatmap),
                            pn.pane.Bokeh(self.surface.view3d), pn.Row(self.azimuth, self.elevation),
-                           self._settings(pn), width=480)
+                           self._settings(pn), width=540)
         self.summary = pn.pane.HTML("", width=460)
         self.diff = pn.pane.HTML("", width=460)
         right = [self.summary]
@@ -86,10 +88,10 @@ class DesignerView:
 
     # -- building -----------------------------------------------------------------------------
     def _toolbar(self, pn):
-        self.undo = pn.widgets.Button(name="Undo", width=70)
-        self.redo = pn.widgets.Button(name="Redo", width=70)
-        self.save_to = pn.widgets.TextInput(name="Save to", value=str(self.doc.save_path), width=330)
-        self.save = pn.widgets.Button(name="Save", button_type="primary", width=70)
+        self.undo = pn.widgets.Button(label="Undo", width=70)
+        self.redo = pn.widgets.Button(label="Redo", width=70)
+        self.save_to = pn.widgets.TextInput(label="Save to", value=str(self.doc.save_path), width=330)
+        self.save = pn.widgets.Button(label="Save", width=70)
         self.undo.on_click(lambda e: self._run(self.doc.undo))
         self.redo.on_click(lambda e: self._run(self.doc.redo))
         self.save.on_click(lambda e: self._save(False))
@@ -101,9 +103,9 @@ class DesignerView:
             self.exports.append(w)
         title = pn.pane.HTML(f"<h2 style='margin:4px 0'>fuzzyfeed rule designer: "
                              f"{html.escape(self.doc.table.name)}</h2>", width=420)
-        self.overwrite = pn.widgets.Button(name="Overwrite", button_type="danger", width=100)
-        self.reload = pn.widgets.Button(name="Reload from disk", width=140)
-        self.cancel = pn.widgets.Button(name="Cancel", width=80)
+        self.overwrite = pn.widgets.Button(label="Overwrite", width=100)
+        self.reload = pn.widgets.Button(label="Reload from disk", width=140)
+        self.cancel = pn.widgets.Button(label="Cancel", width=80)
         self.overwrite.on_click(lambda e: self._save(True))
         self.reload.on_click(lambda e: self._conflict_done(self.doc.reload))
         self.cancel.on_click(lambda e: self._conflict_done(None))
@@ -122,8 +124,8 @@ class DesignerView:
         items = [pn.pane.HTML(f"<h3 style='margin:6px 0 0 0'>{ROLES[i]}: {html.escape(unit_label(name))}</h3>"),
                  self._error_pane(pn, name, None), pn.pane.Bokeh(self.mf[i].figure)]
         self.mf[i].points.on_change("data", lambda attr, old, new, i=i: self._dragged(i, old, new))
-        lo = pn.widgets.FloatInput(name=f"{name} universe from", width=85, stylesheets=[HIDDEN_LABEL])
-        hi = pn.widgets.FloatInput(name=f"{name} universe to", width=85, stylesheets=[HIDDEN_LABEL])
+        lo = pn.widgets.FloatInput(label=f"{name} universe from", width=85, stylesheets=[HIDDEN_LABEL, NO_SPIN])
+        hi = pn.widgets.FloatInput(label=f"{name} universe to", width=85, stylesheets=[HIDDEN_LABEL, NO_SPIN])
         for k, w in enumerate((lo, hi)):
             w.param.watch(lambda e, k=k: self._typed(self.doc.set_universe, name, k, e.new), "value")
         self.universe_inputs = getattr(self, "universe_inputs", {})
@@ -139,8 +141,8 @@ class DesignerView:
         for term in var.terms:
             row = [pn.pane.HTML(f"<b>{html.escape(term.label)}</b>", width=50, margin=(12, 5))]
             for k in range(len(term.points)):
-                w = pn.widgets.FloatInput(name=f"{name} {term.label} {'abcd'[k]}", width=85,
-                                          stylesheets=[HIDDEN_LABEL])
+                w = pn.widgets.FloatInput(label=f"{name} {term.label} {'abcd'[k]}", width=85,
+                                          stylesheets=[HIDDEN_LABEL, NO_SPIN])
                 w.param.watch(lambda e, t=term.label, k=k: self._typed(self.doc.set_point, name, t, k, e.new),
                               "value")
                 self.point_inputs[(name, term.label, k)] = w
@@ -152,14 +154,14 @@ class DesignerView:
         rows_var, cols_var, out = self.doc.table.variables
         self.cells = {}
         header = [pn.pane.HTML("", width=50)]
-        header += [pn.pane.HTML(f"<b>{html.escape(c)}</b>", width=66, styles={"text-align": "center"})
+        header += [pn.pane.HTML(f"<b>{html.escape(c)}</b>", width=74, styles={"text-align": "center"})
                    for c in cols_var.labels]
         lines = [pn.Row(*header, margin=0)]
         for r in rows_var.labels:
             row = [pn.pane.HTML(f"<b>{html.escape(r)}</b>", width=50, margin=(10, 5))]
             for c in cols_var.labels:
-                w = pn.widgets.Select(name=f"rule: {rows_var.name} {r}, {cols_var.name} {c}",
-                                      options=list(out.labels), width=66, stylesheets=[HIDDEN_LABEL])
+                w = pn.widgets.Select(label=f"rule: {rows_var.name} {r}, {cols_var.name} {c}",
+                                      options=list(out.labels), width=74, stylesheets=[HIDDEN_LABEL])
                 w.param.watch(lambda e, r=r, c=c: self._typed(self.doc.set_cell, r, c, e.new), "value")
                 self.cells[(r, c)] = w
                 row.append(w)
@@ -175,11 +177,11 @@ class DesignerView:
         items = [pn.pane.HTML("<h3 style='margin:6px 0 0 0'>settings [features]</h3>")]
         for key, kind, label in SETTINGS:
             if kind == "int":
-                w = pn.widgets.IntInput(name=label, width=150)
+                w = pn.widgets.IntInput(label=label, width=150, stylesheets=[NO_SPIN])
             elif kind == "float":
-                w = pn.widgets.FloatInput(name=label, width=150)
+                w = pn.widgets.FloatInput(label=label, width=150, stylesheets=[NO_SPIN])
             else:
-                w = pn.widgets.Select(name=label, options=list(FILTER_KINDS), width=150)
+                w = pn.widgets.Select(label=label, options=list(FILTER_KINDS), width=150)
             w.param.watch(lambda e, key=key: self._typed(self.doc.set_feature, key, e.new), "value")
             self.setting_inputs[key] = w
         keys = [k for k, _, _ in SETTINGS]
