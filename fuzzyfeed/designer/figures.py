@@ -207,5 +207,7 @@ class PathFigures:
         self.feed, self.kappa = feed, kappa
 
     def update(self, feed_pct: np.ndarray, disk_pct: np.ndarray) -> None:
-        self.path.data = dict(self.path.data, feed=feed_pct)
-        self.along.data = dict(self.along.data, feed=feed_pct, disk=disk_pct)
+        self.path.data["feed"] = feed_pct          # one column sent, not the whole source
+        self.along.data["feed"] = feed_pct
+        if not np.array_equal(self.along.data["disk"], disk_pct):
+            self.along.data["disk"] = disk_pct

@@ -200,6 +200,7 @@ class DesignerView:
         if self._syncing:
             return
         moves = self.mf[i].moved(old, new)
+        self._shown_variables = None    # redraw the dots where the document puts them
         if moves:
             self._run(self.doc.set_points, self.names[i], moves, True)
         else:
@@ -278,9 +279,10 @@ class DesignerView:
 
     def _sync_inputs(self) -> None:
         variables = self.doc.variables
-        if variables != self._shown_variables:
-            self._shown_variables = variables
-            for fig, var in zip(self.mf, variables):
+        shown = self._shown_variables or (None, None, None)
+        self._shown_variables = variables
+        for fig, var, before in zip(self.mf, variables, shown):
+            if var != before:       # only the variable edited is redrawn
                 fig.update(var)
                 for w, x in zip(self.universe_inputs[var.name], var.universe):
                     _set(w, x)
