@@ -246,3 +246,18 @@ def test_view_redraws_after_typed_and_dragged_edits(mine):
     assert view.save.disabled and all(w.disabled for w in view.exports)
     view.undo.clicks += 1
     assert view.errors[("curvature", "B")].object == "" and not view.save.disabled
+
+
+def test_a_machine_table_is_edited_by_its_own_names():
+    from fuzzyfeed.designer.app import Designer
+
+    designer = Designer("machine", shape="trident", points=300)
+    view = designer.view()
+    first, second, out = designer.document.table.variables
+    assert (first.name, second.name) == ("safe_feed_ratio", "safe_feed_ratio_near")
+    assert set(view.cells) == {(r, c) for r in first.labels for c in second.labels}
+    assert "needs a machine" in view.summary.object           # the path panel waits for --machine
+    before = np.array(view.surface.image.data["image"][0])
+    view.cells[(first.labels[-1], second.labels[-1])].value = out.labels[0]
+    assert not np.array_equal(view.surface.image.data["image"][0], before)
+    assert designer.document.differences()[0].startswith(f"rule ({first.name} {first.labels[-1]}")

@@ -16,6 +16,7 @@ from fuzzyfeed.designer.compute import control_surface, path_advice
 from fuzzyfeed.designer.document import Document
 from fuzzyfeed.designer.figures import MembershipFigure, PathFigures, SurfaceFigures, unit_label
 from fuzzyfeed.errors import FileConflictError, FuzzyfeedError
+from fuzzyfeed.fuzzy.rules import PAPER
 
 #: A label that stays for screen readers but takes no room (the headers show it).
 HIDDEN_LABEL = (":host label { position: absolute !important; width: 1px; height: 1px; margin: -1px; "
@@ -305,6 +306,11 @@ class DesignerView:
         self._drawn = table
         if self.path is None:
             self.summary.object = "<p>no path (give --shape SHAPE or --program FILE)</p>"
+            return
+        if table.inputs != PAPER:
+            self.summary.object = (f"<p>the path panel advises with tables of seed 002's inputs; a table "
+                                   f"with inputs = {html.escape(table.inputs)!r} needs a machine, which "
+                                   "the designer does not take yet</p>")
             return
         advice = path_advice(self.samples, table, self.max_feed_mm_s)
         disk = self.doc.disk_table
