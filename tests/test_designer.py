@@ -261,3 +261,17 @@ def test_a_machine_table_is_edited_by_its_own_names():
     view.cells[(first.labels[-1], second.labels[-1])].value = out.labels[0]
     assert not np.array_equal(view.surface.image.data["image"][0], before)
     assert designer.document.differences()[0].startswith(f"rule ({first.name} {first.labels[-1]}")
+
+
+def test_a_program_path_is_its_cut_on_exact_geometry():
+    from fuzzyfeed.designer.app import load_path
+    from fuzzyfeed.program.cuts import sample_cut
+    from fuzzyfeed.program.read import read_program
+
+    program = Path(__file__).parent / "programs" / "corpus" / "freecad_00.ngc"
+    samples, name = load_path(program=str(program))
+    expected = sample_cut(read_program(program), 0).samples
+    np.testing.assert_array_equal(samples.xyz, expected.xyz)
+    assert name == "freecad_00.ngc cut 1"
+    with pytest.raises(Exception, match="path 2 does not exist"):
+        load_path(program=f"{program}#2")
