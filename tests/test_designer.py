@@ -256,11 +256,30 @@ def test_a_machine_table_is_edited_by_its_own_names():
     first, second, out = designer.document.table.variables
     assert (first.name, second.name) == ("safe_feed_ratio", "safe_feed_ratio_near")
     assert set(view.cells) == {(r, c) for r in first.labels for c in second.labels}
-    assert "needs a machine" in view.summary.object           # the path panel waits for --machine
+    assert "--machine" in view.summary.object                  # the path panel waits for a machine
     before = np.array(view.surface.image.data["image"][0])
     view.cells[(first.labels[-1], second.labels[-1])].value = out.labels[0]
     assert not np.array_equal(view.surface.image.data["image"][0], before)
     assert designer.document.differences()[0].startswith(f"rule ({first.name} {first.labels[-1]}")
+
+
+def test_with_a_machine_the_path_panel_shows_time_and_contour_error():
+    from fuzzyfeed.designer.app import Designer
+    from fuzzyfeed.designer.compute import path_on_machine
+    from fuzzyfeed.fuzzy.advisor import advise_details
+    from fuzzyfeed.machine.description import load_machine
+
+    machine = load_machine("reference")
+    designer = Designer("machine", shape="trident", points=600, machine=machine)
+    view = designer.view()
+    advice = advise_details(designer.samples, designer.document.table, designer.max_feed_mm_s, machine=machine)
+    t, err = path_on_machine(designer.samples, advice.profile.feed_mm_s, machine)
+    assert f"{t:.3f} s, max contour error" in view.summary.object
+    assert f">{err:.1f}</span> um" in view.summary.object
+    # the paper's table on the same machine runs faster and breaks the 50 um the machine table holds
+    paper = advise_details(designer.samples, None, designer.max_feed_mm_s)
+    t_paper, err_paper = path_on_machine(designer.samples, paper.profile.feed_mm_s, machine)
+    assert err <= machine.contour_tol_um < err_paper and t_paper < t
 
 
 def test_a_program_path_is_its_cut_on_exact_geometry():

@@ -1,5 +1,5 @@
-"""``fuzzyfeed design [TABLE] [--shape SHAPE | --program FILE]``: the interactive rule designer as
-a local web app (127.0.0.1, a free port), opened in the browser."""
+"""``fuzzyfeed design [TABLE] [--shape SHAPE | --program FILE] [--machine M]``: the interactive rule
+designer as a local web app (127.0.0.1, a free port), opened in the browser."""
 
 from __future__ import annotations
 
@@ -34,6 +34,9 @@ def register(sub) -> None:
     p.add_argument("--port", type=int, default=None, metavar="PORT",
                    help="port on 127.0.0.1 (default: a free one)")
     p.add_argument("--no-browser", action="store_true", help="only print the address")
+    from fuzzyfeed.cli._machine import add_machine_arguments
+
+    add_machine_arguments(p)
     p.set_defaults(run=run_design)
 
 
@@ -46,6 +49,9 @@ def run_design(args: argparse.Namespace) -> int:
     from fuzzyfeed.designer.document import Document
     from fuzzyfeed.errors import InputError
 
+    from fuzzyfeed.cli._machine import machine_from_args
+
+    machine = machine_from_args(args)
     Document(args.table)            # a bad table is refused here, in one line, before serving
     if args.port is not None and not 1 <= args.port <= 65535:
         raise InputError(f"--port {args.port}: must be 1 to 65535")
@@ -53,7 +59,8 @@ def run_design(args: argparse.Namespace) -> int:
     samples, name = load_path(shape, args.program, args.points)
 
     def page():
-        return Designer(args.table, samples=samples, path_name=name, feed_mm_min=args.feed_mm_min).panel()
+        return Designer(args.table, samples=samples, path_name=name, feed_mm_min=args.feed_mm_min,
+                        machine=machine).panel()
 
     srv = server.start(page, args.port)
     url = server.address(srv)

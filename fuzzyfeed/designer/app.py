@@ -47,8 +47,9 @@ class Designer:
 
     def __init__(self, table: str | Path | None = None, shape: str | None = None,
                  program: str | None = None, points: int = 2000,
-                 feed_mm_min: float = DEFAULT_FEED_MM_MIN, samples=None, path_name: str = ""):
+                 feed_mm_min: float = DEFAULT_FEED_MM_MIN, samples=None, path_name: str = "", machine=None):
         self.document = Document(table)
+        self.machine = machine
         if samples is None:
             samples, path_name = load_path(shape, program, points)
         self.samples, self.path_name = samples, path_name
@@ -60,7 +61,8 @@ class Designer:
         if self._view is None:
             from fuzzyfeed.designer.view import DesignerView
 
-            self._view = DesignerView(self.document, self.samples, self.path_name, self.max_feed_mm_s)
+            self._view = DesignerView(self.document, self.samples, self.path_name, self.max_feed_mm_s,
+                                      machine=self.machine)
         return self._view
 
     def panel(self):

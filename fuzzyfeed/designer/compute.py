@@ -12,12 +12,27 @@ from fuzzyfeed.fuzzy.rules import RuleTable, Variable
 from fuzzyfeed.geometry.sampling import PathSamples
 
 
-def path_advice(samples: PathSamples, table: RuleTable, max_feed_mm_s: float):
+def path_advice(samples: PathSamples, table: RuleTable, max_feed_mm_s: float, machine=None):
     """The advice the path panel shows (:class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice`); the one
-    place the designer calls the advisor."""
+    place the designer calls the advisor (a machine table reads the ``machine``'s terms)."""
     from fuzzyfeed.fuzzy.advisor import advise_details
 
-    return advise_details(samples, table, max_feed_mm_s)
+    return advise_details(samples, table, max_feed_mm_s, machine=machine)
+
+
+def path_on_machine(samples: PathSamples, feed_mm_s: np.ndarray, machine) -> tuple[float, float]:
+    """(time in s, max contour error in µm) of the path's points run as G1 moves at the advised
+    feeds (each segment at the slower of its ends') through the machine's planner and servo."""
+    from fuzzyfeed.machine.planner import Motion
+    from fuzzyfeed.machine.trace import trace_motion
+
+    pts = np.asarray(samples.xyz, dtype=float)
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9])
+    pts, feed = pts[keep], np.asarray(feed_mm_s, dtype=float)[keep]
+    seg_feed = np.minimum(feed[:-1], feed[1:])
+    motion = Motion(pts, seg_feed, np.zeros(seg_feed.size, bool), np.full(pts.shape[0], np.nan))
+    tr = trace_motion(motion, machine)
+    return tr.plan.time_s, tr.max_mm * 1e3
 
 
 def breakpoint_axis(var: Variable) -> np.ndarray:

@@ -45,10 +45,11 @@ class DesignerView:
     """The Panel component over one document and one path (``samples`` may be None)."""
 
     def __init__(self, document: Document, samples=None, path_name: str = "",
-                 max_feed_mm_s: float = 100.0):
+                 max_feed_mm_s: float = 100.0, machine=None):
         import panel as pn
 
         self.doc, self.samples, self.path_name = document, samples, path_name
+        self.machine = machine
         self.max_feed_mm_s = max_feed_mm_s
         self._syncing = False
         self._drawn = None          # the table the surface and the path show
@@ -307,15 +308,15 @@ class DesignerView:
         if self.path is None:
             self.summary.object = "<p>no path (give --shape SHAPE or --program FILE)</p>"
             return
-        if table.inputs != PAPER:
-            self.summary.object = (f"<p>the path panel advises with tables of seed 002's inputs; a table "
-                                   f"with inputs = {html.escape(table.inputs)!r} needs a machine, which "
-                                   "the designer does not take yet</p>")
+        if table.inputs != PAPER and self.machine is None:
+            self.summary.object = (f"<p>a table with inputs = {html.escape(table.inputs)!r} reads the "
+                                   "machine's terms: start the designer with --machine FILE (or a machine "
+                                   "flag) to see its advice on the path</p>")
             return
-        advice = path_advice(self.samples, table, self.max_feed_mm_s)
+        advice = path_advice(self.samples, table, self.max_feed_mm_s, self.machine)
         disk = self.doc.disk_table
         if self._disk[0] is not disk:
-            self._disk = (disk, path_advice(self.samples, disk, self.max_feed_mm_s))
+            self._disk = (disk, path_advice(self.samples, disk, self.max_feed_mm_s, self.machine))
         self.path.update(advice.feed_pct, self._disk[1].feed_pct)
         pct, t = advice.feed_pct, advice.profile.travel_time_s()
         t_disk = self._disk[1].profile.travel_time_s()
@@ -324,7 +325,20 @@ class DesignerView:
             f"{self.samples.s[-1]:.1f} mm, F = {self.max_feed_mm_s * 60:g} mm/min<br>"
             f"advised {html.escape(self.names[2])}: min {pct.min():.1f} %, mean "
             f'<span class="ff-mean">{pct.mean():.2f}</span> %, max {pct.max():.1f} %<br>'
-            f"time at the advised feed: {t:.3f} s (table on disk: {t_disk:.3f} s)</div>")
+            f"time at the advised feed: {t:.3f} s (table on disk: {t_disk:.3f} s)"
+            + self._machine_line(advice) + "</div>")
+
+    def _machine_line(self, advice) -> str:
+        """With a machine: the advised path run through its planner and servo."""
+        if self.machine is None:
+            return ""
+        from fuzzyfeed.designer.compute import path_on_machine
+
+        t, err = path_on_machine(self.samples, advice.profile.feed_mm_s, self.machine)
+        tol = self.machine.contour_tol_um
+        flag = "within" if err <= tol else "over"
+        return (f"<br>on machine {html.escape(self.machine.name)!s}: {t:.3f} s, max contour error "
+                f'<span class="ff-error">{err:.1f}</span> um ({flag} its {tol:g} um)')
 
     def _show_state(self) -> None:
         doc, err = self.doc, self.doc.error
