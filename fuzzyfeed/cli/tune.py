@@ -8,7 +8,8 @@ from pathlib import Path
 
 from fuzzyfeed.cli._common import count_at_least, point_count, positive_float
 from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
-from fuzzyfeed.cli._servo import add_servo_arguments, servo_from_args
+from fuzzyfeed.cli._machine import machine_from_args
+from fuzzyfeed.cli._servo import servo_from_args
 
 DESCRIPTION = """\
 Tune the output (feed) terms of a rule table (seed 002's future work): keep the rule grid and the
@@ -31,15 +32,12 @@ def register(sub) -> None:
     p.add_argument("shapes", nargs="+", metavar="SHAPE", help="shapes to tune on (names or files)")
     p.add_argument("--rules", metavar="FILE", default=None,
                    help="rule table to start from (default: the paper's table, rules/paper.toml)")
-    p.add_argument("--contour-tol-um", type=positive_float, required=True, metavar="EPS",
-                   help="largest max contour error allowed on every shape, in um")
     p.add_argument("--evaluations", type=evaluation_count, default=120, metavar="N",
                    help="simulation rounds (all shapes each) the search may use (default: %(default)s)")
     p.add_argument("--points", type=point_count, default=2000,
                    help="sample points per shape, uniform in u (default: %(default)s)")
     p.add_argument("--name", default=None, help="name of the tuned table (default: <table>-tuned)")
     add_limit_arguments(p)
-    add_servo_arguments(p)
     p.add_argument("-o", "--output", required=True, metavar="TUNED.toml", help="new rule-table file to write")
     p.set_defaults(run=run)
 
@@ -56,7 +54,12 @@ def run(args: argparse.Namespace) -> int:
     if out.exists():
         raise InputError(f"{out}: file exists; tune writes a new file (remove it or choose another name)")
     limits = limits_from_args(args)
-    servo = servo_from_args(args)
+    machine = machine_from_args(args)
+    servo = servo_from_args(args, machine)
+    if machine is None or (args.contour_tol_um is None and not args.machine):
+        raise InputError("--contour-tol-um: missing; tune needs the contour tolerance (a flag or a "
+                         "--machine file's [part] contour_tolerance_um)")
+    args.contour_tol_um = machine.contour_tol_um
     table = load_rule_table(args.rules)
     shapes = {}
     for spec in args.shapes:
