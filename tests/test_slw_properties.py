@@ -40,8 +40,9 @@ def chord_jerk(traj) -> np.ndarray:
     jerk = np.abs(np.diff(acc)) / ts / traj.limits.jerk_mm_s3
     s_j, _, _, jump = joins(traj.curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > 1e-9] if s_j.size else s_j
-    for k in np.searchsorted(traj.s_mm, kinks):
-        jerk[max(k - 3, 0):k + 3] = 0.0
+    if kinks.size:  # by parameter: the chord-exact ticks sit off their arc lengths
+        for k in np.searchsorted(traj.u, np.atleast_1d(traj.curve.param_at_length(kinks))):
+            jerk[max(k - 3, 0):k + 3] = 0.0
     return jerk
 
 

@@ -167,11 +167,23 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
 
 
 def _c0_knots(curve: Nurbs) -> np.ndarray:
-    """Interior knot values of multiplicity ≥ the degree: where the tangent may break."""
+    """Interior knot values where the unit tangent breaks: of multiplicity ≥ the degree (where it
+    may) and with the tangents just before and after apart (a G1 join of a blended polyline is
+    smooth: its chords' whole deficit is compensated, or their jerk jumped 5-8 × J there)."""
     knots = np.asarray(curve.knots, dtype=float)
     values, counts = np.unique(knots, return_counts=True)
     lo, hi = curve.domain
-    return values[(counts >= curve.degree) & (values > lo) & (values < hi)]
+    cand = values[(counts >= curve.degree) & (values > lo) & (values < hi)]
+    if cand.size == 0:
+        return cand
+    eps = 1e-9 * (hi - lo)
+    d_in = curve.evaluate(cand - eps, order=1)[1]
+    d_out = curve.evaluate(cand + eps, order=1)[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_in = d_in / np.linalg.norm(d_in, axis=1, keepdims=True)
+        t_out = d_out / np.linalg.norm(d_out, axis=1, keepdims=True)
+    jump = np.nan_to_num(np.abs(t_out - t_in).max(axis=1), nan=np.inf)
+    return cand[jump > 1e-6]
 
 
 def _holds_knot(knots: np.ndarray, u: np.ndarray) -> np.ndarray:

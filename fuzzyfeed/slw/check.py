@@ -59,12 +59,15 @@ def tick_ratios(xyz: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
     return out
 
 
-def corner_ticks(s_mm: np.ndarray, corner_s_mm: np.ndarray) -> np.ndarray:
-    """Indices k of the chords s_k → s_k+1 that contain a true corner (or end on one)."""
-    if corner_s_mm.size == 0:
+def corner_ticks(u: np.ndarray, corner_u: np.ndarray) -> np.ndarray:
+    """Indices k of the chords C(u_k) → C(u_k+1) that contain a corner at a parameter of
+    ``corner_u`` (or end on one). Found by parameter: the chord-exact ticks sit off their arc
+    lengths by the accumulated arc-chord deficit (a tick at a helix's corner was read as the next
+    one's, and the corner's own turn as 4.6 × J along the chords)."""
+    if corner_u.size == 0:
         return np.empty(0, dtype=int)
-    k = np.searchsorted(s_mm, corner_s_mm, side="left")
-    return np.unique(np.concatenate([k - 1, k]).clip(0, max(s_mm.size - 2, 0)))
+    k = np.searchsorted(u, corner_u, side="left")
+    return np.unique(np.concatenate([k - 1, k]).clip(0, max(u.size - 2, 0)))
 
 
 def worst(ratios: dict[str, np.ndarray]) -> tuple[str, int, float]:
@@ -79,11 +82,11 @@ def worst(ratios: dict[str, np.ndarray]) -> tuple[str, int, float]:
     return name, k, r
 
 
-def breach(xyz: np.ndarray, s_mm: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
-           corner_s_mm: np.ndarray) -> tuple[str, int, float] | None:
+def breach(xyz: np.ndarray, u: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
+           corner_u: np.ndarray) -> tuple[str, int, float] | None:
     """The limit, tick and ratio of the worst tick over a limit by more than TICK_RTOL (the path
     jerk by PATH_JERK_RTOL too), or None."""
-    ratios = tick_ratios(xyz, jerk_mm_s3, limits, corner_ticks(s_mm, corner_s_mm))
+    ratios = tick_ratios(xyz, jerk_mm_s3, limits, corner_ticks(u, corner_u))
     judged = dict(ratios, **{"path jerk": ratios["path jerk"] / (1.0 + PATH_JERK_RTOL)})
     name, k, r = worst(judged)
     return (name, k, float(ratios[name][k])) if r > 1.0 + TICK_RTOL else None

@@ -268,6 +268,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
             done[0] = round(s_mm, 3)
     s_j, _, _, jump = joins(curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
+    kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
     for attempt in range(TICK_REPAIRS + 1):
         window = SlidingWindow(limits, curve, approach, cap, transition)
         blocks = []
@@ -295,7 +296,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         if xyz.shape[1] == 2:
             xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 1))])
         # the motion the machine makes, tick by tick and axis by axis, within every limit
-        found = breach(xyz, s, j, limits, kinks)
+        found = breach(xyz, u, j, limits, kinks_u)
         if found is None:
             break
         if attempt == TICK_REPAIRS:
