@@ -9,7 +9,7 @@ programs in benchmarks/library/programs of the main repository, or tests/program
 that is absent (its first ``--max-cuts`` cuts, each at the program's own F words, capped at the command feed, as
 ``fuzzyfeed schedule`` runs it).
 
-Per case and transition (seven-phase, the default, and seed 000's cosine): failure or not; the
+Per case and transition (seed 000's cosine, the default, and seven-phase): failure or not; the
 worst ratio to every limit measured by the one simulator from the interpolated positions (feed,
 axis velocity, axis acceleration, chord error; the profile's jerk); the cycle time over the
 jerk-limited floor (fuzzyfeed.slw.floor.jerk_floor: the acceleration-limited bound, and every
@@ -158,7 +158,7 @@ def main() -> None:
     ap.add_argument("--transition", choices=("both", "seven-phase", "cosine"), default="both")
     ap.add_argument("--max-cuts", type=int, default=2, help="cuts of each program (default: %(default)s)")
     args = ap.parse_args()
-    transitions = ("seven-phase", "cosine") if args.transition == "both" else (args.transition,)
+    transitions = ("cosine", "seven-phase") if args.transition == "both" else (args.transition,)
     schedule(load_shape("wm").curve, EQUAL)  # warm-up: numba caches
     print(f"machines: equal {EQUAL}\n          slow-y {SLOW_Y}")
     print(HEADER)

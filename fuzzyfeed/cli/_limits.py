@@ -24,10 +24,10 @@ def add_approach_argument(parser: argparse.ArgumentParser) -> None:
                         help="SLW short blocks (seed 000 Table 1, types 2-3): 2 rises to a peak "
                              "between the two transitions (faster); 1 cruises at the higher end feed "
                              "(the paper's choice, smoother) (default: %(default)s)")
-    parser.add_argument("--transition", choices=("seven-phase", "cosine"), default="seven-phase",
-                        help="SLW feed changes: seven-phase (trapezoidal acceleration, jerk J all "
-                             "through its ramps; faster) or cosine (seed 000's; with --approach 1 the "
-                             "paper's scheduler) (default: %(default)s)")
+    parser.add_argument("--transition", choices=("cosine", "seven-phase"), default="cosine",
+                        help="SLW feed changes: cosine (seed 000's; with --approach 1 the paper's "
+                             "scheduler) or seven-phase (trapezoidal acceleration, jerk J all through "
+                             "its ramps; faster on most paths) (default: %(default)s)")
 
 
 def limits_from_args(args: argparse.Namespace) -> MachineLimits:

@@ -109,14 +109,14 @@ def _cross_check(samples: PathSamples, fuzzy: FeedProfile, slw: FeedProfile,
 
 def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None = None,
             name: str = "path", progress=None, servo: ServoModel | None = None,
-            approach: int = 2, feed_cap=None, transition: str = "seven-phase") -> Comparison:
+            approach: int = 2, feed_cap=None, transition: str = "cosine") -> Comparison:
     """Run every method of :data:`METHODS` on ``samples`` and simulate each (DESIGN §3).
 
     ``servo`` is the axis model every method's contour error is measured with (default
     ``ServoModel()``: first order, Kv = 30 1/s, no feed-forward).
     The fuzzy advisor's maximum feed is the command feed F of ``limits``; ``approach`` is the SLW
     scheduler's (seed 000 Table 1) for ``slw`` and ``fuzzy-safe``, ``transition`` the shape of its
-    feed changes (``"seven-phase"`` or seed 000's ``"cosine"``). ``progress``, if given, is
+    feed changes (seed 000's ``"cosine"`` or ``"seven-phase"``). ``progress``, if given, is
     called with the name of each step as it starts (the CLI hooks a progress bar on it).
     ``feed_cap`` (optional, (s_mm, feed_mm_s) along the path, a repeated s a step) is the F a
     program has at each place: every method runs under it — the advice as a fraction of it,

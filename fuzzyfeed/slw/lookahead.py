@@ -28,7 +28,7 @@ from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
 from fuzzyfeed.slw.preprocess import Block, Reference, _evaluate, corner_plan, evaluate_reference, joins
-from fuzzyfeed.slw.profile import (SEVEN_PHASE, Segment, block_segments, check_shape, lowest_end_speed,
+from fuzzyfeed.slw.profile import (COSINE, Segment, block_segments, check_shape, lowest_end_speed,
                                    max_end_speed, max_start_speed, peak_acceleration, segment_state, stop_distance,
                                    transition_distance)
 
@@ -143,7 +143,7 @@ class SlidingWindow:
     """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
 
     def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 2,
-                 cap: FeedCap | None = None, transition: str = SEVEN_PHASE):
+                 cap: FeedCap | None = None, transition: str = COSINE):
         if approach not in (1, 2):
             raise ValueError(f"approach = {approach!r}; seed 000 Table 1 has approaches 1 and 2")
         self.approach = approach
