@@ -118,7 +118,7 @@ def max_rise(v: float, length: float, acc: float, jerk: float, shape: str = COSI
 
 
 def _bisect_speed(fixed: float, length: float, cap: float, acc: float, jerk: float,
-                 shape: str = COSINE) -> float:
+                  shape: str = COSINE) -> float:
     """Largest v in [fixed, cap] with transition_distance(fixed, v) ≤ length (monotone in v):
     the closed form of :func:`max_rise`, rounded down until the distance holds."""
     if cap <= fixed:
@@ -134,13 +134,13 @@ def _bisect_speed(fixed: float, length: float, cap: float, acc: float, jerk: flo
 
 
 def max_end_speed(v_s: float, length: float, cap: float, acc: float, jerk: float,
-                 shape: str = COSINE) -> float:
+                  shape: str = COSINE) -> float:
     """Highest end speed ≤ cap reachable from v_s within ``length`` (type-4 end correction)."""
     return _bisect_speed(v_s, length, cap, acc, jerk, shape)
 
 
 def min_end_speed(v_s: float, length: float, acc: float, jerk: float,
-                 shape: str = COSINE) -> float:
+                  shape: str = COSINE) -> float:
     """Lowest end speed reachable from v_s within ``length`` (a deceleration can go no lower)."""
     if transition_distance(v_s, 0.0, acc, jerk, shape) <= length:
         return 0.0
@@ -149,7 +149,7 @@ def min_end_speed(v_s: float, length: float, acc: float, jerk: float,
 
 
 def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: float,
-                 shape: str = COSINE) -> float:
+                     shape: str = COSINE) -> float:
     """An end speed near ``floor`` (≤ v_s) reachable from v_s by one transition within ``length``.
 
     The distance of a deceleration is not monotone in its end speed (a jerk-limited stop can be
@@ -166,7 +166,7 @@ def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: 
 
 
 def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, jerk: float,
-                 shape: str = COSINE) -> float:
+               shape: str = COSINE) -> float:
     """Highest v_p ≤ cap with D(v_s, v_p) + D(v_p, v_e) ≤ length (Table 1, approach 2)."""
     lo = max(v_s, v_e)
 
@@ -179,7 +179,7 @@ def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, je
 
 
 def max_start_speed(v_e: float, length: float, cap: float, acc: float, jerk: float,
-                 shape: str = COSINE) -> float:
+                    shape: str = COSINE) -> float:
     """Highest start speed ≤ cap from which v_e is reachable within ``length`` (type-4 start
     correction; the distance of a transition is symmetric in its two speeds)."""
     return _bisect_speed(v_e, length, cap, acc, jerk, shape)
