@@ -150,11 +150,16 @@ def _corner_errors(angle_rad: float, speeds: np.ndarray, machine: Machine, rapid
     return out
 
 
-@lru_cache(maxsize=64)
 def corner_error_table(machine: Machine, rapid_lead: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(turn angles in rad (A,), speeds in mm/s (S,), max contour error in mm (A, S)) of a corner
     run at constant feed through the machine's planner and servo (``rapid_lead``: a cut's entry,
-    the corner reached by a rapid at the machine's velocity, the feed move after it at the speed)."""
+    the corner reached by a rapid at the machine's velocity, the feed move after it at the speed).
+    Computed once per machine and process."""
+    return _corner_error_table(machine, bool(rapid_lead))
+
+
+@lru_cache(maxsize=64)
+def _corner_error_table(machine: Machine, rapid_lead: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     top = max(machine.axis_vel_mm_s)
     speeds = np.geomspace(LOWEST_SPEED_FRACTION * top, top, CORNER_SPEEDS)
     angles = np.radians(CORNER_ANGLES_DEG)
