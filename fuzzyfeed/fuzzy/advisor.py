@@ -10,6 +10,7 @@ F_max.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,12 +19,14 @@ from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
 from fuzzyfeed.fuzzy.filters import average_filter, smooth_feed  # noqa: F401  (average_filter: API)
-from fuzzyfeed.fuzzy.machine_inputs import MachineFeatures, machine_features
 from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, RuleTable, load_rule_table
-from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.limits import MAX_LIMIT
 from fuzzyfeed.machine.profile import FeedProfile
 from fuzzyfeed.geometry.sampling import POINT_STEP_MM, PathSamples, tangent_breaks
+
+if TYPE_CHECKING:   # the machine's modules load only when a machine is given
+    from fuzzyfeed.fuzzy.machine_inputs import MachineFeatures
+    from fuzzyfeed.machine.description import Machine
 
 
 def point_sequence_table(table: RuleTable) -> RuleTable:
@@ -89,6 +92,8 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
     if table is not None:
         expect(table, RuleTable, "table", "a RuleTable (load_rule_table) or None")
     if machine is not None:
+        from fuzzyfeed.machine.description import Machine
+
         expect(machine, Machine, "machine", "a Machine (load_machine) or None")
     f_max = _check_feed(max_feed_mm_s)
     if samples.curve is not None and np.isfinite(samples.d1).all():  # a NURBS, not a point sequence
@@ -125,6 +130,8 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
 def _advise_on_machine(samples: PathSamples, table: RuleTable, f_max: float, engine: FuzzyEngine | None,
                        machine: Machine, ceiling_mm_s, turn_angle, corner, entry_angle) -> FuzzyAdvice:
     """A machine table's advice: machine inputs → engine → filter → floor, capped at the ceiling."""
+    from fuzzyfeed.fuzzy.machine_inputs import machine_features
+
     engine = engine if engine is not None and engine.table is table else compile_table(table)
     n = len(samples)
     ceiling = np.full(n, f_max) if ceiling_mm_s is None else np.asarray(ceiling_mm_s, dtype=float)
