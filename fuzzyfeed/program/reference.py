@@ -18,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine.trace import MAX_TICKS
 from fuzzyfeed.machine.planner import Motion
 from fuzzyfeed.program.run import Chain, ChainRun, ProgramPath, ProgramRun, run_chain, run_program
 
@@ -49,6 +51,10 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
     c = min(1.0, tol / first.max_um)          # the error grows at least linearly with the feed
     runs = 1
     while lo is None:
+        if first.time_s / c / machine.ts_s > MAX_TICKS:
+            raise InputError(f"{path.program.path}: the uniform slowdown needs a factor below {c:.3g}: "
+                             f"a run of about {first.time_s / c:.0f} s, more than the {MAX_TICKS:.0e} servo "
+                             "periods simulated")
         r = run_program(path, machine, feed_scale=c)
         runs += 1
         if r.max_um <= tol:
