@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.trace import MAX_TICKS
 from fuzzyfeed.machine.planner import Motion
@@ -34,27 +33,43 @@ REFERENCE_PASSES = 40
 
 @dataclass(frozen=True, eq=False)
 class Uniform:
+    """The uniform slowdown: its factor and run; or, when the factor lies below what the tick
+    budget lets us simulate, ``run`` None, ``factor`` the lowest factor tried (which breaks the
+    tolerance) and ``time_s`` a lower bound: the plan's time at that factor."""
+
     factor: float
-    run: ProgramRun
+    run: ProgramRun | None
     runs: int          # simulations the search took
+    time_s: float
+
+    @property
+    def bounded(self) -> bool:
+        return self.run is None
+
+
+def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
+    """The run's time at ``scale`` without the servo (the planner alone, closed form)."""
+    from fuzzyfeed.machine.planner import plan_motion
+
+    return float(sum(plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
+                                        c.motion.arc_radius_mm), machine).time_s for c in path.chains))
 
 
 def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun | None = None,
-                     tol_um: float | None = None) -> Uniform:
+                     tol_um: float | None = None, max_ticks: float = MAX_TICKS) -> Uniform:
     """The largest factor c (to 1 %) with every F × c holding the tolerance (c = 1 when the program
-    as written holds it)."""
+    as written holds it). A factor whose run would pass ``max_ticks`` servo periods is not
+    simulated: the result is then a bound (:class:`Uniform`)."""
     tol = machine.contour_tol_um if tol_um is None else tol_um
     first = as_written if as_written is not None else run_program(path, machine)
     if first.max_um <= tol:
-        return Uniform(1.0, first, 1)
+        return Uniform(1.0, first, 1, first.time_s)
     hi, lo, lo_run = 1.0, None, None
     c = min(1.0, tol / first.max_um)          # the error grows at least linearly with the feed
     runs = 1
     while lo is None:
-        if first.time_s / c / machine.ts_s > MAX_TICKS:
-            raise InputError(f"{path.program.path}: the uniform slowdown needs a factor below {c:.3g}: "
-                             f"a run of about {first.time_s / c:.0f} s, more than the {MAX_TICKS:.0e} servo "
-                             "periods simulated")
+        if first.time_s / c / machine.ts_s > max_ticks:
+            return Uniform(hi, None, runs, _planned_time(path, machine, hi))
         r = run_program(path, machine, feed_scale=c)
         runs += 1
         if r.max_um <= tol:
@@ -62,8 +77,6 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
         else:
             hi = c
             c *= max(0.1, min(0.7, tol / r.max_um))
-            if c < 1e-6:
-                return Uniform(c, r, runs)
     while hi / lo > 1.0 + UNIFORM_RTOL:
         c = math.sqrt(lo * hi)
         r = run_program(path, machine, feed_scale=c)
@@ -72,7 +85,7 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
             lo, lo_run = c, r
         else:
             hi = c
-    return Uniform(lo, lo_run, runs)
+    return Uniform(lo, lo_run, runs, lo_run.time_s)
 
 
 def refine_chain(chain: Chain, piece_mm: float) -> Chain:
