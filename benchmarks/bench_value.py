@@ -35,7 +35,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 #: A uniform slowdown whose run would pass this many servo periods is not simulated: its time is
 #: then the planner's at the lowest factor tried, a lower bound (so adv/uniform is an upper bound).
-UNIFORM_MAX_TICKS = 3e6
+UNIFORM_MAX_TICKS = 8e6
 LIBRARY = HERE / "library"
 
 

@@ -29,6 +29,8 @@ UNIFORM_RTOL = 0.01
 REFERENCE_MARGIN = 0.97
 #: Passes of the limit reference before it gives up.
 REFERENCE_PASSES = 40
+#: The limit reference never lowers a piece below this fraction of its programmed feed.
+REFERENCE_FLOOR = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,7 +134,7 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             over = np.flatnonzero(r.contour_mm > tol)
             if over.size == 0:
                 continue
-            new = _lowered(feeds[i], chain.motion.rapid, r, over, tol)
+            new = _lowered(feeds[i], chain.motion.rapid, r, over, tol, chain.motion.feed_mm_s)
             if not np.array_equal(new, feeds[i]):
                 feeds[i] = new
                 runs[i] = run_chain(chain, machine, new)
@@ -147,10 +149,12 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
 
 
-def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray, tol_mm: float) -> np.ndarray:
+def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray, tol_mm: float,
+             original: np.ndarray) -> np.ndarray:
     """Per piece the new feed: the pieces commanded during each offending tick's lookback window
     and the piece the tool is nearest to go down to the fraction √(tol/error)·margin of the
-    speed commanded at that tick (never up, never below 0.1 % of the old feed)."""
+    speed commanded at that tick (never up, never below :data:`REFERENCE_FLOOR` of the program's
+    feed)."""
     new = feed.copy()
     err = r.contour_mm[over]
     target = r.speed_mm_s[over] * np.sqrt(tol_mm / err) * REFERENCE_MARGIN
@@ -165,8 +169,9 @@ def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray,
     halve = np.zeros(feed.size, bool)
     halve[seg[np.isinf(np.repeat(target, counts))]] = True
     cap = np.where(halve, np.minimum(cap, 0.5 * feed), cap)
-    lowered = np.minimum(new, np.maximum(cap, 1e-3 * feed))
+    lowered = np.minimum(new, cap)
     # a piece whose feed is above the speed the planner gave it must come down by at least 5 %
     touched = np.isfinite(cap) & ~rapid
     lowered = np.where(touched, np.minimum(lowered, 0.95 * np.minimum(new, cap / REFERENCE_MARGIN)), lowered)
-    return np.where(rapid, feed, lowered)
+    # never below 1 % of the program's feed: where even that does not hold, no feed does
+    return np.where(rapid, feed, np.maximum(lowered, REFERENCE_FLOOR * original))
