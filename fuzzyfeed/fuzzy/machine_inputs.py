@@ -5,8 +5,10 @@ At every sample:
 - **safe feed** v_safe: the largest feed at which the machine holds its contour tolerance there —
   on a curve the steady-state servo error r·(1 − |G(jv/r)|) (:func:`~fuzzyfeed.machine.safe_feed.curve_safe_feed`),
   at a junction of two moves the error of a corner of that turn angle run through the machine's
-  own planner and servo (:func:`~fuzzyfeed.machine.safe_feed.corner_safe_feed`), the smaller of the
-  two (a true corner's blend curvature is the corner's, not a curve's: it counts as a corner only);
+  own planner and servo (:func:`~fuzzyfeed.machine.safe_feed.corner_safe_feed`), and where
+  junctions follow closely the curvature their turns make over their legs
+  (:func:`~fuzzyfeed.machine.safe_feed.junction_run_safe_feed`); the smallest (a true corner's
+  blend curvature is the corner's, not a curve's: it counts as a corner only);
   and where the path starts behind a rapid, the error of a cut's entry (the rapid brakes at full
   acceleration into it);
 - ``safe_feed_ratio`` = v_safe / F, F the programmed feed there (the ceiling), clipped at
@@ -31,7 +33,7 @@ import numpy as np
 from fuzzyfeed.fuzzy.windows import centred_bounds, range_min
 from fuzzyfeed.geometry.sampling import PathSamples
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.safe_feed import corner_safe_feed, curve_safe_feed, settle_time_s
+from fuzzyfeed.machine.safe_feed import corner_safe_feed, curve_safe_feed, junction_run_safe_feed, settle_time_s
 
 #: Ratios above this are clipped: the machine follows well within tolerance.
 RATIO_TOP = 1.5
@@ -72,23 +74,46 @@ def vertex_turn_angles(samples: PathSamples) -> np.ndarray:
     return out
 
 
+def entry_turn(samples: PathSamples, entry_direction, machine: Machine) -> float:
+    """The angle (rad) between a rapid's direction and where the path goes over the first stretch
+    the rapid's braking lag covers (a·τ², the tool's lag when the rapid stops): a plunge of a few
+    µm before an XY move is not what the tool turns into. NaN without a rapid."""
+    if entry_direction is None:
+        return float("nan")
+    d = np.asarray(entry_direction, dtype=float)
+    if d.shape != (3,) or not np.isfinite(d).all():
+        return float("nan")
+    tau = machine.servo.time_constant_s
+    reach = min(max(machine.tangential_acc_mm_s2 * tau * tau, machine.contour_tol_mm), float(samples.s[-1]))
+    if reach <= 0:
+        return float("nan")
+    far = np.array([np.interp(reach, samples.s, samples.xyz[:, k]) for k in range(3)])
+    chord = far - samples.xyz[0]
+    norm = float(np.linalg.norm(chord))
+    if norm == 0:
+        return float("nan")
+    return float(np.arccos(np.clip(np.dot(d, chord / norm), -1.0, 1.0)))
+
+
 def machine_features(samples: PathSamples, ceiling_mm_s: np.ndarray, machine: Machine,
                      turn_angle: np.ndarray | None = None, corner: np.ndarray | None = None,
-                     entry_angle: float = float("nan")) -> MachineFeatures:
+                     entry_direction=None) -> MachineFeatures:
     """The machine inputs of every sample (module docstring). ``ceiling_mm_s`` (N,) is the feed
     the advice is a fraction of; ``turn_angle`` (N,) the turn at junctions (default: from the points
     of a point sequence, none on a NURBS); ``corner`` (N,) which junctions are true corners (their
-    curvature is the blend's; default: every junction turning more than 1°); ``entry_angle`` the
-    turn from a rapid into the path's first point (NaN: the path does not start behind a rapid)."""
+    curvature is the blend's; default: every junction turning more than 1°); ``entry_direction``
+    the unit direction of a rapid that ends at the path's first point (None or NaNs: none)."""
     kappa = np.asarray(samples.curvature, dtype=float)
     turn = vertex_turn_angles(samples) if turn_angle is None else np.asarray(turn_angle, dtype=float)
     is_corner = (turn > CORNER_MIN_RAD) if corner is None else np.asarray(corner, dtype=bool)
     ceiling = np.asarray(ceiling_mm_s, dtype=float)
     v_curve = curve_safe_feed(machine, np.where(is_corner, 0.0, kappa))
     v_corner = corner_safe_feed(machine, turn)
-    v_safe = np.minimum(v_curve, v_corner)
-    if np.isfinite(entry_angle):
-        v_safe[0] = min(v_safe[0], float(corner_safe_feed(machine, np.array([entry_angle]), rapid_lead=True)[0]))
+    v_run = junction_run_safe_feed(machine, turn, samples.xyz, samples.s)
+    v_safe = np.minimum(np.minimum(v_curve, v_corner), v_run)
+    angle = entry_turn(samples, entry_direction, machine)
+    if np.isfinite(angle):
+        v_safe[0] = min(v_safe[0], float(corner_safe_feed(machine, np.array([angle]), rapid_lead=True)[0]))
     near = settling_min(v_safe, np.asarray(samples.s, dtype=float), settle_time_s(machine), ceiling)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.clip(v_safe / ceiling, 0.0, RATIO_TOP)

@@ -79,6 +79,50 @@ def curve_safe_feed(machine: Machine, curvature_1_mm: np.ndarray, tol_mm: float 
     return out
 
 
+def low_frequency_gain_loss(machine: Machine) -> float:
+    """c with 1 − |G(jω)| ≈ c·ω² for slow motion (the worst axis): 1/(2·Kv²) for a first-order
+    loop without feed-forward; measured at ω = 10⁻³ of the loop's bandwidth for any other."""
+    w0 = 1e-3 / machine.servo.time_constant_s
+    return max(float(1.0 - machine.servo.circle_gain(axis, np.array([w0]))[0]) / (w0 * w0) for axis in range(3))
+
+
+#: The scale junction runs are judged at, in contour tolerances: features smaller than a few
+#: tolerances (a CAM post's micro-segments) do not count, a zig-zag of them does.
+RUN_SCALE_TOLERANCES = 10.0
+
+
+def junction_run_safe_feed(machine: Machine, turn_angle_rad: np.ndarray, xyz: np.ndarray, s_mm: np.ndarray,
+                           tol_mm: float | None = None) -> np.ndarray:
+    """Largest feed (mm/s) at junctions that follow one another closely (a V-carve's zig-zag, a 3-D
+    finish pass of short moves). At every junction the path's turn is measured at the scale
+    λ = :data:`RUN_SCALE_TOLERANCES` × tolerance — the angle between the chords from λ before to it
+    and from it to λ after — and taken as a curvature κ = turn / λ, which the servo smooths like a
+    curve's: e ≈ c·v²·κ (:func:`low_frequency_gain_loss`), so v = √(tol/(c·κ)). An isolated corner
+    gives no limit beyond its own (:func:`corner_safe_feed`); micro-segments smaller than the
+    scale give none at all; chords of a circle give the circle's own κ. inf away from junctions."""
+    tol = machine.contour_tol_mm if tol_mm is None else tol_mm
+    phi = np.asarray(turn_angle_rad, dtype=float)
+    s = np.asarray(s_mm, dtype=float)
+    pts = np.asarray(xyz, dtype=float)
+    out = np.full(phi.shape, np.inf)
+    at = np.flatnonzero(phi > 1e-6)
+    if at.size == 0 or s[-1] <= s[0]:
+        return out
+    lam = RUN_SCALE_TOLERANCES * tol
+    here = pts[at]
+    back = np.column_stack([np.interp(s[at] - lam, s, pts[:, k]) for k in range(3)])
+    ahead = np.column_stack([np.interp(s[at] + lam, s, pts[:, k]) for k in range(3)])
+    d_in, d_out = here - back, ahead - here
+    n_in, n_out = np.linalg.norm(d_in, axis=1), np.linalg.norm(d_out, axis=1)
+    ok = (n_in > 0.25 * lam) & (n_out > 0.25 * lam)      # not at a path's ends
+    cos = np.einsum("ij,ij->i", d_in, d_out) / np.where(ok, n_in * n_out, 1.0)
+    turn = np.where(ok, np.arccos(np.clip(cos, -1.0, 1.0)), 0.0)
+    c = low_frequency_gain_loss(machine)
+    with np.errstate(divide="ignore"):
+        out[at] = np.where(turn > 0, np.sqrt(tol * lam / (c * turn)), np.inf) if c > 0 else np.inf
+    return out
+
+
 def settle_time_s(machine: Machine, tol_mm: float | None = None) -> float:
     """Time (s) the servo needs after braking at the machine's acceleration until the lag it left
     (a·τ² for a first-order loop of time constant τ) is below a quarter of the tolerance."""
