@@ -74,25 +74,44 @@ def vertex_turn_angles(samples: PathSamples) -> np.ndarray:
     return out
 
 
-def entry_turn(samples: PathSamples, entry_direction, machine: Machine) -> float:
-    """The angle (rad) between a rapid's direction and where the path goes over the first stretch
-    the rapid's braking lag covers (a·τ², the tool's lag when the rapid stops): a plunge of a few
-    µm before an XY move is not what the tool turns into. NaN without a rapid."""
+def entry_turns(samples: PathSamples, entry_direction, machine: Machine) -> np.ndarray:
+    """The angles (rad) between a rapid's direction and where the path goes over the first stretch
+    the rapid's braking lag covers (a·τ², the tool's lag when the rapid stops): the chords from the
+    path's start to its points within that stretch (longer than the tolerance). A plunge of a few µm
+    before an XY move, or a small circle entered from above, turns the tool through all of them.
+    Empty without a rapid."""
+    none = np.zeros(0)
     if entry_direction is None:
-        return float("nan")
+        return none
     d = np.asarray(entry_direction, dtype=float)
     if d.shape != (3,) or not np.isfinite(d).all():
-        return float("nan")
+        return none
     tau = machine.servo.time_constant_s
     reach = min(max(machine.tangential_acc_mm_s2 * tau * tau, machine.contour_tol_mm), float(samples.s[-1]))
     if reach <= 0:
-        return float("nan")
-    far = np.array([np.interp(reach, samples.s, samples.xyz[:, k]) for k in range(3)])
-    chord = far - samples.xyz[0]
-    norm = float(np.linalg.norm(chord))
-    if norm == 0:
-        return float("nan")
-    return float(np.arccos(np.clip(np.dot(d, chord / norm), -1.0, 1.0)))
+        return none
+    s = np.asarray(samples.s, dtype=float)
+    within = np.flatnonzero(s <= reach)
+    far = np.array([np.interp(reach, s, samples.xyz[:, k]) for k in range(3)])
+    pts = np.vstack([samples.xyz[within], far[None, :]])
+    chords = pts - samples.xyz[0]
+    norms = np.linalg.norm(chords, axis=1)
+    ok = norms > machine.contour_tol_mm
+    return np.arccos(np.clip(chords[ok] @ d / norms[ok], -1.0, 1.0))
+
+
+def entry_safe_feed(samples: PathSamples, entry_direction, machine: Machine) -> float:
+    """The safe feed at a cut's entry: the slowest the entry table gives over the range of turns
+    the path makes within the rapid's braking lag (:func:`entry_turns`), inf without a rapid."""
+    from fuzzyfeed.machine.safe_feed import CORNER_ANGLES_DEG
+
+    turns = entry_turns(samples, entry_direction, machine)
+    if turns.size == 0:
+        return float("inf")
+    lo, hi = float(turns.min()), float(turns.max())
+    table = np.radians(CORNER_ANGLES_DEG)
+    probe = np.concatenate([[lo, hi], table[(table > lo) & (table < hi)]])
+    return float(corner_safe_feed(machine, probe, rapid_lead=True).min())
 
 
 def machine_features(samples: PathSamples, ceiling_mm_s: np.ndarray, machine: Machine,
@@ -111,9 +130,7 @@ def machine_features(samples: PathSamples, ceiling_mm_s: np.ndarray, machine: Ma
     v_corner = corner_safe_feed(machine, turn)
     v_run = junction_run_safe_feed(machine, turn, samples.xyz, samples.s)
     v_safe = np.minimum(np.minimum(v_curve, v_corner), v_run)
-    angle = entry_turn(samples, entry_direction, machine)
-    if np.isfinite(angle):
-        v_safe[0] = min(v_safe[0], float(corner_safe_feed(machine, np.array([angle]), rapid_lead=True)[0]))
+    v_safe[0] = min(v_safe[0], entry_safe_feed(samples, entry_direction, machine))
     near = settling_min(v_safe, np.asarray(samples.s, dtype=float), settle_time_s(machine), ceiling)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.clip(v_safe / ceiling, 0.0, RATIO_TOP)
