@@ -4,11 +4,11 @@ At every sample:
 
 - **safe feed** v_safe: the largest feed at which the machine holds its contour tolerance there —
   on a curve the steady-state servo error r·(1 − |G(jv/r)|) (:func:`~fuzzyfeed.machine.safe_feed.curve_safe_feed`),
-  at a junction of two moves the error of a corner of that turn angle run through the machine's
-  own planner and servo (:func:`~fuzzyfeed.machine.safe_feed.corner_safe_feed`), and where
-  junctions follow closely the curvature their turns make over their legs
-  (:func:`~fuzzyfeed.machine.safe_feed.junction_run_safe_feed`); the smallest (a true corner's
-  blend curvature is the corner's, not a curve's: it counts as a corner only);
+  at a junction of two moves the error of a corner of the turn the path makes there (measured at
+  a scale of a few tolerances) run through the machine's own planner and servo, or, where
+  junctions follow closely, of the curvature their turns make
+  (:func:`~fuzzyfeed.machine.safe_feed.junction_safe_feed`); the smaller (a true corner's blend
+  curvature is the corner's, not a curve's: it counts as a corner only);
   and where the path starts behind a rapid, the error of a cut's entry (the rapid brakes at full
   acceleration into it);
 - ``safe_feed_ratio`` = v_safe / F, F the programmed feed there (the ceiling), clipped at
@@ -33,7 +33,7 @@ import numpy as np
 from fuzzyfeed.fuzzy.windows import centred_bounds, range_min
 from fuzzyfeed.geometry.sampling import PathSamples
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.safe_feed import corner_safe_feed, curve_safe_feed, junction_run_safe_feed, settle_time_s
+from fuzzyfeed.machine.safe_feed import corner_safe_feed, curve_safe_feed, junction_safe_feed, settle_time_s
 
 #: Ratios above this are clipped: the machine follows well within tolerance.
 RATIO_TOP = 1.5
@@ -127,9 +127,7 @@ def machine_features(samples: PathSamples, ceiling_mm_s: np.ndarray, machine: Ma
     is_corner = (turn > CORNER_MIN_RAD) if corner is None else np.asarray(corner, dtype=bool)
     ceiling = np.asarray(ceiling_mm_s, dtype=float)
     v_curve = curve_safe_feed(machine, np.where(is_corner, 0.0, kappa))
-    v_corner = corner_safe_feed(machine, turn)
-    v_run = junction_run_safe_feed(machine, turn, samples.xyz, samples.s)
-    v_safe = np.minimum(np.minimum(v_curve, v_corner), v_run)
+    v_safe = np.minimum(v_curve, junction_safe_feed(machine, turn, samples.xyz, samples.s))
     v_safe[0] = min(v_safe[0], entry_safe_feed(samples, entry_direction, machine))
     near = settling_min(v_safe, np.asarray(samples.s, dtype=float), settle_time_s(machine), ceiling)
     with np.errstate(divide="ignore", invalid="ignore"):
