@@ -33,6 +33,9 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+#: A uniform slowdown whose run would pass this many servo periods is not simulated: its time is
+#: then the planner's at the lowest factor tried, a lower bound (so adv/uniform is an upper bound).
+UNIFORM_MAX_TICKS = 8e6
 LIBRARY = HERE / "library"
 
 
@@ -48,7 +51,7 @@ def library_programs(spec: str | None) -> list[Path]:
     return [manifest.parent / r["file"] for r in rows]
 
 
-def run_one(path: str, machine_name: str, rules: str | None, reference: bool) -> dict:
+def run_one(path: str, machine_name: str, rules: str | None, reference: bool, max_written_s: float) -> dict:
     """One program on one machine: the value report's rows, or the one-line reason it was skipped."""
     from fuzzyfeed.errors import FuzzyfeedError
     from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, load_rule_table
@@ -63,8 +66,15 @@ def run_one(path: str, machine_name: str, rules: str | None, reference: bool) ->
         if program.n_cuts == 0:
             return {**out, "skipped": "no feed move to advise"}
         machine = load_machine(machine_name)
+        from fuzzyfeed.machine.planner import plan_motion
+        from fuzzyfeed.program.run import program_path
+
+        planned = sum(plan_motion(c.motion, machine).time_s for c in program_path(program, machine.chord_tol_mm).chains)
+        if planned > max_written_s:
+            return {**out, "skipped": f"{planned:.0f} s as written, over --max-written-s {max_written_s:g} "
+                                      "(the uniform slowdown would simulate hours)"}
         table = load_rule_table(rules or DEFAULT_MACHINE_TABLE)
-        ev = evaluate_program(program, machine, table, reference=reference)
+        ev = evaluate_program(program, machine, table, reference=reference, max_ticks=UNIFORM_MAX_TICKS)
     except (FuzzyfeedError, OSError) as exc:
         return {**out, "skipped": " ".join(str(exc).split())[:160]}
     r = ev.report
@@ -143,6 +153,8 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, default=None, help="the first N programs only")
     parser.add_argument("--no-reference", action="store_true")
+    parser.add_argument("--max-written-s", type=float, default=900.0,
+                        help="leave out programs that take longer as written (default: %(default)g s)")
     parser.add_argument("--markdown", action="store_true")
     parser.add_argument("--json", default=None, help="also write every row as JSON")
     args = parser.parse_args()
@@ -154,8 +166,8 @@ def main() -> int:
     t0 = time.time()
     rows = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = [pool.submit(run_one, str(p), m, args.rules, not args.no_reference) for p in programs
-                   for m in machines]
+        futures = [pool.submit(run_one, str(p), m, args.rules, not args.no_reference, args.max_written_s)
+                   for p in programs for m in machines]
         for done, fut in enumerate(as_completed(futures), start=1):
             row = fut.result()
             rows.append(row)

@@ -134,3 +134,24 @@ def test_rapids_are_not_measured():
     run = run_program(program_path(program, machine.chord_tol_mm), machine)
     moves = np.concatenate([r.tick_move for r in run.runs])
     assert set(np.unique(program.kind[moves])) == {1}      # LINE only
+
+
+def test_contour_kernel_forms_agree_bit_for_bit():
+    from fuzzyfeed.machine.contour import windowed_distance
+
+    rng = np.random.default_rng(7)
+    pts = np.cumsum(rng.normal(size=(801, 3)) * 0.1, axis=0)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    q = pts[rng.integers(0, 800, 5000)] + rng.normal(size=(5000, 3)) * 0.05
+    lo = rng.uniform(-1, s[-1], 5000)
+    hi = lo + rng.uniform(0, 5, 5000)
+    slow = windowed_distance(pts, s, q, lo, hi, compiled=False)
+    fast = windowed_distance(pts, s, q, lo, hi, compiled=True)
+    for a, b in zip(slow, fast):
+        assert np.array_equal(a, b)
+    # and the distance is the true distance to the nearest segment of the window (brute force)
+    k = 17
+    seg = np.flatnonzero((s[1:] > lo[k]) & (s[:-1] < hi[k]))
+    a, d = pts[seg], np.diff(pts, axis=0)[seg]
+    t = np.clip(np.einsum("ij,ij->i", q[k] - a, d) / np.einsum("ij,ij->i", d, d), 0, 1)
+    assert slow[0][k] == pytest.approx(np.linalg.norm(q[k] - (a + d * t[:, None]), axis=1).min(), rel=1e-12)

@@ -10,6 +10,7 @@ F_max.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,12 +19,14 @@ from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
 from fuzzyfeed.fuzzy.filters import average_filter, smooth_feed  # noqa: F401  (average_filter: API)
-from fuzzyfeed.fuzzy.machine_inputs import MachineFeatures, machine_features
 from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, RuleTable, load_rule_table
-from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.limits import MAX_LIMIT
 from fuzzyfeed.machine.profile import FeedProfile
 from fuzzyfeed.geometry.sampling import POINT_STEP_MM, PathSamples, tangent_breaks
+
+if TYPE_CHECKING:   # the machine's modules load only when a machine is given
+    from fuzzyfeed.fuzzy.machine_inputs import MachineFeatures
+    from fuzzyfeed.machine.description import Machine
 
 
 def point_sequence_table(table: RuleTable) -> RuleTable:
@@ -77,18 +80,20 @@ def _check_feed(max_feed_mm_s: float) -> float:
 def advise_details(samples: PathSamples, table: RuleTable | None = None, max_feed_mm_s: float = 100.0,
                    engine: FuzzyEngine | None = None, machine: Machine | None = None,
                    ceiling_mm_s: np.ndarray | None = None, turn_angle: np.ndarray | None = None,
-                   corner: np.ndarray | None = None, entry_angle: float = float("nan")) -> FuzzyAdvice:
+                   corner: np.ndarray | None = None, entry_direction=None) -> FuzzyAdvice:
     """Run the advisor on ``samples`` and keep the features and the unfiltered controller output.
 
     ``table`` defaults to the machine table when a ``machine`` is given, else to seed 002's. A
     machine table (``inputs = "machine"``) reads :func:`~fuzzyfeed.fuzzy.machine_inputs.machine_features`:
     then ``ceiling_mm_s`` (N,) is the feed at each point the advice is a fraction of (default
     ``max_feed_mm_s``), ``turn_angle``/``corner`` the junctions (default: from the points),
-    ``entry_angle`` the turn from a rapid into the first point (NaN: none)."""
+    ``entry_direction`` the unit direction of a rapid into the first point (None: none)."""
     expect(samples, PathSamples, "samples", "PathSamples (sample_uniform_u, sample_shape)")
     if table is not None:
         expect(table, RuleTable, "table", "a RuleTable (load_rule_table) or None")
     if machine is not None:
+        from fuzzyfeed.machine.description import Machine
+
         expect(machine, Machine, "machine", "a Machine (load_machine) or None")
     f_max = _check_feed(max_feed_mm_s)
     if samples.curve is not None and np.isfinite(samples.d1).all():  # a NURBS, not a point sequence
@@ -107,7 +112,7 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
                                      "'machine'); give a machine (--machine FILE or a machine flag such "
                                      "as --contour-tol-um)")
         return _advise_on_machine(samples, chosen, f_max, engine, machine, ceiling_mm_s, turn_angle, corner,
-                                  entry_angle)
+                                  entry_direction)
     table = table if table is not None else (engine.table if engine is not None else load_rule_table())
     engine = engine if engine is not None else compile_table(table)
     if not np.isfinite(samples.d1).all():  # a point sequence: its spacing is the file's, not ours
@@ -123,14 +128,16 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
 
 
 def _advise_on_machine(samples: PathSamples, table: RuleTable, f_max: float, engine: FuzzyEngine | None,
-                       machine: Machine, ceiling_mm_s, turn_angle, corner, entry_angle) -> FuzzyAdvice:
+                       machine: Machine, ceiling_mm_s, turn_angle, corner, entry_direction) -> FuzzyAdvice:
     """A machine table's advice: machine inputs → engine → filter → floor, capped at the ceiling."""
+    from fuzzyfeed.fuzzy.machine_inputs import machine_features
+
     engine = engine if engine is not None and engine.table is table else compile_table(table)
     n = len(samples)
     ceiling = np.full(n, f_max) if ceiling_mm_s is None else np.asarray(ceiling_mm_s, dtype=float)
     if ceiling.shape != (n,) or not (np.isfinite(ceiling) & (ceiling > 0)).all():
         raise InputError(f"ceiling_mm_s: needs one finite feed > 0 per sample ({n})")
-    mf = machine_features(samples, ceiling, machine, turn_angle, corner, entry_angle)
+    mf = machine_features(samples, ceiling, machine, turn_angle, corner, entry_direction)
     raw = engine.feed_pct(mf.safe_feed_ratio, mf.safe_feed_ratio_near)
     pct = np.clip(smooth_feed(raw, table.filter, table.filter_points, samples.s, table.filter_mm,
                               samples.curvature), table.feed_floor_pct, 100.0)

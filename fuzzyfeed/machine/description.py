@@ -347,7 +347,23 @@ def machine_from_mapping(data: Mapping, where: Locator | None = None, path: Path
     try:
         return Machine(**fields, path=path)  # type: ignore[arg-type]
     except MachineLimitsError as exc:
-        raise MachineLimitsError(f"{path or 'machine'}: {exc}") from None
+        message = str(exc)
+        for section, keys in SCHEMA.items():         # name the file's key, not the field
+            for key, (target, _) in keys.items():
+                if message.startswith(f"{target} ") and (section, key) in _given(data):
+                    raise MachineLimitsError(f"{where(section, key)}: {key}{message[len(target):]}") from None
+        raise MachineLimitsError(f"{path or 'machine'}: {message}") from None
+
+
+def _given(data: Mapping) -> set[tuple[str, str]]:
+    """(section, key) of every key the file gives."""
+    out = set()
+    for key, value in data.items():
+        if isinstance(value, Mapping):
+            out |= {(key, k) for k in value}
+        else:
+            out.add(("", key))
+    return out
 
 
 def _servo_from_keys(keys: dict[str, tuple[object, str]]) -> ServoModel:

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.contour import windowed_distance
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
@@ -17,6 +18,9 @@ from fuzzyfeed.machine.servo import following_errors
 #: Lookback of the contour-error window, in servo time constants (the weight of older set-points
 #: in a first-order loop's position is below e^-6 = 0.25 %).
 LOOKBACK_TIME_CONSTANTS = 6.0
+#: The most servo periods one run may simulate (the scheduler's budget too): about 5 GB of
+#: temporaries at the most.
+MAX_TICKS = 2e7
 #: Margin of the window either side (mm): a loop with feed-forward or a second-order loop can run
 #: slightly ahead of its command.
 WINDOW_MARGIN_MM = 0.2
@@ -43,8 +47,13 @@ class Trace:
 
 def trace_motion(motion: Motion, machine: Machine, measured: np.ndarray | None = None) -> Trace:
     """Run ``motion`` on ``machine`` and measure the contour error at the ticks commanded on the
-    segments ``measured`` (bool per segment; default all)."""
+    segments ``measured`` (bool per segment; default all) while the tool is nearest one of them
+    (a tool still lagging round the corner of two rapids is in the air, not on the cut)."""
     plan = plan_motion(motion, machine)
+    if not plan.time_s / machine.ts_s <= MAX_TICKS:
+        raise InputError(f"a run of {plan.time_s:.0f} s at Ts = {machine.ts_s:g} s is "
+                         f"{plan.time_s / machine.ts_s:.2g} servo periods; at most {MAX_TICKS:.0e} are "
+                         "simulated (split the program, or give a longer --ts-s)")
     t, cmd, seg = plan.sample(machine.ts_s)
     err = following_errors(machine.servo, cmd, machine.ts_s)
     actual = cmd - err
@@ -58,6 +67,11 @@ def trace_motion(motion: Motion, machine: Machine, measured: np.ndarray | None =
         dist, nearest, foot = windowed_distance(motion.points, s_vertex, actual[idx], s_lo, s_hi)
     else:
         dist, nearest, foot = np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    if measured is not None and idx.size:
+        # a tool still nearest a segment that is not measured (a rapid it lags behind, in the air)
+        # is not on the measured path yet
+        on = np.asarray(measured)[nearest]
+        idx, dist, nearest, foot, s_lo = idx[on], dist[on], nearest[on], foot[on], s_lo[on]
     speed = np.concatenate([[0.0], np.diff(s_cmd)]) / machine.ts_s
     return Trace(plan=plan, tick_time_s=t[idx], contour_mm=dist, tick_segment=seg[idx],
                  nearest_segment=nearest, nearest_xyz=foot, speed_mm_s=speed[idx],
