@@ -5,11 +5,11 @@ The library is split, seeded, into a tuning part and a held-out part. The table'
 (:func:`~fuzzyfeed.fuzzy.machine_table.machine_table`: its levels of the near ratio and one
 output term per level); what moves is the output's *safety* — the fraction of the safe feed the
 advice asks for — in three bands of the near ratio (below 5 %, 5-35 %, from 35 %), blended in
-log ratio between the bands' centres. Each band's safety is raised by bisection as far as every
-tuning program, advised and run on the machine (:func:`~fuzzyfeed.program.run.run_program`),
-still holds the contour tolerance; a program that breaks it even at the starting table is set
-aside (reported, not a constraint). The objective is the summed advised time of the tuning part;
-both parts are then reported, before and after.
+log ratio between the bands' centres. Each band's safety is searched by bisection between 0.5 and
+1, starting from the shipped table's: raised while every tuning program that breaks the tolerance as
+written, advised and run on the machine (:func:`~fuzzyfeed.program.run.run_program`), still holds
+it, lowered when one does not; a program over the tolerance even at 0.5 everywhere is set aside
+(named, not a constraint). Both parts are then reported, before and after.
 """
 
 from __future__ import annotations
@@ -130,22 +130,29 @@ def tune_on_programs(programs: dict[str, Program], machine: Machine, holdout: fl
 
     start = (DEFAULT_SAFETY,) * 3
     before = evaluate(start, list(programs))
-    set_aside = [n for n in tuning if before[n].advised_max_um > tol]
+    # programs over the tolerance even at the lowest safety are set aside (no table fixes them)
+    failing = [n for n in tuning if over[n] and before[n].advised_max_um > tol]
+    floor = evaluate((SAFETY_RANGE[0],) * 3, failing) if failing else {}
+    set_aside = [n for n in failing if floor[n].advised_max_um > tol]
     judged = [n for n in tuning if n not in set_aside and over[n]]
     best = list(start)
-    rounds = 1
+    rounds = 2 if failing else 1
     for band in range(3):
-        lo, hi = best[band], SAFETY_RANGE[1]
-        for _ in range(STEPS):
+        lo, hi = SAFETY_RANGE
+        trial_value = best[band]
+        for _ in range(STEPS + 1):
             trial = list(best)
-            trial[band] = 0.5 * (lo + hi)
+            trial[band] = trial_value
             res = evaluate(tuple(trial), judged)
             rounds += 1
             if all(r.advised_max_um <= tol for r in res.values()):
-                lo = trial[band]
+                lo = trial_value
                 best = trial
             else:
-                hi = trial[band]
+                hi = trial_value
+            trial_value = 0.5 * (lo + hi)
+        if lo == SAFETY_RANGE[0] and best[band] != lo:
+            best[band] = lo          # nothing held above the floor: the floor
     safeties = tuple(best)
     after = evaluate(safeties, list(programs))
     table = table_with(safeties, name, source)
