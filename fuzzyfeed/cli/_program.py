@@ -55,7 +55,9 @@ def _combined_advice(pa):
                        feed_pct=cat["pct"], table=pa.table)
 
 
-def run_program(args: argparse.Namespace) -> int:
+def run_program(args: argparse.Namespace) -> dict:
+    """``advise PROGRAM``: writes the outputs, prints the summary and returns its figures (see
+    :func:`fuzzyfeed.cli.advise.advise_file`)."""
     from fuzzyfeed.cli._common import check_feed_mm_min, table_from_args
     from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
     from fuzzyfeed.base.atomic import atomic_write
@@ -126,7 +128,8 @@ def run_program(args: argparse.Namespace) -> int:
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
     if text is not None:
         print(f"wrote {args.gcode}")
-    return 0
+    return {"cuts": program.n_cuts, "cuts_advised": len(pa.cuts), "time_written_s": t_prog,
+            "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean())}
 
 
 def _default_points() -> int:
