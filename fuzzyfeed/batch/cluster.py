@@ -26,43 +26,116 @@ def machine_cores() -> int:
         return os.cpu_count() or 1
 
 
-@contextlib.contextmanager
-def connect(workers: int | None = None, scheduler: str | None = None,
-            echo: Callable[[str], None] = print) -> Iterator:
-    """A ``distributed.Client``: on a new local cluster of ``workers`` processes (default: one per
-    core), or on the cluster whose scheduler is at ``scheduler`` (``tcp://HOST:PORT``). Prints the
-    dashboard's address; the local cluster is shut down on exit."""
-    from distributed import Client, LocalCluster
+class Cluster:
+    """A ``distributed.Client`` (``.client``) on a new local cluster of ``workers`` processes
+    (default: one per core) or on the cluster whose scheduler is at ``scheduler``
+    (``tcp://HOST:PORT``); prints the dashboard's address. :meth:`close` (also on leaving a
+    ``with``) disconnects and shuts a local cluster down: its workers are gone when it returns."""
 
-    cluster = None
-    with _quiet():
-        if scheduler:
-            try:
-                client = Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise BatchError(f"--scheduler {scheduler}: cannot connect ({' '.join(str(exc).split())})") from None
-            try:
-                client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
-            except (OSError, TimeoutError) as exc:
-                client.close()
-                raise BatchError(f"--scheduler {scheduler}: no worker joined within "
-                                 f"{CONNECT_TIMEOUT_S:g} s ({exc})") from None
-            where = f"the cluster at {scheduler}"
-        else:
-            n = workers or machine_cores()
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=DASHBOARD_ADDRESS, silence_logs=logging.CRITICAL)
-            client = Client(cluster, set_as_default=False)
-            where = f"a local cluster of {n} worker process{'es' if n > 1 else ''}"
-    try:
-        link = client.dashboard_link if _has_dashboard(client) else "not available"
-        echo(f"running on {where}; dashboard: {link}")
-        yield client
-    finally:
+    def __init__(self, workers: int | None = None, scheduler: str | None = None,
+                 echo: Callable[[str], None] = print):
+        from distributed import Client, LocalCluster
+
+        self.local = scheduler is None
+        self._cluster = None
         with _quiet():
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            if scheduler:
+                _reachable(scheduler)
+                try:
+                    self.client = Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+                except (OSError, TimeoutError, ValueError) as exc:
+                    raise BatchError(f"--scheduler {scheduler}: cannot connect "
+                                     f"({' '.join(str(exc).split())})") from None
+                try:
+                    self.client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
+                except (OSError, TimeoutError) as exc:
+                    self.close()
+                    raise BatchError(f"--scheduler {scheduler}: no worker joined within "
+                                     f"{CONNECT_TIMEOUT_S:g} s ({exc})") from None
+                where = f"the cluster at {scheduler}"
+            else:
+                n = workers or machine_cores()
+                with _sigint_ignored():    # spawned workers inherit it: Ctrl-C is the batch's
+                    self._cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                 dashboard_address=DASHBOARD_ADDRESS,
+                                                 silence_logs=logging.CRITICAL)
+                self.client = Client(self._cluster, set_as_default=False)
+                self.client.register_plugin(ignore_sigint_plugin(), name="fuzzyfeed-ignore-sigint")
+                where = f"a local cluster of {n} worker process{'es' if n > 1 else ''}"
+        link = self.client.dashboard_link if _has_dashboard(self.client) else "not available"
+        echo(f"running on {where}; dashboard: {link}")
+
+    def close(self) -> None:
+        with _quiet():
+            if getattr(self, "client", None) is not None:
+                self.client.close()
+            if self._cluster is not None:
+                self._cluster.close()
+                self._cluster = None
+
+    def __enter__(self) -> Cluster:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _reachable(address: str) -> None:
+    """A ``tcp://HOST:PORT`` scheduler that refuses connections is one line at once (Dask itself
+    retries for CONNECT_TIMEOUT_S)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else "tcp://" + address)
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        raise BatchError(f"--scheduler {address}: not an address tcp://HOST:PORT") from None
+    if not host or not port:
+        raise BatchError(f"--scheduler {address}: not an address tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        raise BatchError(f"--scheduler {address}: cannot connect ({exc.strerror or exc})") from None
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while the local workers are spawned (in the main thread; elsewhere a no-op).
+    A terminal's Ctrl-C reaches every process of the foreground group: the batch stops the cluster
+    itself and keeps the finished files, and the workers stay quiet instead of each printing a
+    KeyboardInterrupt."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def ignore_sigint_plugin():
+    """A Dask worker plugin for the local cluster: the worker process ignores SIGINT (also a worker
+    the nanny restarts after a crash). Defined on call: distributed is imported only when used."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class IgnoreSigint(WorkerPlugin):
+        idempotent = True
+
+        def setup(self, worker) -> None:
+            import signal
+            import threading
+
+            if threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return IgnoreSigint()
 
 
 def _has_dashboard(client) -> bool:

@@ -47,6 +47,11 @@ def entry_path(out_dir: str | os.PathLike, rel: str) -> str:
     return os.path.join(os.fspath(out_dir), MANIFEST_DIR, *rel.split("/")) + ".json"
 
 
+def stop_path(out_dir: str | os.PathLike, run_id: str) -> str:
+    """The file that tells the workers of run ``run_id`` to stop after their current file."""
+    return os.path.join(os.fspath(out_dir), MANIFEST_DIR, f"stop-{run_id}")
+
+
 def read_entry(path: str | os.PathLike) -> dict | None:
     """A manifest entry, or None when there is none or it cannot be read (then the file is redone)."""
     try:
@@ -80,12 +85,13 @@ def remove_outputs(paths) -> None:
 
 
 def remove_partial_files(out_dir: str | os.PathLike) -> int:
-    """Remove the temporary files (``.NAME.*.part``) a killed worker left in RESULTS_DIR; returns
-    how many. Only names of that pattern are touched."""
+    """Remove the temporary files (``.NAME.*.part``) a killed worker left in RESULTS_DIR and the stop
+    files of earlier runs; returns how many. Only names of those patterns are touched."""
     removed = 0
     for here, _, names in os.walk(out_dir):
         for name in names:
-            if name.startswith(".") and name.endswith(".part"):
+            stop = name.startswith("stop-") and os.path.basename(here) == MANIFEST_DIR
+            if (name.startswith(".") and name.endswith(".part")) or stop:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(os.path.join(here, name))
                     removed += 1

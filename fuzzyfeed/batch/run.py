@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 from fuzzyfeed.batch.discover import Source
 from fuzzyfeed.batch.manifest import (entry_path, is_current, options_sha256, read_entry,
-                                      remove_partial_files, results_lock, sha256_file)
+                                      remove_partial_files, results_lock, sha256_file, stop_path)
 from fuzzyfeed.batch.work import Job, Run, make_entry, run_jobs
 
 #: Chunks per worker (for balance at the end of a run) and files per chunk at most (for progress
@@ -52,48 +52,79 @@ def run_batch(sources: list[Source], out_dir: str | os.PathLike, plan: Callable,
     every file's key). A file whose input, options and fuzzyfeed version match its manifest entry
     is kept as it is, unless ``force``."""
     from fuzzyfeed import __version__
-    from fuzzyfeed.base.outputs import OutputPathError
+    from fuzzyfeed.batch.cluster import Cluster
+    from fuzzyfeed.batch.summary import summary_frame, write_summary
 
     out = os.fspath(out_dir)
+    _check_results_folder(out)
+    run_id = uuid.uuid4().hex
+    run = Run(id=run_id, options_sha256=options_sha256(options), version=__version__, force=force,
+              cwd=os.getcwd(), stop_file=os.path.abspath(stop_path(out, run_id)))
+    jobs = []
+    for src in sources:
+        argv, outputs = plan(src)
+        jobs.append(Job(rel=src.rel, source=src.path, argv=tuple(argv), outputs=tuple(outputs),
+                        entry=entry_path(out, src.rel), size=_size(src.path)))
+    entries, todo = _split(jobs, run)
+    programs = sum(s.kind == "program" for s in sources)
+    echo(f"{len(sources)} files ({programs} programs, {len(sources) - programs} drawings); "
+         f"{len(entries)} unchanged since the last run, kept; {len(todo)} to advise")
+    interrupted = None
+    # the cluster first: an unreachable scheduler is refused before anything is written
+    cluster = Cluster(workers, scheduler, echo) if todo else None
     try:
         os.makedirs(out, exist_ok=True)
-    except OSError as exc:
-        raise OutputPathError(f"--out {out}: cannot create the folder ({exc.strerror or exc})") from None
-    with results_lock(out):
-        remove_partial_files(out)
-        run_id = uuid.uuid4().hex
-        run = Run(id=run_id, options_sha256=options_sha256(options), version=__version__, force=force,
-                  cwd=os.getcwd(), stop_event=f"fuzzyfeed-batch-stop-{run_id}")
-        entries, kept, jobs = {}, set(), []
-        for src in sources:
-            argv, outputs = plan(src)
-            job = Job(rel=src.rel, source=src.path, argv=tuple(argv), outputs=tuple(outputs),
-                      entry=entry_path(out, src.rel), size=_size(src.path))
-            old = None if force else read_entry(job.entry)
-            if old is not None and is_current(old, _sha256(src.path), run.options_sha256, run.version):
-                entries[src.rel] = old
-                kept.add(src.rel)
-            else:
-                jobs.append(job)
-        for job in jobs:
-            for path in (*job.outputs, job.entry):
-                os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-        programs = sum(s.kind == "program" for s in sources)
-        echo(f"{len(sources)} files ({programs} programs, {len(sources) - programs} drawings); "
-             f"{len(kept)} unchanged since the last run, kept; {len(jobs)} to advise")
-        interrupted = None
-        if jobs:
-            interrupted = _dispatch(jobs, task, run, out, entries, workers, scheduler, progress, echo,
-                                    total=len(sources))
-            if scheduler is None:           # the local workers are gone: nothing writes any more
-                remove_partial_files(out)
-        from fuzzyfeed.batch.summary import summary_frame, write_summary
-
-        frame = summary_frame(sources, entries, kept)
-        csv_path, html_path = write_summary(out, frame)
+        with results_lock(out):
+            remove_partial_files(out)
+            entries, todo = _split(jobs, run)          # again, now that the folder is ours
+            kept = set(entries)
+            if todo:
+                cluster = cluster or Cluster(workers, scheduler, echo)
+                interrupted = _dispatch(cluster.client, todo, task, run, out, entries, progress, total=len(jobs))
+                if cluster.local:       # its workers are gone: nothing writes any more
+                    cluster.close()
+                if cluster.local or not interrupted:   # (a stopped run's tasks may still be running)
+                    remove_partial_files(out)           # a killed worker's temporary files
+                for job in todo:        # a file finished after the driver stopped listening
+                    late = entries.get(job.rel) or read_entry(job.entry)
+                    if late is not None and late.get("run") == run.id:
+                        entries[job.rel] = late
+            frame = summary_frame(sources, entries, kept)
+            csv_path, html_path = write_summary(out, frame)
+    finally:
+        if cluster is not None:
+            cluster.close()
     frame.attrs["interrupted"] = interrupted
     frame.attrs["summary"] = (csv_path, html_path)
     return frame
+
+
+def _check_results_folder(out: str) -> None:
+    """RESULTS_DIR is a folder or can be made one (checked before any work, one line)."""
+    from fuzzyfeed.base.outputs import OutputPathError
+
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise OutputPathError(f"--out {out}: is a file; give a folder for the results")
+    existing = out
+    while not os.path.exists(existing):
+        parent = os.path.dirname(os.path.abspath(existing))
+        if parent == existing:
+            break
+        existing = parent
+    if not os.path.isdir(existing) or not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputPathError(f"--out {out}: folder {existing} is not writable")
+
+
+def _split(jobs: list[Job], run: Run) -> tuple[dict, list[Job]]:
+    """(entries of the files kept from an earlier run, the jobs to do)."""
+    kept, todo = {}, []
+    for job in jobs:
+        old = None if run.force else read_entry(job.entry)
+        if old is not None and is_current(old, _sha256(job.source), run.options_sha256, run.version):
+            kept[job.rel] = old
+        else:
+            todo.append(job)
+    return kept, todo
 
 
 def _size(path: str) -> int:
@@ -110,60 +141,63 @@ def _sha256(path: str) -> str | None:
         return None
 
 
-def _dispatch(jobs: list[Job], task: Callable, run: Run, out: str, entries: dict, workers, scheduler,
-              progress, echo, total: int) -> str | None:
+def _dispatch(client, jobs: list[Job], task: Callable, run: Run, out: str, entries: dict, progress,
+              total: int) -> str | None:
     """Run ``jobs`` on the cluster, filling ``entries``; returns None, or how the run was stopped."""
     import dask
-    from distributed import Event, KilledWorker, as_completed
+    from distributed import KilledWorker, as_completed
 
     from fuzzyfeed.base.outputs import Terminated
-    from fuzzyfeed.batch.cluster import check_workers, connect
+    from fuzzyfeed.batch.cluster import check_workers
 
-    with connect(workers, scheduler, echo) as client:
-        n = check_workers(client, run.version, out, jobs[0].source, run.cwd)
-        chunks = make_chunks(jobs, n)
-        pending: dict = {}
+    for job in jobs:
+        for path in (*job.outputs, job.entry):
+            os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    n = check_workers(client, run.version, out, jobs[0].source, run.cwd)
+    chunks = make_chunks(jobs, n)
+    pending: dict = {}
 
-        def submit(chunk: list[Job], priority: int):
-            future = client.submit(run_jobs, chunk, task, run, priority=priority, pure=False,
-                                   key=f"fuzzyfeed-batch-{run.id[:12]}-{uuid.uuid4().hex[:8]}")
-            pending[future] = chunk
-            return future
+    def submit(chunk: list[Job], priority: int):
+        future = client.submit(run_jobs, chunk, task, run, priority=priority, pure=False,
+                               key=f"fuzzyfeed-batch-{run.id[:12]}-{uuid.uuid4().hex[:8]}")
+        pending[future] = chunk
+        return future
 
-        finished = as_completed([submit(c, len(chunks) - i) for i, c in enumerate(chunks)], loop=client.loop)
-        bar = _progress_bar(total, len(entries), progress)
-        stopped = None
-        try:
-            for future in finished:
-                chunk = pending.pop(future)
-                try:
-                    got = future.result()
-                except KilledWorker:
-                    todo = [job for job in chunk if job.rel not in entries]
-                    if len(todo) > 1:       # find the file that kills its worker: one per task
-                        for job in todo:
-                            finished.add(submit([job], 0))
-                        continue
-                    deaths = dask.config.get("distributed.scheduler.allowed-failures") + 1
-                    got = [_failure(job, run, "failed", f"the worker advising it died {deaths} times "
-                                    "(killed, or out of memory)") for job in todo]
-                except Exception as exc:  # the chunk itself failed (not one file): its files failed
-                    from fuzzyfeed.batch.work import one_line
-
-                    got = [_failure(job, run, "failed", one_line(exc)) for job in chunk if job.rel not in entries]
-                for entry in got:
-                    if entry["file"] not in entries:
-                        entries[entry["file"]] = entry
-                        bar.update(1)
-        except (KeyboardInterrupt, Terminated) as exc:
-            stopped = getattr(exc, "signal_name", "SIGINT")
+    finished = as_completed([submit(c, len(chunks) - i) for i, c in enumerate(chunks)], loop=client.loop)
+    bar = _progress_bar(total, len(entries), progress)
+    stopped = None
+    try:
+        for future in finished:
+            chunk = pending.pop(future)
             try:
-                Event(run.stop_event, client=client).set()
-                client.cancel(list(pending))
-            except Exception:  # the cluster may already be going away
+                got = future.result()
+            except KilledWorker:
+                left = [job for job in chunk if job.rel not in entries]
+                if len(left) > 1:       # find the file that kills its worker: one per task
+                    for job in left:
+                        finished.add(submit([job], 0))
+                    continue
+                deaths = dask.config.get("distributed.scheduler.allowed-failures") + 1
+                got = [_failure(job, run, "failed", f"the worker advising it died {deaths} times "
+                                "(killed, or out of memory)") for job in left]
+            except Exception as exc:  # the chunk itself failed (not one file): its files failed
+                from fuzzyfeed.batch.work import one_line
+
+                got = [_failure(job, run, "failed", one_line(exc)) for job in chunk if job.rel not in entries]
+            for entry in got:
+                if entry["file"] not in entries:
+                    entries[entry["file"]] = entry
+                    bar.update(1)
+    except (KeyboardInterrupt, Terminated) as exc:
+        stopped = getattr(exc, "signal_name", "SIGINT")
+        try:
+            with open(run.stop_file, "w"):     # a running chunk ends after its current file
                 pass
-        finally:
-            bar.close()
+            client.cancel(list(pending))
+        except Exception:  # the cluster may already be going away
+            pass
+    finally:
+        bar.close()
     return stopped
 
 

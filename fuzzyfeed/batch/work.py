@@ -46,14 +46,14 @@ class Job:
 class Run:
     """What every file of one batch run shares: its id, the options' digest, the fuzzyfeed version,
     ``force`` (earlier runs' results are redone), the folder relative paths start from, and the
-    name of the Dask event that stops the run between two files."""
+    file whose existence stops the run between two files (the workers see the results folder)."""
 
     id: str
     options_sha256: str
     version: str
     force: bool = False
     cwd: str = field(default_factory=os.getcwd)
-    stop_event: str | None = None
+    stop_file: str | None = None
 
 
 def one_line(exc: BaseException) -> str:
@@ -93,14 +93,7 @@ def _plain(figures: dict) -> dict:
 
 
 def _stopped(run: Run) -> bool:
-    if run.stop_event is None:
-        return False
-    try:
-        from distributed import Event
-
-        return Event(run.stop_event).is_set()
-    except (ImportError, ValueError, OSError):   # not on a Dask worker (a direct call)
-        return False
+    return run.stop_file is not None and os.path.exists(run.stop_file)
 
 
 def run_jobs(jobs: list[Job], task: Callable, run: Run) -> list[dict]:

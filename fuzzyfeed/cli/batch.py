@@ -227,7 +227,7 @@ def run(args: argparse.Namespace) -> int:
     values = {a.dest: getattr(args, PREFIX + a.dest) for a in forwarded_actions()}
     frame = batch(args.inputs, args.out, workers=args.workers, scheduler=args.scheduler, force=args.force,
                   plots=args.plots, **values)
-    failed = frame[frame["status"] != "ok"]
+    failed = frame[frame["status"].isin(("refused", "failed"))]
     for row in failed.head(20).itertuples():
         print(f"{row.status}: {row.file}: {row.reason}")
     if len(failed) > 20:
@@ -242,4 +242,4 @@ def run(args: argparse.Namespace) -> int:
         print(f"fuzzyfeed: {stopped} stopped the batch; finished files are kept, run the same command "
               "again to go on", file=sys.stderr)
         return 143 if stopped == "SIGTERM" else 130
-    return 1 if len(failed) else 0
+    return 1 if len(failed) or (frame["status"] != "ok").any() else 0
