@@ -77,11 +77,9 @@ def find_sources(specs: list[str], out_dir: str | os.PathLike, program_suffixes:
                     continue
                 if _inside(real, out_real):
                     if explicit:
-                        raise BatchError(f"{match}: is inside the results folder --out {out_dir}")
+                        raise BatchError(f"--out {out_dir}: holds the input {match}; results never go "
+                                         "beside or over the inputs, choose another folder")
                     continue
-                if os.path.dirname(real) == out_real:
-                    raise BatchError(f"--out {out_dir}: holds the input {match}; results never go "
-                                     "beside or over the inputs, choose another folder")
                 roots.append(os.path.dirname(os.path.abspath(match)))
                 found.append((match, real))
     unique: dict[str, str] = {}

@@ -107,11 +107,13 @@ def _check_results_folder(out: str) -> None:
         raise OutputPathError(f"--out {out}: is a file; give a folder for the results")
     existing = out
     while not os.path.exists(existing):
-        parent = os.path.dirname(os.path.abspath(existing))
+        parent = os.path.dirname(existing.rstrip(os.sep)) or "."
         if parent == existing:
             break
         existing = parent
-    if not os.path.isdir(existing) or not os.access(existing, os.W_OK | os.X_OK):
+    if not os.path.isdir(existing):
+        raise OutputPathError(f"--out {out}: {existing} is a file, not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
         raise OutputPathError(f"--out {out}: folder {existing} is not writable")
 
 

@@ -218,7 +218,18 @@ def register(sub) -> None:
         mine = copy.copy(action)
         mine.dest = PREFIX + action.dest
         group._add_action(mine)
+    for action in _advise_command()._actions:   # named per file by the batch: refused, not mistaken
+        if action.option_strings and action.dest in PER_FILE - {"help"}:    # for --gcode-decimals
+            p.add_argument(*action.option_strings, action=_PerFile, nargs=action.nargs, help=argparse.SUPPRESS)
     p.set_defaults(run=run)
+
+
+class _PerFile(argparse.Action):
+    """An advise option that names one output file: the batch names them for every file."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        parser.error(f"{option_string}: the batch writes every file's results itself (REL.csv, the "
+                     "advised program REL, REL.png with --plots) under --out RESULTS_DIR; leave it out")
 
 
 def run(args: argparse.Namespace) -> int:
