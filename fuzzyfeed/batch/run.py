@@ -210,9 +210,26 @@ def _failure(job: Job, run: Run, status: str, reason: str) -> dict:
 
 
 def _progress_bar(total: int, initial: int, enabled: bool | None):
-    """A tqdm bar over files: a widget in notebooks, text in terminals, none when ``enabled`` is
-    False (None: only when the output is a terminal or a notebook)."""
-    from tqdm.auto import tqdm
+    """A tqdm bar over files: a widget in a notebook with ipywidgets (text in the cell without
+    them), text in a terminal, none when ``enabled`` is False (None: only in a terminal or a
+    notebook, not when the output is a file or a pipe)."""
+    from tqdm import std
 
-    return tqdm(total=total, initial=initial, unit="file", desc="advising", smoothing=0.1,
-                disable=None if enabled is None else not enabled)
+    settings = dict(total=total, initial=initial, unit="file", desc="advising", smoothing=0.1)
+    if enabled is not False and _in_notebook():
+        try:
+            import ipywidgets  # noqa: F401  (the widget's own library)
+        except ImportError:
+            return std.tqdm(disable=False, **settings)
+        from tqdm.notebook import tqdm
+
+        return tqdm(**settings)
+    return std.tqdm(disable=None if enabled is None else not enabled, **settings)
+
+
+def _in_notebook() -> bool:
+    import sys
+
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None else None
+    return shell is not None and "IPKernelApp" in getattr(shell, "config", {})
