@@ -165,11 +165,14 @@ def cluster_costs(workers: int) -> dict[str, float]:
 
 
 def _load_fuzzyfeed() -> None:
+    """What a worker's first file loads: the advise command, its parser, the program advisor."""
+    import importlib
+
     from fuzzyfeed.cli.batch import advise_parser
 
     advise_parser()
-    import fuzzyfeed.cli.advise  # noqa: F401
-    import fuzzyfeed.program.feeds  # noqa: F401
+    for module in ("fuzzyfeed.cli.advise", "fuzzyfeed.program.feeds", "fuzzyfeed.fuzzy.advisor"):
+        importlib.import_module(module)
 
 
 def _nothing(i: int) -> int:

@@ -110,13 +110,15 @@ def summary_html(frame) -> str:
     failed = frame[frame["status"].isin(FAILED + ("not run",))]
     if len(failed):
         parts.append(f"<h2>Not advised ({len(failed)})</h2>")
-        parts.append(failed[["file", "status", "reason"]].to_html(index=False, escape=True, border=0))
+        parts.append(failed[["file", "status", "reason"]].to_html(index=False, escape=True, border=0,
+                                                                  classes="reasons"))
     parts.append("<h2>All files</h2>")
-    parts.append(frame.drop(columns=["notes"]).to_html(index=False, escape=True, border=0, na_rep="",
-                                                         float_format=lambda v: f"{v:.4g}"))
+    shown = frame.drop(columns=["reason", "notes"]).astype(object)
+    parts.append(shown.where(frame.drop(columns=["reason", "notes"]).notna(), "").to_html(
+        index=False, escape=True, border=0, float_format=lambda v: f"{v:.4g}"))
     style = ("body{font-family:sans-serif;margin:2em}table{border-collapse:collapse;font-size:85%}"
              "td,th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"
-             "td:first-child{text-align:left}img{max-width:100%}")
+             "td:first-child,.reasons td{text-align:left}img{max-width:100%}")
     return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>fuzzyfeed batch</title>"
             f"<style>{style}</style></head><body>\n" + "\n".join(parts)
             + f"\n<p><small>fuzzyfeed {html.escape(__version__)}</small></p></body></html>\n")
