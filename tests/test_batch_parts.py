@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from fuzzyfeed.batch.discover import Source, find_sources
-from fuzzyfeed.batch.manifest import is_current, options_sha256, sha256_file
+from fuzzyfeed.batch.manifest import file_key, is_current, options_sha256, sha256_file
 from fuzzyfeed.batch.run import MAX_FILES_PER_CHUNK, make_chunks
 from fuzzyfeed.batch.summary import pairs, summary_frame, summary_html
 from fuzzyfeed.batch.work import Job
@@ -131,6 +131,9 @@ def test_the_options_digest_covers_the_files_they_name(tmp_path):
     rules.write_text("b")
     assert options_sha256(["--rules", str(rules)]) != before
     assert options_sha256(["--rules", "paper"]) != options_sha256(["--rules", "mean"])
+    # a file's key also holds its own arguments: its path as given (the results record it)
+    assert file_key(before, ["lib/a.ngc", "-o", "R/a.ngc.csv"]) != file_key(before, ["/x/lib/a.ngc", "-o", "R/a.ngc.csv"])
+    assert file_key(before, ["a"]) == file_key(before, ["a"])
 
 
 def test_an_entry_is_current_only_for_the_same_input_options_version_and_results(tmp_path):
@@ -138,13 +141,15 @@ def test_an_entry_is_current_only_for_the_same_input_options_version_and_results
     result.write_text("x")
     entry = {"status": "ok", "input_sha256": "i", "options_sha256": "o", "fuzzyfeed": "v",
              "outputs": [str(result)]}
-    assert is_current(entry, "i", "o", "v")
-    assert not is_current(entry, "j", "o", "v") and not is_current(entry, "i", "p", "v")
-    assert not is_current(entry, "i", "o", "w")
-    assert is_current({**entry, "status": "refused"}, "i", "o", "v")
-    assert not is_current({**entry, "status": "failed"}, "i", "o", "v")        # tried again
+    outputs = [str(result)]
+    assert is_current(entry, "i", "o", "v", outputs)
+    assert not is_current(entry, "j", "o", "v", outputs) and not is_current(entry, "i", "p", "v", outputs)
+    assert not is_current(entry, "i", "o", "w", outputs) and not is_current(entry, None, "o", "v", outputs)
+    assert is_current({**entry, "status": "refused"}, "i", "o", "v", outputs)
+    assert not is_current({**entry, "status": "failed"}, "i", "o", "v", outputs)        # tried again
     result.unlink()
-    assert not is_current(entry, "i", "o", "v")
+    assert not is_current(entry, "i", "o", "v", outputs)
+    assert is_current({**entry, "status": "refused"}, "i", "o", "v", outputs)       # it had none
     assert sha256_file(__file__) == __import__("hashlib").sha256(Path(__file__).read_bytes()).hexdigest()
 
 
@@ -209,12 +214,26 @@ def test_the_page_escapes_file_names_and_reasons():
     (["lib", "--out", "lib/p.ngc/R"], "fuzzyfeed: error: --out lib/p.ngc/R: lib/p.ngc is a file, not a folder"),
     (["lib", "--out", "R", "--gcode", "x.ngc"], "fuzzyfeed: error: batch: --gcode: the batch writes every file's results itself"),
 ])
-def test_the_command_refuses_in_one_line_and_creates_nothing(tmp_path, argv, message):
+def test_the_command_refuses_in_one_line_and_creates_nothing(tmp_path, monkeypatch, capsys, argv, message):
+    from fuzzyfeed.cli import main
+
     (tmp_path / "lib").mkdir()
     (tmp_path / "lib" / "p.ngc").write_text("G21\nG1 X1 F100\n")
+    monkeypatch.chdir(tmp_path)
     before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
-    run = subprocess.run(FUZZYFEED + ["batch", *argv], cwd=tmp_path, capture_output=True, text=True, timeout=120)
-    assert run.returncode == 2
-    lines = run.stderr.splitlines()
-    assert len(lines) == 1 and lines[0].startswith(message), run.stderr
+    try:
+        code = main(["batch", *argv])
+    except SystemExit as exc:       # argparse's own refusals
+        code = exc.code
+    assert code == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(message), captured.err
     assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before
+
+
+def test_the_console_script_refuses_without_a_traceback(tmp_path):
+    run = subprocess.run(FUZZYFEED + ["batch", "nowhere", "--out", "R"], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=120)
+    assert (run.returncode, run.stderr, run.stdout) == (2, "fuzzyfeed: error: nowhere: no such file or folder\n", "")
+    assert not (tmp_path / "R").exists()

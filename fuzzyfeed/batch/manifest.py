@@ -66,15 +66,23 @@ def entry_text(entry: dict) -> str:
     return json.dumps(entry, indent=1, sort_keys=False, ensure_ascii=False, allow_nan=False) + "\n"
 
 
-def is_current(entry: dict | None, input_sha256: str, options: str, version: str) -> bool:
-    """True when ``entry`` was made from these input bytes, options and fuzzyfeed version, ended
-    in a kept status and (if it succeeded) all its results are still there."""
-    if not entry or entry.get("status") not in KEPT_STATUSES:
+def file_key(options: str, argv) -> str:
+    """Hex SHA-256 of what a file's results depend on besides its bytes and the version: the batch's
+    options digest and the file's own arguments (its path as given, which the results record, and
+    where they go)."""
+    return hashlib.sha256("\0".join((options, *argv)).encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def is_current(entry: dict | None, input_sha256: str | None, key: str, version: str, outputs=()) -> bool:
+    """True when ``entry`` was made from these input bytes, options (``key``, see :func:`file_key`)
+    and fuzzyfeed version, ended in a kept status and (if it succeeded) its results ``outputs`` are
+    all still there."""
+    if not entry or input_sha256 is None or entry.get("status") not in KEPT_STATUSES:
         return False
     if (entry.get("input_sha256"), entry.get("options_sha256"), entry.get("fuzzyfeed")) != \
-            (input_sha256, options, version):
+            (input_sha256, key, version):
         return False
-    return entry["status"] != "ok" or all(os.path.isfile(p) for p in entry.get("outputs", ()))
+    return entry["status"] != "ok" or all(os.path.isfile(p) for p in outputs)
 
 
 def remove_outputs(paths) -> None:
@@ -100,19 +108,29 @@ def remove_partial_files(out_dir: str | os.PathLike) -> int:
 
 @contextlib.contextmanager
 def results_lock(out_dir: str | os.PathLike) -> Iterator[None]:
-    """Hold RESULTS_DIR for one batch (``.manifest/lock``, advisory ``flock``); a second batch on
-    the same folder is refused in one line while the first runs."""
-    import fcntl
-
+    """Hold RESULTS_DIR for one batch (``.manifest/lock``, an advisory lock); a second batch on the
+    same folder is refused in one line while the first runs."""
     folder = Path(out_dir) / MANIFEST_DIR
     folder.mkdir(parents=True, exist_ok=True)
     fd = os.open(folder / "lock", os.O_RDWR | os.O_CREAT, 0o666)
     try:
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+            _lock(fd)
+        except OSError:
             raise BatchError(f"--out {out_dir}: another batch is writing to this folder; wait for it "
                              "or choose another folder") from None
         yield
     finally:
         os.close(fd)
+
+
+def _lock(fd: int) -> None:
+    """Lock an open file without waiting (flock; on Windows, msvcrt's byte lock); OSError if held."""
+    try:
+        import fcntl
+    except ImportError:        # Windows
+        import msvcrt
+
+        msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+        return
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -11,7 +11,7 @@ import uuid
 from collections.abc import Callable
 
 from fuzzyfeed.batch.discover import Source
-from fuzzyfeed.batch.manifest import (entry_path, is_current, options_sha256, read_entry,
+from fuzzyfeed.batch.manifest import (entry_path, file_key, is_current, options_sha256, read_entry,
                                       remove_partial_files, results_lock, sha256_file, stop_path)
 from fuzzyfeed.batch.work import Job, Run, make_entry, run_jobs
 
@@ -58,13 +58,14 @@ def run_batch(sources: list[Source], out_dir: str | os.PathLike, plan: Callable,
     out = os.fspath(out_dir)
     _check_results_folder(out)
     run_id = uuid.uuid4().hex
-    run = Run(id=run_id, options_sha256=options_sha256(options), version=__version__, force=force,
-              cwd=os.getcwd(), stop_file=os.path.abspath(stop_path(out, run_id)))
+    run = Run(id=run_id, version=__version__, force=force, cwd=os.getcwd(),
+              stop_file=os.path.abspath(stop_path(out, run_id)))
+    shared = options_sha256(options)
     jobs = []
     for src in sources:
         argv, outputs = plan(src)
         jobs.append(Job(rel=src.rel, source=src.path, argv=tuple(argv), outputs=tuple(outputs),
-                        entry=entry_path(out, src.rel), size=_size(src.path)))
+                        entry=entry_path(out, src.rel), key=file_key(shared, argv), size=_size(src.path)))
     entries, todo = _split(jobs, run)
     programs = sum(s.kind == "program" for s in sources)
     echo(f"{len(sources)} files ({programs} programs, {len(sources) - programs} drawings); "
@@ -122,7 +123,7 @@ def _split(jobs: list[Job], run: Run) -> tuple[dict, list[Job]]:
     kept, todo = {}, []
     for job in jobs:
         old = None if run.force else read_entry(job.entry)
-        if old is not None and is_current(old, _sha256(job.source), run.options_sha256, run.version):
+        if old is not None and is_current(old, _sha256(job.source), job.key, run.version, job.outputs):
             kept[job.rel] = old
         else:
             todo.append(job)
@@ -137,10 +138,22 @@ def _size(path: str) -> int:
 
 
 def _sha256(path: str) -> str | None:
+    """The input's SHA-256 (None if unreadable), hashed once per size and modification time."""
     try:
-        return sha256_file(path)
+        st = os.stat(path)
     except OSError:
         return None
+    key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
+    if key not in _HASHES:
+        try:
+            _HASHES[key] = sha256_file(path)
+        except OSError:
+            return None
+    return _HASHES[key]
+
+
+#: Input digests of this process, by (path, size, modification time): a run looks twice.
+_HASHES: dict[tuple[str, int, int], str] = {}
 
 
 def _dispatch(client, jobs: list[Job], task: Callable, run: Run, out: str, entries: dict, progress,
@@ -217,9 +230,9 @@ def _progress_bar(total: int, initial: int, enabled: bool | None):
 
     settings = dict(total=total, initial=initial, unit="file", desc="advising", smoothing=0.1)
     if enabled is not False and _in_notebook():
-        try:
-            import ipywidgets  # noqa: F401  (the widget's own library)
-        except ImportError:
+        import importlib.util
+
+        if importlib.util.find_spec("ipywidgets") is None:    # tqdm.notebook's widgets
             return std.tqdm(disable=False, **settings)
         from tqdm.notebook import tqdm
 

@@ -32,24 +32,25 @@ _ONE_AT_A_TIME = threading.Lock()
 class Job:
     """One input of a batch: ``rel`` its relative path (the key in the summary), ``source`` the
     path the task reads, ``argv`` the task's per-file arguments, ``outputs`` every file it writes,
-    ``entry`` its manifest entry, ``size`` its bytes (to balance the chunks)."""
+    ``entry`` its manifest entry, ``key`` the digest of its options and arguments
+    (:func:`~fuzzyfeed.batch.manifest.file_key`), ``size`` its bytes (to balance the chunks)."""
 
     rel: str
     source: str
     argv: tuple[str, ...]
     outputs: tuple[str, ...]
     entry: str
+    key: str = ""
     size: int = 0
 
 
 @dataclass(frozen=True)
 class Run:
-    """What every file of one batch run shares: its id, the options' digest, the fuzzyfeed version,
+    """What every file of one batch run shares: its id, the fuzzyfeed version,
     ``force`` (earlier runs' results are redone), the folder relative paths start from, and the
     file whose existence stops the run between two files (the workers see the results folder)."""
 
     id: str
-    options_sha256: str
     version: str
     force: bool = False
     cwd: str = field(default_factory=os.getcwd)
@@ -73,7 +74,7 @@ def make_entry(job: Job, run: Run, input_sha256: str | None, status: str, reason
     except (ImportError, ValueError):
         worker = ""
     return {"file": job.rel, "source": job.source, "input_sha256": input_sha256,
-            "options_sha256": run.options_sha256, "fuzzyfeed": run.version, "status": status,
+            "options_sha256": job.key, "fuzzyfeed": run.version, "status": status,
             "reason": reason, "figures": _plain(figures or {}), "notes": notes,
             "outputs": list(job.outputs), "compute_s": round(compute_s, 6), "worker": worker,
             "run": run.id, "finished": datetime.datetime.now(datetime.timezone.utc).isoformat(), **extra}
@@ -122,7 +123,7 @@ def run_job(job: Job, task: Callable, run: Run) -> dict:
     except OSError as exc:
         entry = make_entry(job, run, None, "refused", f"{job.source}: cannot read ({exc.strerror or exc})")
         return record_failure(job, entry)
-    if is_current(old, digest, run.options_sha256, run.version) and (old.get("run") == run.id or not run.force):
+    if is_current(old, digest, job.key, run.version, job.outputs) and (old.get("run") == run.id or not run.force):
         return old
     done: dict = {}
 
