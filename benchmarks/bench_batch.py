@@ -1,6 +1,6 @@
 """`fuzzyfeed batch` on a library of 1000 programs against a shell loop of `fuzzyfeed advise`.
 
-    python benchmarks/bench_batch.py [--files 1000] [--public DIR ...] [--shell-sample 40]
+    python benchmarks/bench_batch.py [--files 1000] [--public DIR ...] [--shell-sample 50]
 
 The library: every public program under the --public folders (default: benchmarks/library/programs
 and LinuxCNC's /usr/share/linuxcnc/ncfiles when present; files with the same bytes once), the rest
@@ -10,12 +10,9 @@ programs stay in: a real library has them.
 
 Measured as a user runs them, wall-clock, each command in a fresh process on a fresh RESULTS_DIR:
 
-- ``shell``: the serial loop ``for f in ...; do fuzzyfeed advise $f -o OUT.csv --gcode OUT; done``,
-  run on --shell-sample files drawn at random (seeded) and extrapolated to all: each command costs
-  its start-up (interpreter, imports, compiled kernels, parser; measured on the sample as the
-  command's time minus the file's own work in the batch) plus the file's work (measured for every
-  file by the one-worker batch, ``compute_s``). The plain extrapolation (sample mean × files) is
-  printed beside it.
+- ``shell``: the serial loop ``for f in ...; do fuzzyfeed advise $f -o OUT.csv --gcode OUT; done``
+  on --shell-sample files of the same mix (every k-th file in order of its work in the one-worker
+  batch), extrapolated to all files (sample mean × files);
 - ``batch --workers 1`` and ``batch`` on all cores, on all files;
 - the growth: ``batch`` on all cores on 100 files of the same mix (every tenth file in order of
   its work) against all files: time per file after the start-up (the command's start to its
@@ -24,8 +21,11 @@ Measured as a user runs them, wall-clock, each command in a fresh process on a f
   fuzzyfeed loaded into it), per task (the scheduler's round trip of an empty task, chunk of
   files), per file (its work; the bytes it reads and writes, what a shared folder carries).
 
-The last line: ``shell_over_batch=... cores_over_one=... growth_exponent=...`` (goals: ≥ 5, ≥ 1.8 on
-2 cores, 1: time after start-up proportional to the files).
+Each phase prints its wall time, its CPU seconds (the command's with its worker processes') and the
+load average around it: on a shared machine the wall-clock ratios move with the load of the
+moment, the CPU seconds much less. The last line: ``shell_over_batch=... cores_over_one=...
+growth_exponent=...`` (goals: ≥ 5, ≥ 1.8 on 2 cores, 1: time after start-up proportional to the
+files) and the same ratios in CPU seconds.
 """
 
 from __future__ import annotations
@@ -189,7 +189,7 @@ def main() -> None:
     parser.add_argument("--small", type=int, default=100, help="files of the growth run (default 100)")
     parser.add_argument("--public", type=Path, action="append", default=None,
                         help="folder of public programs (repeatable)")
-    parser.add_argument("--shell-sample", type=int, default=40)
+    parser.add_argument("--shell-sample", type=int, default=50)
     parser.add_argument("--keep", type=Path, default=None, help="build the library and results here")
     args = parser.parse_args()
     from fuzzyfeed.batch.cluster import machine_cores
@@ -206,13 +206,15 @@ def main() -> None:
           f"{n_public} public ({', '.join(map(str, public_dirs))}), {n_generated} generated; "
           f"{folder_bytes(library) / 1e6:.1f} MB", flush=True)
 
+    load = os.getloadavg()[0]
     one_wall, one_ready, one_cpu, one = run_batch(library, work / "one", ["--workers", "1"])
     counts = one["status"].value_counts().to_dict()
-    print(f"batch --workers 1: {one_wall:.1f} s ({one_ready:.1f} s to start), {one_cpu:.0f} CPU s; {counts}",
-          flush=True)
+    print(f"batch --workers 1: {one_wall:.1f} s ({one_ready:.1f} s to start), {one_cpu:.0f} CPU s; load "
+          f"{load:.1f} -> {os.getloadavg()[0]:.1f}; {counts}", flush=True)
+    load = os.getloadavg()[0]
     all_wall, all_ready, all_cpu, every = run_batch(library, work / "all", [])
-    print(f"batch ({cores} workers): {all_wall:.1f} s ({all_ready:.1f} s to start), {all_cpu:.0f} CPU s",
-          flush=True)
+    print(f"batch ({cores} workers): {all_wall:.1f} s ({all_ready:.1f} s to start), {all_cpu:.0f} CPU s; "
+          f"load {load:.1f} -> {os.getloadavg()[0]:.1f}", flush=True)
     for name in ("one", "all"):     # the same results however many workers
         a = pd.read_csv(work / name / "summary.csv", keep_default_na=False)
         assert list(a["status"]) == list(one["status"])
@@ -237,21 +239,19 @@ def main() -> None:
           f"(ratio {per_file_all / per_file_small:.2f}); exponent {growth:.2f} after start-up, "
           f"{math.log(all_wall / small_wall) / scale:.2f} of the totals", flush=True)
 
-    # the shell loop on a sample, extrapolated
-    rng = random.Random(7)
-    sample = rng.sample(order, min(args.shell_sample, len(order)))
+    # the shell loop on a sample of the same mix, extrapolated
+    step = max(1, len(order) // args.shell_sample)
+    sample = order[step // 2::step][: args.shell_sample]
     loop_out = work / "loop"
     loop_out.mkdir(exist_ok=True)
+    load = os.getloadavg()[0]
     loop, loop_cpu = shell_loop([library / rel for rel in sample], loop_out)
     loop = np.array(loop)
-    overhead = float(np.mean(loop - work_s.loc[sample].to_numpy()))
-    shell_est = overhead * len(order) + float(work_s.sum())
-    plain_est = float(loop.mean()) * len(order)
-    print(f"shell loop: {len(sample)} files in {loop.sum():.1f} s ({loop.mean():.2f} s each, start-up "
-          f"{overhead:.2f} s of it); all {len(order)}: {shell_est:.0f} s (start-up x files + every "
-          f"file's work), plain extrapolation {plain_est:.0f} s; CPU {loop_cpu / len(sample):.2f} s per file "
-          f"(batch: {one_cpu / len(order):.2f} s with one worker, {all_cpu / len(order):.2f} s with {cores})",
-          flush=True)
+    shell_wall = float(loop.mean()) * len(order)
+    shell_cpu = loop_cpu / len(sample) * len(order)
+    print(f"shell loop: {len(sample)} files in {loop.sum():.1f} s ({loop.mean():.2f} s each, "
+          f"{loop_cpu / len(sample):.2f} CPU s each; load {load:.1f} -> {os.getloadavg()[0]:.1f}); "
+          f"all {len(order)}: {shell_wall:.0f} s, {shell_cpu:.0f} CPU s", flush=True)
 
     costs = cluster_costs(cores)
     bytes_in = folder_bytes(library) / len(order)
@@ -265,12 +265,14 @@ def main() -> None:
           f"{float(work_s.median()) * 1e3:.0f} ms), {bytes_in / 1e3:.0f} kB read, {bytes_out / 1e3:.0f} kB "
           "written", flush=True)
 
-    shell_over_batch = shell_est / all_wall
-    cores_over_one = one_wall / all_wall
-    print(f"ratios: shell loop / batch {shell_over_batch:.1f} (goal >= 5); batch --workers 1 / batch "
-          f"{cores_over_one:.2f} (goal >= 1.8 on 2 cores); growth exponent {growth:.2f} (linear: 1)")
-    print(f"shell_over_batch={shell_over_batch:.2f} cores_over_one={cores_over_one:.2f} "
-          f"growth_exponent={growth:.3f} per_file_ratio={per_file_all / per_file_small:.3f} cores={cores}")
+    ratios = {"shell_over_batch": shell_wall / all_wall, "cores_over_one": one_wall / all_wall,
+              "growth_exponent": growth, "per_file_ratio": per_file_all / per_file_small,
+              "cpu_shell_over_batch": shell_cpu / all_cpu, "cpu_one_over_all": one_cpu / all_cpu}
+    print(f"ratios: shell loop / batch {ratios['shell_over_batch']:.1f} (goal >= 5; CPU seconds "
+          f"{ratios['cpu_shell_over_batch']:.1f}); batch --workers 1 / batch {ratios['cores_over_one']:.2f} "
+          f"(goal >= 1.8 on 2 cores; CPU seconds {ratios['cpu_one_over_all']:.2f}: the parallel run's "
+          f"extra work); growth exponent {growth:.2f} (linear: 1)")
+    print(" ".join(f"{k}={v:.3f}" for k, v in ratios.items()) + f" cores={cores}")
     if args.keep is None:
         shutil.rmtree(work, ignore_errors=True)
 

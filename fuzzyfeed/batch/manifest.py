@@ -95,10 +95,13 @@ def remove_outputs(paths) -> None:
 def remove_partial_files(out_dir: str | os.PathLike) -> int:
     """Remove the temporary files (``.NAME.*.part``) a killed worker left in RESULTS_DIR and the stop
     files of earlier runs; returns how many. Only names of those patterns are touched."""
+    import re
+
     removed = 0
+    manifest = os.path.join(os.fspath(out_dir), MANIFEST_DIR)
     for here, _, names in os.walk(out_dir):
         for name in names:
-            stop = name.startswith("stop-") and os.path.basename(here) == MANIFEST_DIR
+            stop = here == manifest and re.fullmatch(r"stop-[0-9a-f]{32}", name)
             if (name.startswith(".") and name.endswith(".part")) or stop:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(os.path.join(here, name))

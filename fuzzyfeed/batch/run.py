@@ -159,6 +159,8 @@ _HASHES: dict[tuple[str, int, int], str] = {}
 def _dispatch(client, jobs: list[Job], task: Callable, run: Run, out: str, entries: dict, progress,
               total: int) -> str | None:
     """Run ``jobs`` on the cluster, filling ``entries``; returns None, or how the run was stopped."""
+    import asyncio
+
     import dask
     from distributed import KilledWorker, as_completed
 
@@ -195,7 +197,7 @@ def _dispatch(client, jobs: list[Job], task: Callable, run: Run, out: str, entri
                 deaths = dask.config.get("distributed.scheduler.allowed-failures") + 1
                 got = [_failure(job, run, "failed", f"the worker advising it died {deaths} times "
                                 "(killed, or out of memory)") for job in left]
-            except Exception as exc:  # the chunk itself failed (not one file): its files failed
+            except (Exception, asyncio.CancelledError) as exc:  # the chunk failed, not one file
                 from fuzzyfeed.batch.work import one_line
 
                 got = [_failure(job, run, "failed", one_line(exc)) for job in chunk if job.rel not in entries]
