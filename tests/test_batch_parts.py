@@ -237,3 +237,18 @@ def test_the_console_script_refuses_without_a_traceback(tmp_path):
                          text=True, timeout=120)
     assert (run.returncode, run.stderr, run.stdout) == (2, "fuzzyfeed: error: nowhere: no such file or folder\n", "")
     assert not (tmp_path / "R").exists()
+
+
+def test_fuzzyfeed_batch_is_the_package_and_the_function(tmp_path):
+    import importlib
+
+    import fuzzyfeed
+
+    assert "batch" in dir(fuzzyfeed) and callable(fuzzyfeed.batch)
+    importlib.import_module("fuzzyfeed.batch.run")          # importing a submodule keeps it callable
+    assert callable(fuzzyfeed.batch) and fuzzyfeed.batch is importlib.import_module("fuzzyfeed.batch")
+    with pytest.raises(BatchError, match="nowhere: no such file or folder"):
+        fuzzyfeed.batch(tmp_path / "nowhere", tmp_path / "out")
+    with pytest.raises(BatchError, match="rule_table: not an advise option"):
+        fuzzyfeed.batch(tmp_path, tmp_path / "out", rule_table="paper")
+    assert not (tmp_path / "out").exists()
