@@ -46,6 +46,11 @@ class BatchError(ValueError, FuzzyfeedError):
     that cannot be reached or runs another fuzzyfeed)."""
 
 
+class FileConflictError(FuzzyfeedError):
+    """A file to be written changed on disk since it was read, or is another file; the caller
+    asks before overwriting it."""
+
+
 class FuzzyfeedNotice(UserWarning):
     """Something the user should know that is not an error (a damaged file read through recovery,
     units assumed); the CLI prints it as one line ``fuzzyfeed: notice: ...`` on stderr."""

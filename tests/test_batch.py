@@ -182,19 +182,34 @@ def test_results_are_the_single_file_commands_bytes(library, cluster, tmp_path):
     assert not list(out.rglob("*.part"))
 
 
-def test_plots_are_the_commands_plots(library, cluster, tmp_path):
-    """--plots: the PNG advise --plot draws (a glob picking one program; drawing a plot costs
-    about 1 s a program)."""
+def test_plots_and_value_reports_on_a_machine_are_the_commands(library, cluster, tmp_path):
+    """With a machine (flags only) and --plots --reports html: the value report, the plot and the
+    program advised for the machine are advise's bytes; the summary carries the report's row."""
     lc, _ = cluster
     out = tmp_path / "results"
+    machine = dict(contour_tol_um=50, axis_acc_mm_s2=(1000, 800, 500), servo_kv_1_s=30,
+                   junction_deviation_mm=0.01, no_reference=True)
     frame = fuzzyfeed.batch([str(library / "jobC" / "*.gcode")], out, scheduler=lc.scheduler_address,
-                            plots=True, **QUIET)
+                            plots=True, reports="html", **machine, **QUIET)
     assert list(frame["file"]) == ["generated.gcode"] and frame["status"].tolist() == ["ok"]
-    code, err, files = reference(library / "jobC", tmp_path / "ref", "generated.gcode", [], [], plots=True)
+    words = ["--contour-tol-um", "50", "--axis-acc-mm-s2", "1000,800,500", "--servo-kv-1-s", "30",
+             "--junction-deviation-mm", "0.01", "--no-reference"]
+    ref = tmp_path / "ref"
+    ref.mkdir()
+    base = str(ref / "generated.gcode")
+    code, err = advise_cli(["advise", str(library / "jobC" / "generated.gcode"), "-o", base + ".csv", "--gcode",
+                            base, "--plot", base + ".png", "--report", base + ".report.html", *words])
     assert code == 0, err
-    assert [f.name for f in files][-1] == "generated.gcode.png"
-    for expected in files:
-        assert (out / expected.name).read_bytes() == expected.read_bytes()
+    names = sorted(p.name for p in ref.iterdir())
+    assert names == ["generated.gcode", "generated.gcode.csv", "generated.gcode.csv-metadata.json",
+                     "generated.gcode.png", "generated.gcode.report.html"]
+    for name in names:
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+    row = frame.iloc[0]
+    assert row.contour_tol_um == 50 and row.machine == "reference"
+    assert row.written_max_um > 0 and row.advised_max_um > 0 and row.time_written_s > 0
+    assert "written_max_um" in (out / "summary.csv").read_text().splitlines()[0]
+    assert (out / "summary.html").read_text().count("<img") == 3     # time, max and p99 error
 
 
 def test_the_console_command(library, cluster, tmp_path):

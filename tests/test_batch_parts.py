@@ -98,6 +98,11 @@ def test_options_are_passed_on_with_their_exact_values():
     assert words["drawing"] == ["--units", "inch", "--path-tolerance", "0.01", "--points", "4000",
                                 "--filter", "mean", "--rule-strengths"]
     assert float("3.0000000000000004e-05") == 1e-5 * 3
+    machine = advise_options({"axis_acc_mm_s2": (1000.0, 0.1, 800), "contour_tol_um": 50})
+    assert machine["program"] == machine["drawing"] == ["--axis-acc-mm-s2", "1000.0,0.1,800.0", "--contour-tol-um", "50.0"]
+    assert machine["machine"].axis_acc_mm_s2 == (1000.0, 0.1, 800.0) and machine["machine"].contour_tol_um == 50.0
+    assert advise_options({"no_reference": True})["drawing"] == []        # the value report: programs only
+    assert advise_options({})["machine"] is None
 
 
 def test_every_advise_option_but_the_output_files_is_offered():
@@ -107,7 +112,7 @@ def test_every_advise_option_but_the_output_files_is_offered():
     sub = next(a for a in parser._actions if a.dest == "command")
     advise = {a.dest for a in sub.choices["advise"]._actions if a.option_strings}
     batch = {a.dest.removeprefix("advise__") for a in sub.choices["batch"]._actions if a.dest.startswith("advise__")}
-    assert batch == advise - {"help", "output", "gcode", "gcode_g52", "plot"}
+    assert batch == advise - {"help", "output", "gcode", "gcode_g52", "plot", "report"}
     assert {a.dest for a in forwarded_actions()} == batch
 
 
@@ -116,9 +121,12 @@ def test_every_advise_option_but_the_output_files_is_offered():
     ({"step_mm": -1}, "argument --step-mm: '-1' must be a finite number > 0"),
     ({"filter": "median"}, "argument --filter: invalid choice: 'median'"),
     ({"points": 2}, "argument --points: 2 is too few"),
+    ({"machine": "no-such-machine"}, "no-such-machine"),
 ])
 def test_bad_options_are_one_line(options, message):
-    with pytest.raises(BatchError, match=message):
+    from fuzzyfeed.errors import FuzzyfeedError
+
+    with pytest.raises(FuzzyfeedError, match=message):      # a bad machine is the machine's own error
         advise_options(options)
 
 
@@ -185,12 +193,15 @@ def test_the_summary_has_a_row_per_file_and_the_machine_columns_only_when_given(
     assert pairs(frame) == [("time_s", "time_written_s", "time_advised_s")]
     page = summary_html(frame)
     assert page.count("<img") == 1 and "reports it when a machine is given" in page
-    machine = {"a.ngc": entry(**plain["a.ngc"]["figures"], contour_err_max_written_um=254.0,
-                              contour_err_max_advised_um=19.0, contour_err_p99_written_um=200.0,
-                              contour_err_p99_advised_um=15.0)}
+    # the value report's row, as advise returns it with a machine
+    machine = {"a.ngc": entry(**plain["a.ngc"]["figures"], contour_tol_um=50.0, written_max_um=254.0,
+                              advised_max_um=19.0, written_p99_um=200.0, advised_p99_um=15.0,
+                              uniform_time_s=30.0, uniform_max_um=50.0)}
     frame = summary_frame(sources[:1], machine, kept=set())
-    assert "contour_err_max_written_um" in frame.columns and "contour_err_p99_advised_um" in frame.columns
-    assert [p[0] for p in pairs(frame)][1:] == ["contour_err_max_um", "contour_err_p99_um"]
+    assert "written_max_um" in frame.columns and "advised_p99_um" in frame.columns
+    assert pairs(frame) == [("time_s", "time_written_s", "time_advised_s"),
+                            ("max_um", "written_max_um", "advised_max_um"),
+                            ("p99_um", "written_p99_um", "advised_p99_um")]
     assert summary_html(frame).count("<img") == 3
 
 
@@ -211,6 +222,8 @@ def test_the_page_escapes_file_names_and_reasons():
      "fuzzyfeed: error: --scheduler tcp://127.0.0.1:9: cannot connect"),
     (["lib", "--out", "R", "--scheduler", "tcp://nohost"], "fuzzyfeed: error: --scheduler tcp://nohost: not an address"),
     (["lib", "--out", "R", "-o", "x.csv"], "fuzzyfeed: error: batch: -o: the batch writes every file's results"),
+    (["lib", "--out", "R", "--report", "x.html"], "fuzzyfeed: error: batch: --report: the batch writes every"),
+    (["lib", "--out", "R", "--reports", "html"], "fuzzyfeed: error: --reports html: the value report needs a machine"),
     (["lib", "--out", "lib/p.ngc/R"], "fuzzyfeed: error: --out lib/p.ngc/R: lib/p.ngc is a file, not a folder"),
     (["lib", "--out", "R", "--gcode", "x.ngc"], "fuzzyfeed: error: batch: --gcode: the batch writes every file's results itself"),
 ])

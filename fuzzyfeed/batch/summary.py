@@ -3,9 +3,10 @@
 
 The figures of a row are what the per-file work returned (``figures`` of its manifest entry):
 the advise command's ``cuts``, ``time_written_s``, ``time_advised_s``, ``feed_pct_min``,
-``feed_pct_mean``, and whatever else it returns (with a machine, its value report's contour-error
-columns). A figure named ``X_written…`` with an ``X_advised…`` beside it is plotted as written
-against advised; a column a file does not have is left empty.
+``feed_pct_mean``, and whatever else it returns (with a machine, its value report's row:
+``written_max_um``, ``advised_max_um``, ``uniform_time_s``, ...). A figure in µm named with
+``written`` that has a twin named with ``advised`` is plotted as written against advised; a
+column a file does not have is left empty.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import base64
 import html
 import io
 import os
+import re
 
 #: The summary's first columns, in order; any other figure follows them.
 LEADING = ("file", "kind", "status", "reason", "cuts", "time_written_s", "time_advised_s",
@@ -71,15 +73,20 @@ def write_summary(out_dir: str | os.PathLike, frame) -> tuple[str, str]:
     return csv_path, html_path
 
 
+#: The word that marks a figure as written (``time_written_s``, ``written_max_um``).
+_WRITTEN = re.compile(r"(^|_)written(_|$)")
+
+
 def pairs(frame) -> list[tuple[str, str, str]]:
-    """(name, written column, advised column) of every figure given as written and advised, the
-    time first."""
+    """(name, written column, advised column) of every figure given as written and advised (the
+    same name with ``advised`` for ``written``), the time first."""
     found = []
     for column in frame.columns:
-        if "_written" in column:
-            advised = column.replace("_written", "_advised", 1)
+        if _WRITTEN.search(column):
+            advised = _WRITTEN.sub(r"\1advised\2", column, count=1)
             if advised in frame.columns:
-                found.append((column.replace("_written", "", 1), column, advised))
+                name = _WRITTEN.sub(lambda m: "_" if m.group(1) and m.group(2) else "", column, count=1)
+                found.append((name, column, advised))
     found.sort(key=lambda p: (p[1] != "time_written_s", p[1]))
     return found
 
@@ -98,15 +105,17 @@ def summary_html(frame) -> str:
              "<p>" + ", ".join(f"{html.escape(k)}: {v}" for k, v in counts(frame).items()) + "</p>"]
     if len(ok):
         written, advised = ok["time_written_s"].sum(), ok["time_advised_s"].sum()
+        how = ("as the machine runs them" if "contour_tol_um" in frame.columns
+               else "feed moves at their F, no acceleration")
         parts.append(f"<p>advised files: {written:.1f} s as written, {advised:.1f} s advised "
-                     f"({advised - written:+.1f} s; feed moves at their F, no acceleration)</p>")
+                     f"({advised - written:+.1f} s; {how})</p>")
         parts.append(_image(time_figure(ok), "time saved or added per program"))
-    errors = [p for p in pairs(frame) if "err" in p[0]]
+    errors = [p for p in pairs(frame) if p[0].endswith("_um")]
     for name, written, advised in errors:
         parts.append(_image(error_figure(ok, name, written, advised), f"{name}: as written against advised"))
     if not errors:
         parts.append("<p>No contour error as written and advised in the figures: the advice "
-                     "reports it when a machine is given.</p>")
+                     "reports it when a machine is given (--machine or a machine flag).</p>")
     failed = frame[frame["status"].isin(FAILED + ("not run",))]
     if len(failed):
         parts.append(f"<h2>Not advised ({len(failed)})</h2>")
@@ -172,6 +181,9 @@ def error_figure(ok, name: str, written: str, advised: str):
     if keep.any():
         lo, hi = min(x[keep].min(), y[keep].min()), max(x[keep].max(), y[keep].max())
         ax.plot([lo, hi], [lo, hi], "k--", lw=0.8, label="advised = as written")
+        if "contour_tol_um" in ok.columns:
+            for tol in sorted(set(ok["contour_tol_um"].dropna().astype(float))):
+                ax.axhline(tol, color="#c0392b", lw=0.8, label=f"tolerance {tol:g} um")
         ax.legend(loc="upper left")
     ax.set_xscale("log")
     ax.set_yscale("log")

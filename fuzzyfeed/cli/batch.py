@@ -18,7 +18,7 @@ from fuzzyfeed.cli._common import count_at_least
 from fuzzyfeed.errors import BatchError, FuzzyfeedError
 
 #: advise's arguments that name one file; batch makes them per file under RESULTS_DIR.
-PER_FILE = frozenset({"help", "shape", "output", "gcode", "gcode_g52", "plot"})
+PER_FILE = frozenset({"help", "shape", "output", "gcode", "gcode_g52", "plot", "report"})
 #: advise options that apply to drawings only (a program refuses them): not given to programs.
 DRAWING_ONLY = frozenset({"units", "points", "rule_strengths"})
 #: Where the batch parser keeps advise's options (apart from its own).
@@ -50,13 +50,14 @@ def _advise_command() -> argparse.ArgumentParser:
 
 @functools.lru_cache(maxsize=1)
 def _program_only() -> frozenset[str]:
-    """advise options that apply to programs only: ``--step-mm`` and the G-code export group (a
-    drawing gets its CSV, no program)."""
+    """advise options that apply to programs only: ``--step-mm``, ``--no-reference`` (the value
+    report) and the G-code export group (a drawing gets its CSV, no program)."""
     from fuzzyfeed.cli._gcode import add_gcode_arguments
 
     scratch = argparse.ArgumentParser()
     add_gcode_arguments(scratch)
-    return frozenset({"step_mm"} | {a.dest for a in scratch._actions if a.dest != "help"} - PER_FILE)
+    return frozenset({"step_mm", "no_reference"} | {a.dest for a in scratch._actions if a.dest != "help"}
+                     - PER_FILE)
 
 
 def forwarded_actions() -> list[argparse.Action]:
@@ -65,6 +66,9 @@ def forwarded_actions() -> list[argparse.Action]:
 
 
 def _text(value) -> str:
+    """A value as advise reads it back: floats exactly (repr), one value per axis as X,Y,Z."""
+    if isinstance(value, (tuple, list)):
+        return ",".join(map(_text, value))
     return repr(value) if isinstance(value, float) else os.fspath(value) if isinstance(value, os.PathLike) \
         else str(value)
 
@@ -87,9 +91,10 @@ def _tokens(action: argparse.Action, value) -> list[str]:
     raise BatchError(f"{flag}: an option batch cannot pass on ({type(action).__name__})")
 
 
-def advise_options(values: dict) -> dict[str, list[str]]:
+def advise_options(values: dict) -> dict:
     """advise's arguments for option ``values`` (dest -> value, e.g. ``feed_step_mm_min=100``), for
-    programs and for drawings, checked by advise's own parser: words that give exactly these values.
+    programs and for drawings, checked by advise's own parser: words that give exactly these values
+    (``"program"``, ``"drawing"``), and the machine they describe (``"machine"``, None without).
     An unknown option or a bad value is one BatchError line."""
     actions = {a.dest: a for a in forwarded_actions()}
     unknown = sorted(set(values) - set(actions))
@@ -103,18 +108,30 @@ def advise_options(values: dict) -> dict[str, list[str]]:
         raise BatchError(f"advise options {words}: cannot be passed on unchanged")
     program_only = _program_only()
     return {"program": [w for d, ws in canonical.items() if d not in DRAWING_ONLY for w in ws],
-            "drawing": [w for d, ws in canonical.items() if d not in program_only for w in ws]}
+            "drawing": [w for d, ws in canonical.items() if d not in program_only for w in ws],
+            "machine": _machine(parsed)}
 
 
-def output_paths(out_dir: str, rel: str, kind: str, plots: bool) -> dict[str, str]:
+def _machine(parsed: argparse.Namespace):
+    """The machine the options describe (its file read and checked now: a bad one is refused before
+    the batch starts), or None."""
+    from fuzzyfeed.cli._machine import machine_from_args
+
+    return machine_from_args(parsed)
+
+
+def output_paths(out_dir: str, rel: str, kind: str, plots: bool, reports: str | None = None) -> dict[str, str]:
     """A file's results (flag -> path): ``REL.csv`` (and its sidecar), the advised program at
-    ``REL`` itself, ``REL.png`` with ``plots`` (programs)."""
+    ``REL`` itself, ``REL.png`` with ``plots`` and the value report ``REL.report.html`` (or
+    ``.csv``) with ``reports`` (programs)."""
     base = os.path.join(out_dir, *rel.split("/"))
     paths = {"-o": base + ".csv"}
     if kind == "program":
         paths["--gcode"] = base
         if plots:
             paths["--plot"] = base + ".png"
+        if reports:
+            paths["--report"] = f"{base}.report.{reports}"
     return paths
 
 
@@ -150,7 +167,8 @@ def _notes(err: io.StringIO) -> str:
 
 
 def batch(paths, out, *, workers: int | None = None, scheduler: str | None = None, force: bool = False,
-          plots: bool = False, progress: bool | None = None, echo=print, **options):
+          plots: bool = False, reports: str | None = None, progress: bool | None = None, echo=print,
+          **options):
     """Advise every program and drawing under ``paths`` (folders searched recursively, globs, files)
     into the folder ``out`` on Dask and return the summary as a pandas DataFrame (one row per file:
     status, reason, cuts, time as written and advised, feed %, ...; also ``out/summary.csv`` and
@@ -160,7 +178,8 @@ def batch(paths, out, *, workers: int | None = None, scheduler: str | None = Non
     ``step_mm=0.5``; see ``fuzzyfeed advise --help``). ``workers`` local worker processes (default:
     one per core) or an existing cluster at ``scheduler`` (``"tcp://HOST:PORT"``); ``force`` redoes
     files whose input, options and version are unchanged since the last run; ``plots`` adds a PNG per
-    program. A refused or failed file is a row with its reason, not an exception."""
+    program, ``reports`` (``"html"`` or ``"csv"``, with a machine) its value report. A refused or
+    failed file is a row with its reason, not an exception."""
     from fuzzyfeed.batch.discover import find_sources
     from fuzzyfeed.batch.run import run_batch
     from fuzzyfeed.io.csv import metadata_path
@@ -169,17 +188,23 @@ def batch(paths, out, *, workers: int | None = None, scheduler: str | None = Non
     specs = [os.fspath(paths)] if isinstance(paths, (str, os.PathLike)) else [os.fspath(p) for p in paths]
     if workers is not None and scheduler is not None:
         raise BatchError("--workers: sizes a local cluster; an existing one (--scheduler) has its own workers")
+    if reports not in (None, "html", "csv"):
+        raise BatchError(f"--reports {reports}: give html or csv")
     out = os.fspath(out)
     words = advise_options(options)
+    if reports and words["machine"] is None:
+        raise BatchError(f"--reports {reports}: the value report needs a machine (--machine FILE, or a "
+                         "machine flag such as --contour-tol-um)")
     sources = find_sources(specs, out, GCODE_SUFFIXES)
 
     def plan(src):
-        files = output_paths(out, src.rel, src.kind, plots)
+        files = output_paths(out, src.rel, src.kind, plots, reports)
         argv = [src.path, *(w for flag, path in files.items() for w in (flag, path)), *words[src.kind]]
         written = [*files.values(), metadata_path(files["-o"])]
         return argv, written
 
-    key = [*words["program"], "|", *words["drawing"], *(["--plots"] if plots else [])]
+    key = [*words["program"], "|", *words["drawing"], *(["--plots"] if plots else []),
+           *([f"--reports={reports}"] if reports else [])]
     return run_batch(sources, out, plan, advise_task, key, workers=workers, scheduler=scheduler,
                      force=force, progress=progress, echo=echo)
 
@@ -191,7 +216,8 @@ def register(sub) -> None:
                     "under DIR_OR_GLOB (folders searched recursively) and advise each exactly as "
                     "`fuzzyfeed advise FILE -o REL.csv --gcode REL` would, into RESULTS_DIR at the "
                     "same relative path REL: the advised program REL, REL.csv with its sidecar "
-                    "(drawings: the CSV of every contour, no program), REL.png with --plots. "
+                    "(drawings: the CSV of every contour, no program), REL.png with --plots, the "
+                    "value report REL.report.html with a machine and --reports html. "
                     "A refused or failing file is recorded with its reason and the batch goes on "
                     "(exit code 1 if any file failed). RESULTS_DIR/.manifest/ keeps the SHA-256 of "
                     "each input, of the options and the version: a rerun skips files whose three "
@@ -210,10 +236,13 @@ def register(sub) -> None:
                         "fuzzyfeed version and the inputs and RESULTS_DIR at the same paths")
     p.add_argument("--force", action="store_true", help="advise every file again, even unchanged ones")
     p.add_argument("--plots", action="store_true",
-                   help="also draw each program's feed and curvature (advise --plot) as REL.png")
+                   help="also draw each program's feed (advise --plot) as REL.png")
+    p.add_argument("--reports", choices=("html", "csv"), default=None,
+                   help="with a machine: also write each program's value report (advise --report) as "
+                        "REL.report.html or REL.report.csv")
     group = p.add_argument_group("advise options, given to every file (see `fuzzyfeed advise --help`; "
-                                 "--units, --points and --rule-strengths reach drawings only, --step-mm "
-                                 "and the G-code options programs only)")
+                                 "--units, --points and --rule-strengths reach drawings only, --step-mm, "
+                                 "--no-reference and the G-code options programs only)")
     for action in forwarded_actions():
         mine = copy.copy(action)
         mine.dest = PREFIX + action.dest
@@ -229,7 +258,8 @@ class _PerFile(argparse.Action):
 
     def __call__(self, parser, namespace, values, option_string=None):
         parser.error(f"{option_string}: the batch writes every file's results itself (REL.csv, the "
-                     "advised program REL, REL.png with --plots) under --out RESULTS_DIR; leave it out")
+                     "advised program REL, REL.png with --plots, REL.report.html with --reports html) "
+                     "under --out RESULTS_DIR; leave it out")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -237,7 +267,7 @@ def run(args: argparse.Namespace) -> int:
     advised, 1 when some were not, 130 (143) when Ctrl-C (SIGTERM) stopped it."""
     values = {a.dest: getattr(args, PREFIX + a.dest) for a in forwarded_actions()}
     frame = batch(args.inputs, args.out, workers=args.workers, scheduler=args.scheduler, force=args.force,
-                  plots=args.plots, **values)
+                  plots=args.plots, reports=args.reports, **values)
     failed = frame[frame["status"].isin(("refused", "failed"))]
     for row in failed.head(20).itertuples():
         print(f"{row.status}: {row.file}: {row.reason}")
@@ -245,8 +275,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"... and {len(failed) - 20} more (see summary.csv)")
     ok = frame[frame["status"] == "ok"]
     tally = ", ".join(f"{k} {v}" for k, v in frame["status"].value_counts().items())
+    how = "as the machine runs them" if "contour_tol_um" in frame.columns else "feed moves, no acceleration"
     print(f"{len(frame)} files: {tally}; advised programs and drawings: {ok['time_written_s'].sum():.1f} s "
-          f"as written, {ok['time_advised_s'].sum():.1f} s advised (feed moves, no acceleration)")
+          f"as written, {ok['time_advised_s'].sum():.1f} s advised ({how})")
     print(f"wrote {' and '.join(frame.attrs['summary'])}")
     stopped = frame.attrs.get("interrupted")
     if stopped:

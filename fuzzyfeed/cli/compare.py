@@ -7,7 +7,8 @@ import sys
 
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, program_feed_limits
-from fuzzyfeed.cli._servo import add_servo_arguments, servo_from_args
+from fuzzyfeed.cli._machine import machine_from_args
+from fuzzyfeed.cli._servo import servo_from_args
 
 DESCRIPTION = """\
 Simulate every method on the same samples with the same interpolator at Ts and print one metric
@@ -30,7 +31,6 @@ def register(sub) -> None:
     p.add_argument("--points", type=point_count, default=2000,
                    help="sample points, uniform in u (default: %(default)s, as in seed 002)")
     add_limit_arguments(p)
-    add_servo_arguments(p)
     add_approach_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="REPORT.csv",
                    help="CSV with one row per method (column method) and one column per metric")
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.shapes import load_shape, sample_shape
     from fuzzyfeed.geometry.sampling import POINT_STEP_MM
 
-    servo = servo_from_args(args)
+    servo = servo_from_args(args, machine_from_args(args))
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
     limits, cap, feed_note = program_feed_limits(shape, limits_from_args(args))
