@@ -179,6 +179,17 @@ def _nothing(i: int) -> int:
     return i
 
 
+def busy(out: Path) -> tuple[float, list[float]]:
+    """The files' work summed over a run (wall seconds, from their manifest entries) and per worker."""
+    import json
+
+    per: dict[str, float] = {}
+    for path in (out / ".manifest").rglob("*.json"):
+        entry = json.loads(path.read_text())
+        per[entry["worker"]] = per.get(entry["worker"], 0.0) + float(entry["compute_s"])
+    return sum(per.values()), sorted(per.values())
+
+
 def folder_bytes(folder: Path) -> int:
     return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file() and ".manifest" not in p.parts)
 
@@ -215,6 +226,12 @@ def main() -> None:
     all_wall, all_ready, all_cpu, every = run_batch(library, work / "all", [])
     print(f"batch ({cores} workers): {all_wall:.1f} s ({all_ready:.1f} s to start), {all_cpu:.0f} CPU s; "
           f"load {load:.1f} -> {os.getloadavg()[0]:.1f}", flush=True)
+    one_busy, _ = busy(work / "one")
+    all_busy, per_worker = busy(work / "all")
+    print(f"work of the files summed: {one_busy:.0f} s with one worker, {all_busy:.0f} s with {cores} "
+          f"(per worker: {', '.join(f'{b:.0f} s' for b in per_worker)} of the run's {all_wall:.0f} s); "
+          f"x{all_busy / one_busy:.2f}: the same files take that much longer side by side, what the "
+          "cores left free by other jobs allow", flush=True)
     for name in ("one", "all"):     # the same results however many workers
         a = pd.read_csv(work / name / "summary.csv", keep_default_na=False)
         assert list(a["status"]) == list(one["status"])
