@@ -361,3 +361,20 @@ def test_ctrl_c_keeps_the_finished_files(cluster, tmp_path):
     again = fuzzyfeed.batch([lib], out, scheduler=lc.scheduler_address, **QUIET)
     assert (again["status"] == "ok").all()
     assert set(again.loc[again["earlier_run"], "file"]) == done
+
+
+def test_workers_that_cannot_do_the_work_are_refused_by_name(library, cluster, tmp_path):
+    """The start-up check, on the real workers: another fuzzyfeed version, a results folder or an
+    input they cannot reach; each refusal names the worker."""
+    from fuzzyfeed.batch.cluster import check_workers
+    from fuzzyfeed.errors import BatchError
+
+    _, client = cluster
+    source = str(library / "jobA" / "part.ngc")
+    assert check_workers(client, fuzzyfeed.__version__, str(tmp_path), source, os.getcwd()) == 2
+    with pytest.raises(BatchError, match=r"worker tcp://\S+: runs fuzzyfeed .*, this is 0\.0\.0-other"):
+        check_workers(client, "0.0.0-other", str(tmp_path), source, os.getcwd())
+    with pytest.raises(BatchError, match=r"worker tcp://\S+: cannot write .*nowhere; the workers need"):
+        check_workers(client, fuzzyfeed.__version__, str(tmp_path / "nowhere"), source, os.getcwd())
+    with pytest.raises(BatchError, match=r"worker tcp://\S+: cannot read .*missing.ngc"):
+        check_workers(client, fuzzyfeed.__version__, str(tmp_path), str(tmp_path / "missing.ngc"), os.getcwd())
