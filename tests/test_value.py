@@ -94,11 +94,11 @@ def test_machine_inputs_are_invariant_under_scaling_feed_and_machine_together():
     base = Machine(servo=ServoModel(kv_1_s=30.0), ts_s=0.001)
     cs = sample_cut(program, 0)
     ceiling = program.feed_mm_min[cs.sample_move] / 60.0
-    ref = machine_features(cs.samples, ceiling, base, cs.turn_angle, cs.corner, cs.entry_angle)
+    ref = machine_features(cs.samples, ceiling, base, cs.turn_angle, cs.corner, cs.entry_direction)
     for c in (0.5, 3.0):
         scaled = replace(base, servo=ServoModel(kv_1_s=30.0 * c), axis_acc_mm_s2=(1000.0 * c * c,) * 3,
                          path_acc_mm_s2=1000.0 * c * c, axis_vel_mm_s=(100.0 * c,) * 3, ts_s=0.001 / c)
-        got = machine_features(cs.samples, ceiling * c, scaled, cs.turn_angle, cs.corner, cs.entry_angle)
+        got = machine_features(cs.samples, ceiling * c, scaled, cs.turn_angle, cs.corner, cs.entry_direction)
         np.testing.assert_allclose(got.safe_feed_ratio, ref.safe_feed_ratio, rtol=2e-3)
         np.testing.assert_allclose(got.safe_feed_ratio_near, ref.safe_feed_ratio_near, rtol=2e-3)
     assert ref.safe_feed_ratio_near.min() < 0.5       # the cut has hot spots: the check is not empty
@@ -108,11 +108,11 @@ def test_a_tighter_tolerance_or_a_softer_servo_slows_more():
     program = read_program(CORPUS / "fusion_03.ngc")
     cs = sample_cut(program, 0)
     ceiling = program.feed_mm_min[cs.sample_move] / 60.0
-    base = machine_features(cs.samples, ceiling, Machine(), cs.turn_angle, cs.corner, cs.entry_angle)
+    base = machine_features(cs.samples, ceiling, Machine(), cs.turn_angle, cs.corner, cs.entry_direction)
     tight = machine_features(cs.samples, ceiling, Machine(contour_tol_um=10.0), cs.turn_angle, cs.corner,
-                             cs.entry_angle)
+                             cs.entry_direction)
     soft = machine_features(cs.samples, ceiling, Machine(servo=ServoModel(kv_1_s=15.0)), cs.turn_angle,
-                            cs.corner, cs.entry_angle)
+                            cs.corner, cs.entry_direction)
     assert np.all(tight.safe_feed_mm_s <= base.safe_feed_mm_s)
     assert tight.safe_feed_ratio_near.mean() < base.safe_feed_ratio_near.mean()
     assert soft.safe_feed_ratio_near.mean() < base.safe_feed_ratio_near.mean()

@@ -80,14 +80,14 @@ def _check_feed(max_feed_mm_s: float) -> float:
 def advise_details(samples: PathSamples, table: RuleTable | None = None, max_feed_mm_s: float = 100.0,
                    engine: FuzzyEngine | None = None, machine: Machine | None = None,
                    ceiling_mm_s: np.ndarray | None = None, turn_angle: np.ndarray | None = None,
-                   corner: np.ndarray | None = None, entry_angle: float = float("nan")) -> FuzzyAdvice:
+                   corner: np.ndarray | None = None, entry_direction=None) -> FuzzyAdvice:
     """Run the advisor on ``samples`` and keep the features and the unfiltered controller output.
 
     ``table`` defaults to the machine table when a ``machine`` is given, else to seed 002's. A
     machine table (``inputs = "machine"``) reads :func:`~fuzzyfeed.fuzzy.machine_inputs.machine_features`:
     then ``ceiling_mm_s`` (N,) is the feed at each point the advice is a fraction of (default
     ``max_feed_mm_s``), ``turn_angle``/``corner`` the junctions (default: from the points),
-    ``entry_angle`` the turn from a rapid into the first point (NaN: none)."""
+    ``entry_direction`` the unit direction of a rapid into the first point (None: none)."""
     expect(samples, PathSamples, "samples", "PathSamples (sample_uniform_u, sample_shape)")
     if table is not None:
         expect(table, RuleTable, "table", "a RuleTable (load_rule_table) or None")
@@ -112,7 +112,7 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
                                      "'machine'); give a machine (--machine FILE or a machine flag such "
                                      "as --contour-tol-um)")
         return _advise_on_machine(samples, chosen, f_max, engine, machine, ceiling_mm_s, turn_angle, corner,
-                                  entry_angle)
+                                  entry_direction)
     table = table if table is not None else (engine.table if engine is not None else load_rule_table())
     engine = engine if engine is not None else compile_table(table)
     if not np.isfinite(samples.d1).all():  # a point sequence: its spacing is the file's, not ours
@@ -128,7 +128,7 @@ def advise_details(samples: PathSamples, table: RuleTable | None = None, max_fee
 
 
 def _advise_on_machine(samples: PathSamples, table: RuleTable, f_max: float, engine: FuzzyEngine | None,
-                       machine: Machine, ceiling_mm_s, turn_angle, corner, entry_angle) -> FuzzyAdvice:
+                       machine: Machine, ceiling_mm_s, turn_angle, corner, entry_direction) -> FuzzyAdvice:
     """A machine table's advice: machine inputs → engine → filter → floor, capped at the ceiling."""
     from fuzzyfeed.fuzzy.machine_inputs import machine_features
 
@@ -137,7 +137,7 @@ def _advise_on_machine(samples: PathSamples, table: RuleTable, f_max: float, eng
     ceiling = np.full(n, f_max) if ceiling_mm_s is None else np.asarray(ceiling_mm_s, dtype=float)
     if ceiling.shape != (n,) or not (np.isfinite(ceiling) & (ceiling > 0)).all():
         raise InputError(f"ceiling_mm_s: needs one finite feed > 0 per sample ({n})")
-    mf = machine_features(samples, ceiling, machine, turn_angle, corner, entry_angle)
+    mf = machine_features(samples, ceiling, machine, turn_angle, corner, entry_direction)
     raw = engine.feed_pct(mf.safe_feed_ratio, mf.safe_feed_ratio_near)
     pct = np.clip(smooth_feed(raw, table.filter, table.filter_points, samples.s, table.filter_mm,
                               samples.curvature), table.feed_floor_pct, 100.0)

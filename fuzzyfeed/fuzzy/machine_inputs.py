@@ -4,9 +4,11 @@ At every sample:
 
 - **safe feed** v_safe: the largest feed at which the machine holds its contour tolerance there —
   on a curve the steady-state servo error r·(1 − |G(jv/r)|) (:func:`~fuzzyfeed.machine.safe_feed.curve_safe_feed`),
-  at a junction of two moves the error of a corner of that turn angle run through the machine's
-  own planner and servo (:func:`~fuzzyfeed.machine.safe_feed.corner_safe_feed`), the smaller of the
-  two (a true corner's blend curvature is the corner's, not a curve's: it counts as a corner only);
+  at a junction of two moves the error of a corner of the turn the path makes there (measured at
+  a scale of a few tolerances) run through the machine's own planner and servo, or, where
+  junctions follow closely, of the curvature their turns make
+  (:func:`~fuzzyfeed.machine.safe_feed.junction_safe_feed`); the smaller (a true corner's blend
+  curvature is the corner's, not a curve's: it counts as a corner only);
   and where the path starts behind a rapid, the error of a cut's entry (the rapid brakes at full
   acceleration into it);
 - ``safe_feed_ratio`` = v_safe / F, F the programmed feed there (the ceiling), clipped at
@@ -31,7 +33,7 @@ import numpy as np
 from fuzzyfeed.fuzzy.windows import centred_bounds, range_min
 from fuzzyfeed.geometry.sampling import PathSamples
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.safe_feed import corner_safe_feed, curve_safe_feed, settle_time_s
+from fuzzyfeed.machine.safe_feed import corner_safe_feed, curve_safe_feed, junction_safe_feed, settle_time_s
 
 #: Ratios above this are clipped: the machine follows well within tolerance.
 RATIO_TOP = 1.5
@@ -72,23 +74,61 @@ def vertex_turn_angles(samples: PathSamples) -> np.ndarray:
     return out
 
 
+def entry_turns(samples: PathSamples, entry_direction, machine: Machine) -> np.ndarray:
+    """The angles (rad) between a rapid's direction and where the path goes over the first stretch
+    the rapid's braking lag covers (a·τ², the tool's lag when the rapid stops): the chords from the
+    path's start to its points within that stretch (longer than the tolerance). A plunge of a few µm
+    before an XY move, or a small circle entered from above, turns the tool through all of them.
+    Empty without a rapid."""
+    none = np.zeros(0)
+    if entry_direction is None:
+        return none
+    d = np.asarray(entry_direction, dtype=float)
+    if d.shape != (3,) or not np.isfinite(d).all():
+        return none
+    tau = machine.servo.time_constant_s
+    reach = min(max(machine.tangential_acc_mm_s2 * tau * tau, machine.contour_tol_mm), float(samples.s[-1]))
+    if reach <= 0:
+        return none
+    s = np.asarray(samples.s, dtype=float)
+    within = np.flatnonzero(s <= reach)
+    far = np.array([np.interp(reach, s, samples.xyz[:, k]) for k in range(3)])
+    pts = np.vstack([samples.xyz[within], far[None, :]])
+    chords = pts - samples.xyz[0]
+    norms = np.linalg.norm(chords, axis=1)
+    ok = norms > machine.contour_tol_mm
+    return np.arccos(np.clip(chords[ok] @ d / norms[ok], -1.0, 1.0))
+
+
+def entry_safe_feed(samples: PathSamples, entry_direction, machine: Machine) -> float:
+    """The safe feed at a cut's entry: the slowest the entry table gives over the range of turns
+    the path makes within the rapid's braking lag (:func:`entry_turns`), inf without a rapid."""
+    from fuzzyfeed.machine.safe_feed import CORNER_ANGLES_DEG
+
+    turns = entry_turns(samples, entry_direction, machine)
+    if turns.size == 0:
+        return float("inf")
+    lo, hi = float(turns.min()), float(turns.max())
+    table = np.radians(CORNER_ANGLES_DEG)
+    probe = np.concatenate([[lo, hi], table[(table > lo) & (table < hi)]])
+    return float(corner_safe_feed(machine, probe, rapid_lead=True).min())
+
+
 def machine_features(samples: PathSamples, ceiling_mm_s: np.ndarray, machine: Machine,
                      turn_angle: np.ndarray | None = None, corner: np.ndarray | None = None,
-                     entry_angle: float = float("nan")) -> MachineFeatures:
+                     entry_direction=None) -> MachineFeatures:
     """The machine inputs of every sample (module docstring). ``ceiling_mm_s`` (N,) is the feed
     the advice is a fraction of; ``turn_angle`` (N,) the turn at junctions (default: from the points
     of a point sequence, none on a NURBS); ``corner`` (N,) which junctions are true corners (their
-    curvature is the blend's; default: every junction turning more than 1°); ``entry_angle`` the
-    turn from a rapid into the path's first point (NaN: the path does not start behind a rapid)."""
+    curvature is the blend's; default: every junction turning more than 1°); ``entry_direction``
+    the unit direction of a rapid that ends at the path's first point (None or NaNs: none)."""
     kappa = np.asarray(samples.curvature, dtype=float)
     turn = vertex_turn_angles(samples) if turn_angle is None else np.asarray(turn_angle, dtype=float)
     is_corner = (turn > CORNER_MIN_RAD) if corner is None else np.asarray(corner, dtype=bool)
     ceiling = np.asarray(ceiling_mm_s, dtype=float)
     v_curve = curve_safe_feed(machine, np.where(is_corner, 0.0, kappa))
-    v_corner = corner_safe_feed(machine, turn)
-    v_safe = np.minimum(v_curve, v_corner)
-    if np.isfinite(entry_angle):
-        v_safe[0] = min(v_safe[0], float(corner_safe_feed(machine, np.array([entry_angle]), rapid_lead=True)[0]))
+    v_safe = np.minimum(v_curve, junction_safe_feed(machine, turn, samples.xyz, samples.s))
+    v_safe[0] = min(v_safe[0], entry_safe_feed(samples, entry_direction, machine))
     near = settling_min(v_safe, np.asarray(samples.s, dtype=float), settle_time_s(machine), ceiling)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.clip(v_safe / ceiling, 0.0, RATIO_TOP)

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from fuzzyfeed.fuzzy.rules import FEED, MACHINE, SAFE, SAFE_NEAR, RuleTable, Term, Variable
 
 #: Levels of the near ratio (fractions of the programmed feed) of the shipped table.
-DEFAULT_LEVELS = (0.005, 0.0075, 0.011, 0.016, 0.024, 0.035, 0.05, 0.075, 0.11, 0.16, 0.24, 0.35, 0.5, 0.7, 0.85, 1.0)
+DEFAULT_LEVELS = (0.001, 0.0015, 0.0022, 0.0033, 0.005, 0.0075, 0.011, 0.016, 0.024, 0.035, 0.05, 0.075, 0.11, 0.16, 0.24, 0.35, 0.5, 0.7, 0.85, 1.0)
 #: Output = safety × level × 100 % (below 1): the centroid's interpolation between two levels runs
 #: up to ~4 % of the level above the straight line between them (geometric steps of 1.5).
 DEFAULT_SAFETY = 0.93
@@ -34,12 +34,13 @@ HERE_TERMS = (("LOW", (0.0, 0.0, 0.5)), ("MID", (0.2, 0.6, 1.0)), ("OK", (0.8, 1
 
 
 def _label(prefix: str, level: float) -> str:
-    text = f"{level * 100:.1f}".rstrip("0").rstrip(".").replace(".", "_")
+    pct = level * 100
+    text = (f"{pct:.2g}" if pct < 10 else f"{pct:.0f}").replace(".", "_")
     return f"{prefix}{text}"
 
 
 def machine_table(levels: Sequence[float] = DEFAULT_LEVELS, safety: Sequence[float] | float = DEFAULT_SAFETY,
-                  name: str = "machine", source: str = "", feed_floor_pct: float = 0.5) -> RuleTable:
+                  name: str = "machine", source: str = "", feed_floor_pct: float = 0.05) -> RuleTable:
     """A machine table with the near-ratio ``levels`` (increasing, the last 1.0) and the output
     ``safety`` factor per level (or one for all)."""
     lv = [float(x) for x in levels]

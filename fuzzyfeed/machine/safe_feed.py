@@ -79,6 +79,68 @@ def curve_safe_feed(machine: Machine, curvature_1_mm: np.ndarray, tol_mm: float 
     return out
 
 
+def low_frequency_gain_loss(machine: Machine) -> float:
+    """c with 1 − |G(jω)| ≈ c·ω² for slow motion (the worst axis): 1/(2·Kv²) for a first-order
+    loop without feed-forward; measured at ω = 10⁻³ of the loop's bandwidth for any other."""
+    w0 = 1e-3 / machine.servo.time_constant_s
+    return max(float(1.0 - machine.servo.circle_gain(axis, np.array([w0]))[0]) / (w0 * w0) for axis in range(3))
+
+
+#: The scale junction runs are judged at, in contour tolerances: features smaller than a few
+#: tolerances (a CAM post's micro-segments) do not count, a zig-zag of them does.
+RUN_SCALE_TOLERANCES = 10.0
+#: The scale a corner's turn is measured at, in contour tolerances: turns that follow within it
+#: are one corner to the lagging tool, and a micro-segment's wiggle below it is none.
+CORNER_SCALE_TOLERANCES = 4.0
+
+
+def turn_at_scale(xyz: np.ndarray, s_mm: np.ndarray, at: np.ndarray, scale_mm: float) -> np.ndarray:
+    """The angle (rad) the path turns at the samples ``at`` measured at a scale: between the chord
+    from ``scale_mm`` before to the sample and the chord from it to ``scale_mm`` after (0 where
+    either chord is cut short by an end of the path)."""
+    s = np.asarray(s_mm, dtype=float)
+    pts = np.asarray(xyz, dtype=float)
+    here = pts[at]
+    back = np.column_stack([np.interp(s[at] - scale_mm, s, pts[:, k]) for k in range(3)])
+    ahead = np.column_stack([np.interp(s[at] + scale_mm, s, pts[:, k]) for k in range(3)])
+    d_in, d_out = here - back, ahead - here
+    n_in, n_out = np.linalg.norm(d_in, axis=1), np.linalg.norm(d_out, axis=1)
+    ok = (n_in > 0.25 * scale_mm) & (n_out > 0.25 * scale_mm)
+    cos = np.einsum("ij,ij->i", d_in, d_out) / np.where(ok, n_in * n_out, 1.0)
+    return np.where(ok, np.arccos(np.clip(cos, -1.0, 1.0)), 0.0)
+
+
+def junction_safe_feed(machine: Machine, turn_angle_rad: np.ndarray, xyz: np.ndarray, s_mm: np.ndarray,
+                       tol_mm: float | None = None) -> np.ndarray:
+    """Largest feed (mm/s) at the junctions of a path (samples with a turn > 0; inf elsewhere):
+
+    - as a corner (:func:`corner_safe_feed`) of the turn measured at
+      :data:`CORNER_SCALE_TOLERANCES` tolerances (:func:`turn_at_scale`): several turns within that
+      stretch are one corner to the tool, a micro-segment's wiggle below it none;
+    - as part of a run of close junctions (a V-carve's zig-zag, a 3-D pass of short moves): the
+      turn at :data:`RUN_SCALE_TOLERANCES` tolerances λ taken as a curvature κ = turn / λ, which the
+      servo smooths like a curve's, e ≈ c·v²·κ (:func:`low_frequency_gain_loss`), v = √(tol/(c·κ));
+
+    the smaller of the two."""
+    tol = machine.contour_tol_mm if tol_mm is None else tol_mm
+    phi = np.asarray(turn_angle_rad, dtype=float)
+    s = np.asarray(s_mm, dtype=float)
+    out = np.full(phi.shape, np.inf)
+    at = np.flatnonzero(phi > 1e-6)
+    if at.size == 0 or s[-1] <= s[0]:
+        return out
+    corner_turn = turn_at_scale(xyz, s, at, CORNER_SCALE_TOLERANCES * tol)
+    v_corner = corner_safe_feed(machine, corner_turn, tol)
+    lam = RUN_SCALE_TOLERANCES * tol
+    run_turn = turn_at_scale(xyz, s, at, lam)
+    c = low_frequency_gain_loss(machine)
+    with np.errstate(divide="ignore"):
+        v_run = np.where(run_turn > 0, np.sqrt(tol * lam / (c * np.maximum(run_turn, 1e-300))), np.inf) \
+            if c > 0 else np.full(at.size, np.inf)
+    out[at] = np.minimum(v_corner, v_run)
+    return out
+
+
 def settle_time_s(machine: Machine, tol_mm: float | None = None) -> float:
     """Time (s) the servo needs after braking at the machine's acceleration until the lag it left
     (a·τ² for a first-order loop of time constant τ) is below a quarter of the tolerance."""

@@ -47,7 +47,8 @@ class Trace:
 
 def trace_motion(motion: Motion, machine: Machine, measured: np.ndarray | None = None) -> Trace:
     """Run ``motion`` on ``machine`` and measure the contour error at the ticks commanded on the
-    segments ``measured`` (bool per segment; default all)."""
+    segments ``measured`` (bool per segment; default all) while the tool is nearest one of them
+    (a tool still lagging round the corner of two rapids is in the air, not on the cut)."""
     plan = plan_motion(motion, machine)
     if not plan.time_s / machine.ts_s <= MAX_TICKS:
         raise InputError(f"a run of {plan.time_s:.0f} s at Ts = {machine.ts_s:g} s is "
@@ -66,6 +67,11 @@ def trace_motion(motion: Motion, machine: Machine, measured: np.ndarray | None =
         dist, nearest, foot = windowed_distance(motion.points, s_vertex, actual[idx], s_lo, s_hi)
     else:
         dist, nearest, foot = np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    if measured is not None and idx.size:
+        # a tool still nearest a segment that is not measured (a rapid it lags behind, in the air)
+        # is not on the measured path yet
+        on = np.asarray(measured)[nearest]
+        idx, dist, nearest, foot, s_lo = idx[on], dist[on], nearest[on], foot[on], s_lo[on]
     speed = np.concatenate([[0.0], np.diff(s_cmd)]) / machine.ts_s
     return Trace(plan=plan, tick_time_s=t[idx], contour_mm=dist, tick_segment=seg[idx],
                  nearest_segment=nearest, nearest_xyz=foot, speed_mm_s=speed[idx],

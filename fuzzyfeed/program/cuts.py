@@ -41,7 +41,7 @@ class CutSamples:
     sample_move: np.ndarray  # (N,) the move each sample lies on (a move end: the arriving move)
     turn_angle: np.ndarray   # (N,) rad: the angle the path turns at a junction of two moves (0 elsewhere)
     corner: np.ndarray       # (N,) bool: a true corner (not a chord of a curve, not tangent)
-    entry_angle: float = float("nan")   # rad: the turn from the rapid that leads into the cut (NaN: none)
+    entry_direction: tuple = (float("nan"),) * 3   # unit direction of the rapid that leads into the cut (NaN: none)
 
 
 def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> CutSamples:
@@ -149,25 +149,24 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
     sample_move = np.concatenate([[seg_move[0]], seg_move])
     return CutSamples(cut=k, samples=samples, seg_move=seg_move, seg_f0=f0, seg_f1=f1,
                       sample_move=sample_move, turn_angle=turn, corner=corner,
-                      entry_angle=_entry_angle(program, int(moves[0])))
+                      entry_direction=_entry_direction(program, int(moves[0])))
 
 
-def _entry_angle(program: Program, first: int) -> float:
-    """The angle (rad) between the rapid that ends where move ``first`` starts and that move's
-    start tangent, or NaN when no rapid leads into it."""
+def _entry_direction(program: Program, first: int) -> tuple:
+    """The unit direction of the rapid that ends where move ``first`` starts (moves that do not
+    move, a repeated G0 Z or a G1 to where the tool is, are transparent), or NaNs when no rapid
+    leads into it."""
+    none = (float("nan"),) * 3
     prev = first - 1
-    # rapids that do not move (a repeated G0 Z) are transparent: the one before them leads in
-    while prev >= 0 and int(program.kind[prev]) in (RAPID, HOME) and \
+    while prev >= 0 and int(program.kind[prev]) in (RAPID, HOME, LINE) and \
             np.array_equal(program.end[prev], program.start[prev]):
         prev -= 1
     if prev < 0 or int(program.kind[prev]) not in (RAPID, HOME):
-        return float("nan")
-    d = program.end[prev] - program.start[prev]
-    norm = float(np.linalg.norm(d))
+        return none
     if not np.array_equal(program.end[prev], program.start[first]):
-        return float("nan")
-    t0, _ = move_end_tangents(program, first)
-    return float(np.arccos(np.clip(np.dot(d / norm, t0), -1.0, 1.0)))
+        return none
+    d = program.end[prev] - program.start[prev]
+    return tuple(float(x) for x in d / np.linalg.norm(d))
 
 
 def _junction_angles(program: Program, moves: np.ndarray, move_end_samples: np.ndarray, n: int) -> np.ndarray:

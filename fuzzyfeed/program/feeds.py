@@ -94,7 +94,7 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
                 ceil_mm_min = np.minimum(ceil_mm_min, cap_mm_min)
             adv = advise_details(cs.samples, table, 100.0, engine=engine, machine=machine,
                                  ceiling_mm_s=ceil_mm_min / 60.0, turn_angle=cs.turn_angle,
-                                 corner=cs.corner, entry_angle=cs.entry_angle)
+                                 corner=cs.corner, entry_direction=cs.entry_direction)
         else:
             adv = advise_details(cs.samples, table, 100.0, engine=engine)
         phi = adv.feed_pct / 100.0

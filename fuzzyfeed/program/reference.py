@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.trace import MAX_TICKS
 from fuzzyfeed.machine.planner import Motion
@@ -30,31 +29,49 @@ UNIFORM_RTOL = 0.01
 REFERENCE_MARGIN = 0.97
 #: Passes of the limit reference before it gives up.
 REFERENCE_PASSES = 40
+#: The limit reference never lowers a piece below this fraction of its programmed feed.
+REFERENCE_FLOOR = 0.01
 
 
 @dataclass(frozen=True, eq=False)
 class Uniform:
+    """The uniform slowdown: its factor and run; or, when the factor lies below what the tick
+    budget lets us simulate, ``run`` None, ``factor`` the lowest factor tried (which breaks the
+    tolerance) and ``time_s`` a lower bound: the plan's time at that factor."""
+
     factor: float
-    run: ProgramRun
+    run: ProgramRun | None
     runs: int          # simulations the search took
+    time_s: float
+
+    @property
+    def bounded(self) -> bool:
+        return self.run is None
+
+
+def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
+    """The run's time at ``scale`` without the servo (the planner alone, closed form)."""
+    from fuzzyfeed.machine.planner import plan_motion
+
+    return float(sum(plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
+                                        c.motion.arc_radius_mm), machine).time_s for c in path.chains))
 
 
 def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun | None = None,
-                     tol_um: float | None = None) -> Uniform:
+                     tol_um: float | None = None, max_ticks: float = MAX_TICKS) -> Uniform:
     """The largest factor c (to 1 %) with every F × c holding the tolerance (c = 1 when the program
-    as written holds it)."""
+    as written holds it). A factor whose run would pass ``max_ticks`` servo periods is not
+    simulated: the result is then a bound (:class:`Uniform`)."""
     tol = machine.contour_tol_um if tol_um is None else tol_um
     first = as_written if as_written is not None else run_program(path, machine)
     if first.max_um <= tol:
-        return Uniform(1.0, first, 1)
+        return Uniform(1.0, first, 1, first.time_s)
     hi, lo, lo_run = 1.0, None, None
     c = min(1.0, tol / first.max_um)          # the error grows at least linearly with the feed
     runs = 1
     while lo is None:
-        if first.time_s / c / machine.ts_s > MAX_TICKS:
-            raise InputError(f"{path.program.path}: the uniform slowdown needs a factor below {c:.3g}: "
-                             f"a run of about {first.time_s / c:.0f} s, more than the {MAX_TICKS:.0e} servo "
-                             "periods simulated")
+        if first.time_s / c / machine.ts_s > max_ticks:
+            return Uniform(hi, None, runs, _planned_time(path, machine, hi))
         r = run_program(path, machine, feed_scale=c)
         runs += 1
         if r.max_um <= tol:
@@ -62,8 +79,6 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
         else:
             hi = c
             c *= max(0.1, min(0.7, tol / r.max_um))
-            if c < 1e-6:
-                return Uniform(c, r, runs)
     while hi / lo > 1.0 + UNIFORM_RTOL:
         c = math.sqrt(lo * hi)
         r = run_program(path, machine, feed_scale=c)
@@ -72,7 +87,7 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
             lo, lo_run = c, r
         else:
             hi = c
-    return Uniform(lo, lo_run, runs)
+    return Uniform(lo, lo_run, runs, lo_run.time_s)
 
 
 def refine_chain(chain: Chain, piece_mm: float) -> Chain:
@@ -119,7 +134,7 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             over = np.flatnonzero(r.contour_mm > tol)
             if over.size == 0:
                 continue
-            new = _lowered(feeds[i], chain.motion.rapid, r, over, tol)
+            new = _lowered(feeds[i], chain.motion.rapid, r, over, tol, chain.motion.feed_mm_s)
             if not np.array_equal(new, feeds[i]):
                 feeds[i] = new
                 runs[i] = run_chain(chain, machine, new)
@@ -134,10 +149,12 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
 
 
-def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray, tol_mm: float) -> np.ndarray:
+def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray, tol_mm: float,
+             original: np.ndarray) -> np.ndarray:
     """Per piece the new feed: the pieces commanded during each offending tick's lookback window
     and the piece the tool is nearest to go down to the fraction √(tol/error)·margin of the
-    speed commanded at that tick (never up, never below 0.1 % of the old feed)."""
+    speed commanded at that tick (never up, never below :data:`REFERENCE_FLOOR` of the program's
+    feed)."""
     new = feed.copy()
     err = r.contour_mm[over]
     target = r.speed_mm_s[over] * np.sqrt(tol_mm / err) * REFERENCE_MARGIN
@@ -152,8 +169,9 @@ def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray,
     halve = np.zeros(feed.size, bool)
     halve[seg[np.isinf(np.repeat(target, counts))]] = True
     cap = np.where(halve, np.minimum(cap, 0.5 * feed), cap)
-    lowered = np.minimum(new, np.maximum(cap, 1e-3 * feed))
+    lowered = np.minimum(new, cap)
     # a piece whose feed is above the speed the planner gave it must come down by at least 5 %
     touched = np.isfinite(cap) & ~rapid
     lowered = np.where(touched, np.minimum(lowered, 0.95 * np.minimum(new, cap / REFERENCE_MARGIN)), lowered)
-    return np.where(rapid, feed, lowered)
+    # never below 1 % of the program's feed: where even that does not hold, no feed does
+    return np.where(rapid, feed, np.maximum(lowered, REFERENCE_FLOOR * original))

@@ -90,7 +90,7 @@ class ValueReport:
                f"rules {self.table!r}",
                f"  {'':24s} {'time (s)':>10s} {'max (um)':>10s} {'p99 (um)':>10s}"]
         for r in self.rows:
-            flag = "" if r.max_um <= tol * (1 + 1e-9) else "  over"
+            flag = "  over" if r.max_um > tol * (1 + 1e-9) else ""
             out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {r.p99_um:10.1f}{flag}")
         out.append("  " + self.verdict())
         return out
@@ -101,8 +101,9 @@ class ValueReport:
         if self.holds_as_written:
             return (f"as written the program holds the tolerance (max {w.max_um:.1f} um <= {tol:g} um): "
                     "its feeds are left alone")
+        at_most = "at most " if u.label.endswith("(at least)") else ""
         parts = [f"advised: {a.time_s / w.time_s:.2f} x the time as written, "
-                 f"{a.time_s / u.time_s:.2f} x the uniform slowdown"]
+                 f"{at_most}{a.time_s / u.time_s:.2f} x the uniform slowdown"]
         if self.reference is not None:
             parts.append(f"{a.time_s / self.reference.time_s:.2f} x the limit reference")
         text = ", ".join(parts)
@@ -122,6 +123,7 @@ class ValueReport:
                                   "contour_tol_um": self.tol_um, "rules": self.table,
                                   "holds_as_written": self.holds_as_written,
                                   "uniform_factor": self.uniform_factor}
+        row["uniform_is_bound"] = self.uniform.label.endswith("(at least)")
         for key, r in (("written", self.written), ("advised", self.advised), ("uniform", self.uniform),
                        ("reference", self.reference)):
             row[f"{key}_time_s"] = r.time_s if r is not None else float("nan")
@@ -158,10 +160,12 @@ class Evaluation:
 
 def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, cap_mm_min: float | None = None,
                      feed_step_mm_min: float = 10.0, step_mm: float = 0.25, min_piece_mm: float = 1.0,
-                     cuts: list[int] | None = None, reference: bool = True, progress=None) -> Evaluation:
+                     cuts: list[int] | None = None, reference: bool = True, progress=None,
+                     max_ticks: float | None = None) -> Evaluation:
     """Advise ``program`` for ``machine`` and measure what it bought (module docstring): the cuts
     (of ``cuts``, default all) that break the tolerance as written get the advice, the others keep
-    their feeds. ``progress(step)`` is called with a short name before each stage."""
+    their feeds. ``progress(step)`` is called with a short name before each stage. ``max_ticks``
+    bounds the servo periods of one run of the uniform search (its row is then a lower bound)."""
     step = progress or (lambda _name: None)
     tol = machine.contour_tol_um
     step("as written")
@@ -176,7 +180,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     text = rewrite_program(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
     if not over:
         advised_run = written
-        uniform_factor, uniform_run = 1.0, written
+        uniform_factor, uniform_row = 1.0, ValueRow.of("uniform x1.000", written)
         ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
         advised_path = path
     else:
@@ -184,8 +188,10 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         advised_path = program_path(parse_program(text, program.path), machine.chord_tol_mm)
         advised_run = run_program(advised_path, machine)
         step("uniform slowdown")
-        u = uniform_slowdown(path, machine, written)
-        uniform_factor, uniform_run = u.factor, u.run
+        u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
+        uniform_factor = u.factor
+        uniform_row = (ValueRow(f"uniform x<{u.factor:.3f} (at least)", u.time_s, float("nan"), float("nan"))
+                       if u.bounded else ValueRow.of(f"uniform x{u.factor:.3f}", u.run))
         ref_row, converged = None, True
         if reference:
             step("limit reference")
@@ -196,7 +202,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
         advised=ValueRow.of("advised", advised_run),
-        uniform=ValueRow.of(f"uniform x{uniform_factor:.3f}", uniform_run),
+        uniform=uniform_row,
         uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),

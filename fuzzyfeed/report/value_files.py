@@ -107,4 +107,4 @@ def write_value_report(reports: Sequence[ValueReport], path: str | os.PathLike) 
     rows = [r.csv_row() for r in reports]
     cols = {key: np.array([int(row[key]) if isinstance(row[key], bool) else row[key] for row in rows])
             for key in rows[0]}
-    write_columns(path, cols, allow_nan=tuple(k for k in cols if k.startswith("reference_")))
+    write_columns(path, cols, allow_nan=tuple(k for k in cols if k.startswith(("reference_", "uniform_"))))
