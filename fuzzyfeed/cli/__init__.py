@@ -20,7 +20,7 @@ from fuzzyfeed import __version__
 from fuzzyfeed.errors import FuzzyfeedError
 
 #: Subcommand modules in the order ``--help`` lists them.
-COMMANDS = ("shapes", "plot", "advise", "rules", "design", "schedule", "compare", "tune")
+COMMANDS = ("shapes", "plot", "advise", "batch", "rules", "design", "schedule", "compare", "tune")
 
 DESCRIPTION = """\
 Feedrate advice along NURBS tool paths.

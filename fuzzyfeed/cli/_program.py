@@ -55,7 +55,9 @@ def _combined_advice(pa):
                        feed_pct=cat["pct"], table=pa.table)
 
 
-def run_program(args: argparse.Namespace) -> int:
+def run_program(args: argparse.Namespace) -> dict:
+    """``advise PROGRAM``: writes the outputs, prints the summary and returns its figures (see
+    :func:`fuzzyfeed.cli.advise.advise_file`)."""
     from fuzzyfeed.cli._common import check_feed_mm_min, table_from_args
     from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
     from fuzzyfeed.base.atomic import atomic_write
@@ -135,7 +137,8 @@ def run_program(args: argparse.Namespace) -> int:
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
     if text is not None:
         print(f"wrote {args.gcode}")
-    return 0
+    return {"cuts": program.n_cuts, "cuts_advised": len(pa.cuts), "time_written_s": t_prog,
+            "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean())}
 
 
 def _default_points() -> int:
@@ -143,9 +146,10 @@ def _default_points() -> int:
     return DEFAULT_POINTS
 
 
-def _run_on_machine(args: argparse.Namespace, program, machine, table, cuts, cap, step) -> int:
+def _run_on_machine(args: argparse.Namespace, program, machine, table, cuts, cap, step) -> dict:
     """``advise PROGRAM`` with a machine: the program run as written, the cuts that break the
-    tolerance advised, the value report printed (and written with --report)."""
+    tolerance advised, the value report printed (and written with --report); returns the figures
+    (times as the machine runs the program) with the value report's row."""
     import sys
 
     from fuzzyfeed.base.atomic import atomic_write
@@ -189,4 +193,8 @@ def _run_on_machine(args: argparse.Namespace, program, machine, table, cuts, cap
     print("\n".join(ev.report.lines()))
     written = [p for p in (args.output, args.gcode, args.plot, args.report) if p]
     print("wrote " + ", ".join(written))
-    return 0
+    r = ev.report
+    row = {k: v for k, v in r.csv_row().items() if k not in ("program", "written_time_s", "advised_time_s")}
+    return {"cuts": program.n_cuts, "cuts_advised": len(ev.advised_cuts), "time_written_s": r.written.time_s,
+            "time_advised_s": r.advised.time_s, "feed_pct_min": float(columns["feed_pct"].min()),
+            "feed_pct_mean": float(columns["feed_pct"].mean()), **row}

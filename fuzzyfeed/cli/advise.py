@@ -178,9 +178,9 @@ def drawing_paths(args: argparse.Namespace) -> list | None:
     return None if selector is not None else load_shapes(args.shape)
 
 
-def run_paths(args: argparse.Namespace, shapes: list) -> int:
+def run_paths(args: argparse.Namespace, shapes: list) -> dict:
     """Advise every path of a file, as a program runs them: one CSV (column ``path``, 1-based, then
-    the one-path columns) and one summary line per path."""
+    the one-path columns) and one summary line per path; returns the figures (see :func:`advise_file`)."""
     from fuzzyfeed.errors import ExportError
     from fuzzyfeed.fuzzy.advisor import advise_details
     from fuzzyfeed.io.csv import write_columns
@@ -194,7 +194,7 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
     feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
     machine = machine_from_args(args)
     table = table_from_args(args, machine)
-    parts, lines = [], []
+    parts, lines, times = [], [], np.zeros((len(shapes), 2))
     for number, shape in enumerate(shapes, start=1):
         advice = advise_details(sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM), table,
                                 feed_mm_min / 60.0, machine=machine)
@@ -205,6 +205,7 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
                      f"{p.samples.length:.3f} mm, feed mm/min min {p.feed_mm_min.min():.1f} mean "
                      f"{p.feed_mm_min.mean():.1f} max {p.feed_mm_min.max():.1f}, time "
                      f"{p.travel_time_s():.4f} s")
+        times[number - 1] = p.samples.length / p.max_feed_mm_s, p.travel_time_s()
     columns = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
     write_columns(args.output, columns)
     from fuzzyfeed.fuzzy.provenance import provenance
@@ -215,10 +216,29 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
     print(f"{args.shape}: {len(shapes)} paths, rules {table.name!r}, F = {feed_mm_min:g} mm/min")
     print("\n".join(lines))
     print(f"wrote {args.output}")
-    return 0
+    return _figures(len(shapes), times.sum(axis=0), columns["feed_pct"])
+
+
+def _figures(paths: int, times_s, feed_pct: np.ndarray) -> dict:
+    """The summary figures :func:`advise_file` returns for a shape or drawing (time as written:
+    every path at the constant F)."""
+    return {"cuts": paths, "cuts_advised": paths, "time_written_s": float(times_s[0]),
+            "time_advised_s": float(times_s[1]), "feed_pct_min": float(feed_pct.min()),
+            "feed_pct_mean": float(feed_pct.mean())}
 
 
 def run(args: argparse.Namespace) -> int:
+    advise_file(args)
+    return 0
+
+
+def advise_file(args: argparse.Namespace) -> dict:
+    """What ``fuzzyfeed advise`` does with parsed ``args`` (outputs written, summary printed),
+    returning its figures: ``cuts`` (paths of a drawing), ``cuts_advised``, ``time_written_s``
+    (a program at its own F, a shape at constant F), ``time_advised_s``, ``feed_pct_min``,
+    ``feed_pct_mean``; a program on a machine: the times as the machine runs it and the value
+    report's row (``written_max_um``, ``advised_max_um``, ...). ``fuzzyfeed batch`` calls it once
+    per file."""
     from fuzzyfeed.cli._program import is_program, run_program
     from fuzzyfeed.io.csv import write_columns, write_metadata
 
@@ -249,4 +269,5 @@ def run(args: argparse.Namespace) -> int:
           + (f" and {args.plot}" if args.plot else ""))
     for path in gcode.write():
         print(f"wrote {path}")
-    return 0
+    p = advice.profile
+    return _figures(1, (p.samples.length / p.max_feed_mm_s, p.travel_time_s()), p.feed_pct)
