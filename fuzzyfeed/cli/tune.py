@@ -50,6 +50,9 @@ def register(sub) -> None:
     g.add_argument("--holdout", type=_fraction, default=0.3, metavar="FRACTION",
                    help="part of the programs kept out of the tuning and reported apart (default: %(default)s)")
     g.add_argument("--seed", type=int, default=1, help="seed of the split (default: %(default)s)")
+    g.add_argument("--max-written-s", type=positive_float, default=None, metavar="S",
+                   help="leave out programs that take longer than S seconds as written on the machine "
+                        "(each tuning round runs every program)")
     g.add_argument("--split-out", metavar="SPLIT.json", default=None,
                    help="also write the split (tuning and held-out programs) and every program's "
                         "result as JSON (benchmarks/bench_value.py --split reads it)")
@@ -97,8 +100,19 @@ def run_library(args: argparse.Namespace, out: Path) -> int:
         except (FuzzyfeedError, OSError) as exc:
             skipped.append(f"{f}: {' '.join(str(exc).split())[:120]}")
             continue
-        if prog.n_cuts:
-            programs[str(f)] = prog
+        if not prog.n_cuts:
+            skipped.append(f"{f}: no feed move to advise")
+            continue
+        if args.max_written_s is not None:
+            from fuzzyfeed.machine.planner import plan_motion
+            from fuzzyfeed.program.run import program_path
+
+            planned = sum(plan_motion(c.motion, machine).time_s
+                          for c in program_path(prog, machine.chord_tol_mm).chains)
+            if planned > args.max_written_s:
+                skipped.append(f"{f}: {planned:.0f} s as written, over --max-written-s {args.max_written_s:g}")
+                continue
+        programs[str(f)] = prog
     del root
     if len(programs) < 2:
         raise InputError(f"{' '.join(args.shapes)}: {len(programs)} program(s) fuzzyfeed can advise; tuning "
