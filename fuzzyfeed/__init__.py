@@ -1,8 +1,8 @@
 """fuzzyfeed: feedrate advice along NURBS tool paths.
 
 A Mamdani fuzzy advisor (Lin, Lin & Wang 2021) and a jerk-limited sliding look-ahead window
-scheduler share one NURBS sampling layer. Importing the package stays light: no plotting or
-dataframe library is imported here, and the names below other than the core's load on first use.
+scheduler share one NURBS sampling layer. Importing the package stays light: it imports no
+third-party library (not even numpy), and the public names below load on first use.
 
 The flow, one package per step (each package's docstring says what it may import):
 ``geometry`` → ``machine`` → ``fuzzy`` | ``slw`` → ``program`` → ``io`` → ``report`` → ``batch``,
@@ -16,11 +16,13 @@ import importlib
 __version__ = "0.1.0"
 
 from fuzzyfeed.errors import FuzzyfeedError
-from fuzzyfeed.geometry.nurbs import Nurbs
-from fuzzyfeed.geometry.sampling import PathSamples, sample_by_arc_length, sample_uniform_u
 
 #: Public names loaded on first use: name -> module that defines it.
 _LAZY = {
+    "Nurbs": "fuzzyfeed.geometry.nurbs",
+    "PathSamples": "fuzzyfeed.geometry.sampling",
+    "sample_by_arc_length": "fuzzyfeed.geometry.sampling",
+    "sample_uniform_u": "fuzzyfeed.geometry.sampling",
     "load_shape": "fuzzyfeed.io.shapes",
     "sample_shape": "fuzzyfeed.io.shapes",
     "advise": "fuzzyfeed.fuzzy.advisor",
@@ -63,13 +65,4 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY) | {"batch"})
 
 
-__all__ = sorted([
-    "FuzzyfeedError",
-    "Nurbs",
-    "PathSamples",
-    "__version__",
-    "batch",
-    "sample_by_arc_length",
-    "sample_uniform_u",
-    *_LAZY,
-])
+__all__ = sorted(["FuzzyfeedError", "__version__", "batch", *_LAZY])

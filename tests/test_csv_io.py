@@ -185,3 +185,58 @@ def test_repeated_rows_are_dropped_with_a_note(tmp_path):
     shape = load_shape(str(path))
     np.testing.assert_array_equal(shape.polyline, [[0, 0], [1, 0], [2, 1], [3, 3]])
     assert "2 repeated point(s) dropped" in shape.notes
+
+
+# ------------------------------------------------------------------------------ small tables
+def float_corpus(seed: int, n: int) -> np.ndarray:
+    """Doubles of every kind: random bit patterns, every decimal magnitude, integral values, and the
+    edges of Arrow's decimal range (exponents -6..9) and of the repr shortcut (1e-4, 1e10)."""
+    rng = np.random.default_rng(seed)
+    edges = [0.0, -0.0, 1.0, 100.0, 1e9, 1e10, 1e15, 1e16, 1e17, 1e21, 1e22, 1e23, 1e-4, 1e-5, 1e-6,
+             1e-7, 1.5e-6, 1.25e-5, 0.0001234, 5e-324, 2.2250738585072014e-308, 1.7976931348623157e308,
+             2.0**53, 2.0**53 + 2, 2.0**60, 0.1, 1 / 3, 9999999999.0, 9999999999.5, 123456789012.0]
+    edges += [np.nextafter(e, towards) for e in (1e-4, 1e-6, 1e-7, 1e9, 1e10) for towards in (0.0, np.inf)]
+    edges = np.array(edges)
+    return np.concatenate([
+        edges, -edges,
+        rng.standard_normal(n) * 10.0 ** rng.integers(-30, 30, n),
+        rng.integers(0, 2**63 - 2**52, n, dtype=np.int64).view(np.float64) * rng.choice([-1.0, 1.0], n),
+        np.round(rng.standard_normal(n) * 10.0 ** rng.integers(0, 25, n)),
+    ])
+
+
+def test_python_fields_are_arrows_text_value_for_value():
+    from fuzzyfeed.io.csv import _python_fields, _text_column
+
+    values = float_corpus(0, 30_000)
+    assert np.isfinite(values).all()
+    python, arrow = _python_fields(values), _text_column(values).to_pylist()
+    wrong = [(v, p, a) for v, p, a in zip(values.tolist(), python, arrow) if p != a]
+    assert not wrong, wrong[:5]
+    for field, value in zip(python, values.tolist()):   # and the text reads back to the same float
+        assert float(field) == value and np.signbit(float(field)) == np.signbit(value)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_small_and_large_tables_write_the_same_bytes(tmp_path, monkeypatch, seed):
+    """The Python path (small tables) and Arrow's (large) write byte-identical files: floats of every
+    kind, NaN and infinities where allowed, integers, text that needs quoting, float32."""
+    from fuzzyfeed.io import csv as csv_mod
+
+    values = float_corpus(seed, 2000)
+    n = values.size
+    rng = np.random.default_rng(seed)
+    columns = {"v": values, "w": values[::-1].copy(), "count": rng.integers(-2**62, 2**62, n),
+               "small": (np.arange(n) % 256).astype(np.uint8),
+               "label": np.array(["plain", "a,b", 'say "hi"', "line\nbreak", "", "é"] * (n // 6 + 1))[:n],
+               "odd": np.where(np.arange(n) % 7 == 0, np.nan, np.where(np.arange(n) % 11 == 0, -np.inf, values))}
+    with np.errstate(over="ignore"):
+        f32 = values.astype(np.float32)
+    columns["f32"] = np.where(np.isfinite(f32), f32, np.float32(0.0))
+    out = {}
+    for name, small in (("python", 1 << 40), ("arrow", 0)):
+        monkeypatch.setattr(csv_mod, "SMALL_VALUES", small)
+        write_columns(tmp_path / f"{name}.csv", columns, allow_nan=("odd",))
+        out[name] = (tmp_path / f"{name}.csv").read_bytes()
+    assert out["python"] == out["arrow"]
+    assert out["python"].count(b"\n") > n      # the header, every row, the quoted line break

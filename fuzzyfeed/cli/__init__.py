@@ -5,8 +5,10 @@ Errors fuzzyfeed raises on purpose (and unreadable/unwritable files) print one l
 line, no usage block). Every command runs inside one output transaction
 (:class:`fuzzyfeed.base.outputs.OutputSet`): its output flags are checked before any work, and its
 files appear together at the end or not at all (error, Ctrl-C, SIGTERM, SIGHUP).
-Plotting and dataframe libraries are imported inside the commands that need them, so
-``fuzzyfeed --version`` and ``--help`` stay fast.
+Only the subcommand named on the command line is built in full (its module imported, its
+arguments registered); the others are listed by name and help line. Plotting, dataframe and
+compiled-kernel libraries are imported inside the commands that need them, so ``fuzzyfeed
+--version`` and ``--help`` stay fast and each command loads only what it uses.
 """
 
 from __future__ import annotations
@@ -15,12 +17,23 @@ import argparse
 import contextlib
 import importlib
 import sys
+from collections.abc import Iterable
 
 from fuzzyfeed import __version__
 from fuzzyfeed.errors import FuzzyfeedError
 
-#: Subcommand modules in the order ``--help`` lists them.
-COMMANDS = ("shapes", "plot", "advise", "batch", "rules", "design", "schedule", "compare", "tune")
+#: Subcommands (module ``fuzzyfeed.cli.<name>``) in the order ``--help`` lists them, with their help line.
+COMMANDS = {
+    "shapes": "list the shipped shapes",
+    "plot": "draw a shape coloured by curvature to PNG",
+    "advise": "advise the feed along a shape, a drawing or a G-code program (fuzzy controller, seed 002)",
+    "batch": "advise every program and drawing of a library on Dask (one machine or a cluster)",
+    "rules": "show, check, edit or draw a fuzzy rule table",
+    "design": "edit a rule table interactively in the browser",
+    "schedule": "schedule a jerk-limited feed with the SLW look-ahead (seed 000)",
+    "compare": "compare fuzzy advice, SLW schedule, constant feed and the bound",
+    "tune": "tune a rule table's feed terms for cycle time under a contour tolerance",
+}
 
 DESCRIPTION = """\
 Feedrate advice along NURBS tool paths.
@@ -47,14 +60,25 @@ class ArgumentParser(argparse.ArgumentParser):
         self.exit(2, f"fuzzyfeed: error: {command}{message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(full: Iterable[str] = tuple(COMMANDS)) -> argparse.ArgumentParser:
+    """The parser with the subcommands named in ``full`` built in full (default: all) and the others
+    by name and help line only, which is all ``fuzzyfeed --help`` shows."""
     parser = ArgumentParser(prog="fuzzyfeed", description=DESCRIPTION,
                             formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"fuzzyfeed {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMANDS:
-        importlib.import_module(f"fuzzyfeed.cli.{name}").register(sub)
+    for name, help_line in COMMANDS.items():
+        if name in full:
+            importlib.import_module(f"fuzzyfeed.cli.{name}").register(sub)
+        else:
+            sub.add_parser(name, help=help_line)
     return parser
+
+
+def _command(argv: list[str]) -> list[str]:
+    """The subcommand the command line names (its first word that is not an option), if known."""
+    first = next((word for word in argv if not word.startswith("-")), None)
+    return [first] if first in COMMANDS else []
 
 
 def _outputs_and_inputs(args: argparse.Namespace) -> tuple[list, list]:
@@ -88,10 +112,10 @@ def _error_line(exc: BaseException, args: argparse.Namespace) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_command(argv))
+    args = parser.parse_args(argv)          # --version and --help end here
     from fuzzyfeed.base.outputs import OutputSet, Terminated
-
-    parser = build_parser()
-    args = parser.parse_args(argv)
     from fuzzyfeed.cli._common import shape_context
 
     try:

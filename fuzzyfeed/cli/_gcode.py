@@ -93,8 +93,6 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[st
     ``profile`` is a :class:`~fuzzyfeed.machine.profile.FeedProfile` or a function returning one (called
     only when a program is asked for); ``notes`` go into the header comment;
     ``segment_feed_mm_min`` (or a function returning it) gives the feed of every segment."""
-    from fuzzyfeed.io.gcode import gcode_program, nurbs_gcode_program
-
     gcode = getattr(args, "gcode", None)
     g52 = getattr(args, "gcode_g52", None)
     if not gcode and not g52:
@@ -105,6 +103,8 @@ def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[st
         return PreparedGcode()
     if args.g52_whole and not g52:
         raise ExportError("--g52-whole needs --gcode-g52 OUT.ngc")
+    from fuzzyfeed.io.gcode import gcode_program, nurbs_gcode_program
+
     outputs = [p for p in (getattr(args, "output", None), gcode, g52) if p]
     if len(set(outputs)) != len(outputs):
         raise ExportError(f"output files must differ: {', '.join(outputs)}")

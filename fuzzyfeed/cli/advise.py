@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import (add_shape_argument, check_feed_mm_min, point_count, positive_float,
                                    table_from_args)
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
@@ -21,7 +22,7 @@ DEFAULT_FEED_MM_MIN = DEFAULT_FEED_MM_S * 60.0
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "advise", help="advise the feed along a shape with the fuzzy controller (seed 002)",
+        "advise", help=COMMANDS["advise"],
         description="Sample SHAPE, compute curvature and the windowed curvature variation, run the "
                     "Mamdani rule table (exact centroid) and the average filter, and write one CSV "
                     "row per point: u, x_mm, y_mm, z_mm, s_mm, curvature_1_mm, curvature_window_max_1_mm "

@@ -14,6 +14,7 @@ import io
 import os
 import sys
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import count_at_least
 from fuzzyfeed.errors import BatchError, FuzzyfeedError
 
@@ -211,7 +212,7 @@ def batch(paths, out, *, workers: int | None = None, scheduler: str | None = Non
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "batch", help="advise every program and drawing of a library on Dask (one machine or a cluster)",
+        "batch", help=COMMANDS["batch"],
         description="Find every G-code program (.ngc, .nc, .gcode, .gc, .tap, .cnc) and DXF drawing "
                     "under DIR_OR_GLOB (folders searched recursively) and advise each exactly as "
                     "`fuzzyfeed advise FILE -o REL.csv --gcode REL` would, into RESULTS_DIR at the "

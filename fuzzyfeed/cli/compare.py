@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, program_feed_limits
 from fuzzyfeed.cli._machine import machine_from_args
@@ -23,7 +24,7 @@ through a position loop (default Kv = 30 1/s, no feed-forward; see the servo fla
 
 
 def register(sub) -> None:
-    p = sub.add_parser("compare", help="compare fuzzy advice, SLW schedule, constant feed and the bound",
+    p = sub.add_parser("compare", help=COMMANDS["compare"],
                        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_shape_argument(p)
     p.add_argument("--rules", metavar="FILE", default=None,

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import argparse
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import point_count, positive_float
 
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "design", help="edit a rule table interactively in the browser",
+        "design", help=COMMANDS["design"],
         description="Serve the rule designer on 127.0.0.1 (a free port unless --port) and open it "
                     "in the browser: the membership functions of every variable (drag a breakpoint "
                     "or type it), the rule grid, the control surface (heatmap and 3-D) and the "

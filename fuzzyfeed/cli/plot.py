@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.io.shapes import load_shape, sample_shape
 from fuzzyfeed.geometry.sampling import sample_by_arc_length
 
 
 def register(sub) -> None:
-    p = sub.add_parser("plot", help="draw a shape coloured by curvature to PNG",
+    p = sub.add_parser("plot", help=COMMANDS["plot"],
                        description="Draw the path coloured by curvature (log scale, 1/mm) next to "
                                    "curvature against arc length (mm).")
     add_shape_argument(p)

@@ -5,13 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import point_count
 from fuzzyfeed.errors import RuleTableError
 
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "rules", help="show, check, edit or draw a fuzzy rule table",
+        "rules", help=COMMANDS["rules"],
         description="Rule tables of the fuzzy advisor (seed 002): TOML files with the universes, "
                     "the term breakpoints, WS, the Dk clip, the filter size, a feed floor and the "
                     "rule grid. TABLE is a shipped name (default: paper) or a .toml file.")

@@ -7,6 +7,7 @@ import sys
 
 import numpy as np
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import add_shape_argument
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, program_feed_limits
@@ -15,7 +16,7 @@ from fuzzyfeed.errors import InputError
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "schedule", help="schedule a jerk-limited feed with the SLW look-ahead (seed 000)",
+        "schedule", help=COMMANDS["schedule"],
         description="Preprocess SHAPE (feed limits, critical points, blocks), schedule the "
                     "jerk-limited feed (seven-phase or seed 000's cosine transitions) with the "
                     "sliding look-ahead window, interpolate at the servo period and write one CSV row per period: t_s, u, x_mm, y_mm, z_mm, s_mm, "

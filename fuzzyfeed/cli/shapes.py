@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.io.shapes import load_shape, shape_names
 from fuzzyfeed.geometry.sampling import max_curvature
 
 
 def register(sub) -> None:
-    p = sub.add_parser("shapes", help="list the shipped shapes",
+    p = sub.add_parser("shapes", help=COMMANDS["shapes"],
                        description="List the shipped shapes: degree, number of control points, arc "
                                    "length (mm, adaptive Gauss-Legendre) and maximum curvature (1/mm: "
                                    "64 samples per knot span, refined around the highest peaks).")

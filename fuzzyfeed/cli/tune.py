@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import count_at_least, point_count, positive_float
 from fuzzyfeed.cli._limits import add_limit_arguments, limits_from_args
 from fuzzyfeed.cli._machine import machine_from_args
@@ -32,7 +33,7 @@ evaluation_count = count_at_least(3, "evaluations")
 
 
 def register(sub) -> None:
-    p = sub.add_parser("tune", help="tune a rule table's feed terms for cycle time under a contour tolerance",
+    p = sub.add_parser("tune", help=COMMANDS["tune"],
                        description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("shapes", nargs="+", metavar="SHAPE|PROGRAMS",
                    help="shapes to tune a paper table on (names or files), or G-code programs and folders "

@@ -156,7 +156,8 @@ def compile_table(table: RuleTable) -> FuzzyEngine:
             rd.append(j)
             ro.append(f.index(table.grid[i][j]))
     o_terms = _terms_array(f)
-    x_int = np.unique(o_terms.ravel())
+    x_int = np.sort(o_terms.ravel())            # the distinct breakpoints (np.unique would import numpy.ma)
+    x_int = x_int[np.concatenate([[True], x_int[1:] != x_int[:-1]])]
     ptr, terms, m0s, m1s = [0], [], [], []
     for q in range(x_int.size - 1):
         x0, x1 = float(x_int[q]), float(x_int[q + 1])

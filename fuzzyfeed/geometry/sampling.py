@@ -168,7 +168,7 @@ def tangent_breaks(curve: Nurbs, min_angle_deg: float = CORNER_ANGLE_DEG) -> tup
     pieces would be sampled with curvature 0 on both sides; it must be found on the curve itself."""
     expect(curve, Nurbs, "curve", "a Nurbs")
     lo, hi = curve.domain
-    knots = np.unique(curve.knots[(curve.knots > lo) & (curve.knots < hi)])
+    knots = curve.span_breaks[1:-1]         # the distinct interior knots
     if knots.size == 0:
         return np.empty(0), np.empty(0)
     eps = 1e-9 * (hi - lo)

@@ -1,12 +1,15 @@
 """CSV written for machines and spreadsheets: a header with units, full float precision, atomic.
 
 Floats are written as the shortest text that reads back to the same float64 (what Python's
-``repr`` guarantees), so pandas/numpy read the exact values back. The digits come from Apache
-Arrow's float-to-string cast (double-conversion's shortest mode), in C++ and by blocks of rows,
-about 4× faster than Python's csv module; an integral value gets a trailing ``.0`` as ``repr``
-writes it, so every float column still reads back as float64. Other columns are written as
-Python's csv module would (quoted only when needed). A NaN or infinite value is refused before
-anything is written: fuzzyfeed never exports a feed it could not compute.
+``repr`` guarantees), so pandas/numpy read the exact values back, in Apache Arrow's notation
+(double-conversion's shortest mode: decimal for decimal exponents -6 to 9, else ``1.5e+10``,
+``2e-7``); an integral value gets a trailing ``.0`` as ``repr`` writes it, so every float column
+still reads back as float64. Large tables are formatted by Arrow's float-to-string cast, in C++
+and by blocks of rows (about 4× faster than Python's csv module); up to :data:`SMALL_VALUES`
+fields the same text is made from ``repr`` in Python, which costs less than importing Arrow's
+compute module (0.1 s of a command's start-up). Other columns are written as Python's csv module
+would (quoted only when needed). A NaN or infinite value is refused before anything is written:
+fuzzyfeed never exports a feed it could not compute.
 """
 
 from __future__ import annotations
@@ -43,6 +46,9 @@ def write_columns(path: str | os.PathLike, columns: Mapping[str, np.ndarray],
 
 #: Rows formatted per block (bounds the memory of the text: ~15 MB for 11 float columns).
 ROWS_PER_BLOCK = 1 << 16
+
+#: Tables of at most this many fields (rows × columns) are formatted in Python, larger ones by Arrow.
+SMALL_VALUES = 1 << 16
 
 
 def _quote(text: str) -> str:
@@ -109,12 +115,54 @@ def _text_column(values: np.ndarray):
     return _strings(np.array([len(f) for f in fields], dtype=np.int64), b"".join(fields))
 
 
+def _float_text(text: str) -> str:
+    """Python's ``repr`` of a float rewritten in Arrow's notation (see the module docstring)."""
+    if text in ("nan", "inf", "-inf"):
+        return text
+    sign = "-" if text[0] == "-" else ""
+    mantissa, _, exponent = text.lstrip("-").partition("e")
+    whole, _, fraction = mantissa.partition(".")
+    digits = (whole + fraction).lstrip("0")
+    point = len(whole) + int(exponent or 0) - (len(whole) + len(fraction) - len(digits))
+    digits = digits.rstrip("0")             # the value is 0.<digits> × 10^point
+    if not digits:
+        return sign + "0.0"
+    if not -6 <= point - 1 < 10:
+        head = digits[0] + ("." + digits[1:] if len(digits) > 1 else "")
+        return f"{sign}{head}e{'+' if point > 0 else '-'}{abs(point - 1)}"
+    if point <= 0:
+        return f"{sign}0.{'0' * -point}{digits}"
+    if point >= len(digits):
+        return f"{sign}{digits}{'0' * (point - len(digits))}.0"
+    return f"{sign}{digits[:point]}.{digits[point:]}"
+
+
+def _python_fields(values: np.ndarray) -> list[str]:
+    """One column's CSV fields, formatted in Python (the same text as :func:`_text_column`)."""
+    if values.dtype.kind == "f":
+        values = values.astype(np.float64, copy=False)
+        fields = list(map(float.__repr__, values.tolist()))
+        size = np.abs(values)
+        # repr already is Arrow's text for 0 and 1e-4 <= |v| < 1e10 (decimal in both notations)
+        for i in np.flatnonzero(~((size == 0.0) | ((size >= 1e-4) & (size < 1e10)))).tolist():
+            fields[i] = _float_text(fields[i])
+        return fields
+    if values.dtype.kind in "iu":
+        return list(map(str, values.astype(np.int64, copy=False).tolist()))
+    return [_quote(str(v)) for v in values.tolist()]
+
+
 def _write_rows(handle, arrays: list[np.ndarray]) -> None:
-    """Write the rows to the text ``handle``, block by block: each column formatted to text, the
-    fields joined with commas and newlines in Arrow, the block's UTF-8 bytes written at once."""
+    """Write the rows to the text ``handle``: a small table formatted in Python, a large one block
+    by block, each column formatted to text, the fields joined with commas and newlines in Arrow,
+    the block's UTF-8 bytes written at once."""
+    n = arrays[0].shape[0]
+    if n * len(arrays) <= SMALL_VALUES:
+        if n:
+            handle.write("\n".join(map(",".join, zip(*map(_python_fields, arrays)))) + "\n")
+        return
     import pyarrow.compute as pc
 
-    n = arrays[0].shape[0]
     for start in range(0, n, ROWS_PER_BLOCK):
         cols = [_text_column(a[start:start + ROWS_PER_BLOCK]) for a in arrays]
         m = len(cols[0])
