@@ -171,10 +171,10 @@ G1 X99 Y99 (after program end: not read)
     ("G21\nG92 X0\n", r"prog\.ngc: no feed move"),
     ("G21\nG1 X1 A90 F10\n", r"prog\.ngc: no feed move"),  # a rotary move is kept, not advised
     ("G21\nG41 D1\n", r"prog\.ngc:2: G41 \(cutter compensation\) is not supported"),
-    ("G21\nO100 sub\n", r"prog\.ngc:2: 'O100SUB' in 'O100 sub': parameters, expressions and O-words"),
-    ("G21\nG1 X#1 F10\n", r"prog\.ngc:2: '#1F10' in 'G1 X#1 F10': parameters, expressions and O-words"),
-    ("G21\n#<holes> = 4\n", r"prog\.ngc:2: '#<HOLES>=4' in '#<holes> = 4': parameters, expressions and O-words"),
-    ("G21\nM98 P100\n", r"prog\.ngc:2: M98: unsupported M code"),
+    ("G21\nO100 sub\n", r"prog\.ngc:2: 'O100 sub' has no 'O100 endsub'"),
+    ("G21\nG1 X#<nope> F10\n", r"prog\.ngc:2: named parameter #<nope> is not defined in 'G1 X#<nope> F10'"),
+    ("G21\n#<holes> = [4 / [2 - 2]]\n", r"prog\.ngc:2: attempt to divide by zero in '#<holes> = \[4 / \[2 - 2\]\]'"),
+    ("G21\nM98 P100\n", r"prog\.ngc:2: M98 P100: no 'O100' subroutine in this file"),
     ("G21\nG83 X1 Y1 Z-1 R1 Q1 F100\n", r"prog\.ngc: no feed move"),  # a drilling cycle is kept
     ("G21\nG1 X1 F10 (open comment\n", r"prog\.ngc:2: comment '\(' not closed"),
     ("G0 X0 Y0\nG5.2 L3\nX1 Y1 P1\nX2 Y0 P1\n", r"prog\.ngc:4: G5\.2 block from line 2 is not closed"),

@@ -39,6 +39,38 @@ CENTRE_LETTERS = "IJK"
 
 
 @dataclass(frozen=True, eq=False)
+class Rows:
+    """The executed rows of a program whose lines run more than once or out of order (loops,
+    subroutine calls): per row its line (0-based; −1 for a line of another file) and the feed
+    state after it, and per move its row. The program's per-line arrays then hold the state
+    after each line's last run."""
+
+    line: np.ndarray            # (R,) source line of every row
+    feed_mode: np.ndarray       # (R,) 93, 94, 95
+    has_f: np.ndarray           # (R,) the row has an F word
+    feed_value: np.ndarray      # (R,) F in force after the row (program units)
+    move_row: np.ndarray        # (M,) the row of every move
+
+
+def lines_of_rows(values: np.ndarray, row_line: np.ndarray, n_lines: int, before=None) -> np.ndarray:
+    """Per line, the value at the line's last row; a line that never runs takes the value of
+    the line before it (``before``, or the first row's value, at the top of the file)."""
+    values = np.asarray(values)
+    last = np.full(n_lines, -1, dtype=np.int64)
+    ok = row_line >= 0
+    np.maximum.at(last, row_line[ok], np.flatnonzero(ok))
+    ran = last >= 0
+    idx = np.where(ran, np.arange(n_lines), -1)
+    np.maximum.accumulate(idx, out=idx)
+    src = np.where(idx >= 0, last[np.maximum(idx, 0)], -1)
+    fill = values[0] if before is None else before
+    out = np.where(src >= 0, values[np.maximum(src, 0)], fill)
+    if before is not None:
+        out = np.where(ran, out, before)
+    return out.astype(values.dtype)
+
+
+@dataclass(frozen=True, eq=False)
 class Program:
     """A read program (see the module docstring). Arrays are read-only in spirit; lengths:
     L = number of lines, M = number of moves."""
@@ -59,7 +91,7 @@ class Program:
     length_offset: np.ndarray         # 43.0, 43.1, 43.2 or 49.0: tool length offset mode
     has_f: np.ndarray                 # bool: the line has an F word
     # per move (M)
-    move_line: np.ndarray             # 0-based line index
+    move_line: np.ndarray             # 0-based line index (−1: a line of another file)
     kind: np.ndarray                  # RAPID, LINE, ...
     start: np.ndarray                 # (M, 3) mm
     end: np.ndarray                   # (M, 3) mm
@@ -72,6 +104,7 @@ class Program:
     has_z_words: bool = False         # the program names Z somewhere (its paths are 3-D)
     nurbs: dict = field(default_factory=dict)   # move index -> Nurbs (G5.2 block, in mm)
     nurbs_lines: dict = field(default_factory=dict)  # move index -> (first, last) line of the block
+    rows: Rows | None = None          # executed rows, when lines run more than once or out of order
 
     @property
     def n_cuts(self) -> int:

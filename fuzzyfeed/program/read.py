@@ -13,10 +13,23 @@ G52 (offsets), G17/G18/G19, M0–M9, M30, M48–M53, M60–M66, M70–M73, M100�
 ``%``, ``/``, comments ``( )`` and ``;``. Canned cycles G73, G74, G81–G89 are moves of their
 own kind, kept as written. Arcs in any plane (I/J/K or R, helical, P turns) are exact.
 
-Refused with ``file:line``: parameters and expressions (``#``, ``[``, ``<``), O-words and
-M98/M99 subroutines, cutter compensation G41/G42 (.1), G5/G5.1 splines, threading G33/G76,
-probing G38.x, lathe diameter mode G7, the UVW planes, and arcs whose end radius does not fit
-the start radius (LinuxCNC's rule: more than 0.02 mm / 0.002 in *and* 0.1 %).
+A program with parameters, expressions or O-words (``#``, ``[``, ``<``, ``O``, M98/M99) is first
+executed line by line (:mod:`fuzzyfeed.program.flow`, LinuxCNC's semantics) into the words with
+plain values of every executed line; when each line runs at most once, in file order (parameters,
+expressions, ``if``), the rows are the file's lines and everything below is unchanged. With loops
+and calls a line may run many times: the arrays are per executed row, mapped back to their lines
+(``Program.rows``).
+
+Modal groups as LinuxCNC's reader checks them (``interp_read.cc`` read_g, ``enhance_block``): two
+codes of one group on a line are an error, except G80 beside another motion code (the other
+wins: ``G0 G80`` is G0); a motion code beside G10/G28/G30/G52/G92 is an error (both use the
+axis words), and so are axis words with G80 or with G80 in force.
+
+Refused with ``file:line``: cutter compensation G41/G42 (.1) unless :mod:`fuzzyfeed.program.compensation`
+is given the tool (see there), G5/G5.1 splines, threading G33/G76, probing G38.x, lathe diameter
+mode G7, the UVW planes, polar words, and arcs whose end radius does not fit the start radius
+(LinuxCNC's rule: more than 0.02 mm / 0.002 in *and* 0.1 %); coordinates beyond ±1 km (also a
+thousand-digit number).
 """
 
 from __future__ import annotations
@@ -28,8 +41,11 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.errors import PathFormatError
+from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
+from fuzzyfeed.program.flow import execute, needs_execution
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks
-from fuzzyfeed.program.model import ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program
+from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program, Rows,
+                                    lines_of_rows)
 
 _LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 _NUMBER_CHARS = b"0123456789.+-"
@@ -68,6 +84,10 @@ _M_ACCEPTED = set(range(0, 10)) | {30, 48, 49, 50, 51, 52, 53, 60, 61, 62, 63, 6
                                    67, 68, 70, 71, 72, 73} | set(range(100, 200))
 _M_STOP = {0, 1, 2, 30, 60}          # executed after the motion of their line
 _M_BREAK = {0, 1, 2, 6, 30, 60}      # the tool stops: a cut ends there
+#: Largest number a word may hold (mm or inch): beyond, a coordinate leaves the ±1 km of
+#: MAX_COORDINATE_MM even in mm (checked again in mm on the positions).
+_MAX_WORD = 1e6
+_LENGTH_LETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"]
 
 
 def _fail(path: Path, line: int, message: str) -> None:
@@ -223,10 +243,8 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
     else:
         end_line = n_all
         n = n_all
-    for special in ("O", "#", "[", "<"):
-        at = body.find(special)
-        if at >= 0:
-            _malformed(path, body, at, lines)
+    if needs_execution(body):
+        return _parse_executed(path, lines, newline)
     if n == 0 or not body.strip():
         raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
                               "nothing to advise")
@@ -234,15 +252,41 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
     return _interpret(path, lines, newline, end_line, n, tl, tc, tv)
 
 
-def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
+def _parse_executed(path: Path, lines: list[str], newline: str) -> Program:
+    """A program with parameters, expressions or O-words: executed first (see the module docs)."""
+    ex = execute(path, lines)
+    if ex.n_rows == 0 or ex.tl.size == 0:
+        raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
+                              "nothing to advise")
+    if ex.in_order:   # every row is its own line: the file's lines, some of them empty
+        last = int(ex.row_line[-1])
+        end_line = last if ex.ended else len(lines)
+        n = last + 1 if ex.ended else len(lines)
+        return _interpret(path, lines, newline, end_line, n, ex.row_line[ex.tl], ex.tc, ex.tv)
+    return _interpret(path, lines, newline, len(lines), ex.n_rows, ex.tl, ex.tc, ex.tv, rows=ex)
+
+
+def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Program:
+    """The program from its tokens: per line (or, with ``rows``, per executed row) the words."""
     def fail(i: int, message: str):
-        _fail(path, int(i) + 1, message)
+        if rows is None:
+            _fail(path, int(i) + 1, message)
+        where, number = rows.row_where[int(i)]
+        raise PathFormatError(f"{where}:{number}: {message}")
+
+    def text_of(i: int) -> str:
+        if rows is None:
+            return lines[int(i)].strip()
+        where, number = rows.row_where[int(i)]
+        return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
     letter = {ch: tc == ord(ch) - 65 for ch in _LETTERS}
-    if letter["O"].any():
-        i = int(tl[np.argmax(letter["O"])])
-        fail(i, f"O-word in {lines[i].strip()!r}: O-word subroutines and control flow are not "
-                "supported (expand the program first)")
+    big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTH_LETTERS)
+    if big.any():
+        k = int(np.argmax(big))
+        text = f"{tv[k]:.6g}"
+        fail(tl[k], f"{chr(65 + int(tc[k]))}{text}: a number beyond ±{_MAX_WORD:g} (no machine moves "
+                    f"{_MAX_WORD:g} mm or inch; coordinates must lie within ±1 km)")
     # --- one column per letter (single-valued letters) ---
     cols = {}
     for ch in "XYZABCUVWIJKRPQLFSTHDE":
@@ -285,6 +329,17 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     if (grp < 0).any():
         k = int(np.argmax(grp < 0))
         fail(g_line[k], f"G{g_val[k]:g}: unsupported G code")
+    # G80 beside another motion code on a line gives way to it (LinuxCNC's read_g)
+    motion_gid = _GROUP_ID["motion"]
+    is_g80 = (grp == motion_gid) & (g10 == 800)
+    if is_g80.any():
+        motion_lines = g_line[(grp == motion_gid) & ~is_g80]
+        drop = is_g80 & np.isin(g_line, motion_lines)
+        first80 = np.ones(g_line.size, bool)       # G80 G80: one G80
+        idx80 = np.flatnonzero(is_g80)
+        first80[idx80[1:][g_line[idx80[1:]] == g_line[idx80[:-1]]]] = False
+        keep = ~drop & first80
+        g_line, g_val, g10, grp = g_line[keep], g_val[keep], g10[keep], grp[keep]
     gcol = {}
     for name, gid in _GROUP_ID.items():
         sel = grp == gid
@@ -292,12 +347,11 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
             gcol[name] = None
             continue
         li = g_line[sel]
-        if name != "nonmodal":
-            dup = np.flatnonzero(np.diff(li) == 0)
-            if dup.size:
-                codes = g_val[sel]
-                fail(li[dup[0]], f"two G codes of one modal group on one line: G{codes[dup[0]]:g} "
-                                 f"and G{codes[dup[0] + 1]:g}")
+        dup = np.flatnonzero(np.diff(li) == 0)
+        if dup.size:
+            codes = g_val[sel]
+            fail(li[dup[0]], f"two G codes of one modal group on one line: G{codes[dup[0]]:g} "
+                             f"and G{codes[dup[0] + 1]:g}")
         c = np.full(n, -1, dtype=np.int64)
         c[li] = g10[sel]
         gcol[name] = c
@@ -328,7 +382,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         stray = ~np.isnan(e_col) & ~e_users
         if stray.any():
             i = int(np.argmax(stray))
-            fail(i, f"E word with no M66, M67 or M68 to use it in {lines[i].strip()!r} (LinuxCNC "
+            fail(i, f"E word with no M66, M67 or M68 to use it in {text_of(i)!r} (LinuxCNC "
                     "refuses it; a number written as 1e6 reads as 1 E6)")
     m_stop = np.zeros(n, bool)
     m_stop[m_line[np.isin(m_int, list(_M_STOP))]] = True
@@ -407,6 +461,12 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     g10_l, g28, g30, g53, g92 = nm(100), nm(280), nm(300), nm(530), nm(920) | nm(921) | nm(922) | nm(923)
     g52_local = nm(520)
     takes_axes = g10_l | g92 | g52_local | g28 | g30  # axis words are not a target
+    motion_here = gcol["motion"] >= 0 if gcol["motion"] is not None else np.zeros(n, bool)
+    both = takes_axes & motion_here & (gcol["motion"] != 800 if gcol["motion"] is not None else False)
+    if both.any():
+        i = int(np.argmax(both))
+        fail(i, f"G{gcol['motion'][i] / 10:g} with G{int(gcol['nonmodal'][i]) / 10:g}: two G codes that "
+                "both use the axis words (LinuxCNC refuses it)")
     arcs_words = has("I") | has("J") | has("K") | has("R")
     is_arc_mode = (motion == 20) | (motion == 30)
     full_circle = is_arc_mode & ~any_xyz & (has("I") | has("J") | has("K")) & ~takes_axes
@@ -414,6 +474,10 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     no_motion = moving & (motion < 0) & ~g53
     if no_motion.any():
         fail(int(np.argmax(no_motion)), "axis words with no motion mode (G0, G1, G2, G3) in force")
+    after_g80 = moving & (motion == 800)
+    if after_g80.any():
+        fail(int(np.argmax(after_g80)), "axis words with G80 in force (G80 cancels the motion "
+                                        "mode; LinuxCNC refuses them)")
     bad_arcwords = arcs_words & ((motion == 0) | (motion == 10)) & moving
     if bad_arcwords.any():
         i = int(np.argmax(bad_arcwords))
@@ -457,6 +521,11 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         inc = np.where(given & ~absolute, v, 0.0)
         pos_after[:, k], epoch_after[:, k] = _axis_positions(n, np.where(is_set, v, 0.0), is_set,
                                                              inc, pre[k], post[k])
+    far = np.abs(pos_after) > MAX_COORDINATE_MM
+    if far.any():
+        i, k = (int(v) for v in np.argwhere(far)[0])
+        fail(i, f"{'XYZ'[k]} reaches {pos_after[i, k]:.6g} mm; coordinates must lie within "
+                f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
     epoch_before = np.vstack([np.zeros((1, 3), dtype=np.int64), epoch_after[:-1]])
     for k in range(3):
@@ -499,6 +568,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     advisable = np.isin(kind, [LINE, ARC, NURBS]) & (feed_mode[move_rows] == 94)
     advisable &= known[move_rows] | (kind == NURBS)
     advisable &= ~abc_has[move_rows]
+    if rows is not None:         # moves of another file's lines (a called NAME.ngc) are kept
+        advisable &= rows.row_line[move_rows] >= 0
     breaker_line = m_break | pre_all | pre_z | home_line | g53
     bcum = np.concatenate([[0], np.cumsum(breaker_line)])   # bcum[i] = breakers on lines < i
     # a chain is broken by a move that is not advised (a rapid that moves, home, cycle, kept) and
@@ -523,15 +594,25 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         if empty.any():
             remap = np.cumsum(~empty) - 1
             cut = np.where(cut >= 0, np.where(empty[np.maximum(cut, 0)], -1, remap[np.maximum(cut, 0)]), -1)
-    return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line,
-                   inch=_pad(inch, len(lines)), absolute=_pad(absolute, len(lines)),
-                   ij_absolute=_pad(ij_absolute, len(lines)), plane=_pad(plane, len(lines)),
-                   feed_mode=_pad(feed_mode, len(lines)), feed_value=_pad(feed_value, len(lines)),
-                   tool=_pad(tool, len(lines)), work_offset=_pad(coord / 10.0, len(lines)),
-                   length_offset=_pad(length_mode / 10.0, len(lines)), has_f=_pad(has_f, len(lines), False),
-                   move_line=move_rows, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
+    state = dict(inch=inch, absolute=absolute, ij_absolute=ij_absolute, plane=plane, feed_mode=feed_mode,
+                 feed_value=feed_value, tool=tool, work_offset=coord / 10.0, length_offset=length_mode / 10.0)
+    if rows is None:
+        per_line = {k: _pad(v, len(lines)) for k, v in state.items()}
+        per_line["has_f"] = _pad(has_f, len(lines), False)
+        move_line, row_info = move_rows, None
+    else:
+        per_line = {k: lines_of_rows(v, rows.row_line, len(lines)) for k, v in state.items()}
+        per_line["has_f"] = lines_of_rows(has_f, rows.row_line, len(lines), False)
+        move_line = rows.row_line[move_rows]
+        row_info = Rows(line=rows.row_line, feed_mode=feed_mode, has_f=has_f, feed_value=feed_value,
+                        move_row=move_rows)
+        runs = np.bincount(rows.row_line[rows.row_line >= 0], minlength=len(lines))
+        no_split |= (move_line < 0) | (runs[np.maximum(move_line, 0)] > 1)
+    return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line, **per_line,
+                   move_line=move_line, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
-                   has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines)
+                   has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
+                   rows=row_info)
 
 
 def _pad(arr: np.ndarray, total: int, value=None) -> np.ndarray:

@@ -25,33 +25,106 @@ import numpy as np
 
 from fuzzyfeed.program.model import ARC, HOME, RAPID, Program, arc_geometry, arc_points
 
-_WORD = re.compile(r"([A-Za-z])(\s*)([-+]?\s*(?:\d+\.?\d*|\.\d+))")
+_NUMBER = re.compile(r"[-+]?\s*(?:\d+\.?\d*|\.\d+)")
 _AXES = "XYZ"
 
 
+def _skip_space(raw: str, i: int) -> int:
+    while i < len(raw) and raw[i] in " \t":
+        i += 1
+    return i
+
+
+def _bracket_end(raw: str, i: int) -> int:
+    """Index after the ``]`` that closes the ``[`` at ``i`` (the line's end if none)."""
+    depth = 0
+    for j in range(i, len(raw)):
+        if raw[j] == "[":
+            depth += 1
+        elif raw[j] == "]":
+            depth -= 1
+            if depth == 0:
+                return j + 1
+    return len(raw)
+
+
+def _value_end(raw: str, i: int) -> int:
+    """Index after the value written at ``i`` (spaces allowed, as LinuxCNC reads them): a
+    number, ``#n``/``#<name>``/``##n``/``#[...]``, ``[...]``, a function ``sin[...]`` (``atan[..]/[..]``),
+    or a sign before one of those."""
+    i = _skip_space(raw, i)
+    if i >= len(raw):
+        return i
+    c = raw[i]
+    if c == "[":
+        return _bracket_end(raw, i)
+    if c == "#":
+        j = _skip_space(raw, i + 1)
+        if j < len(raw) and raw[j] == "<":
+            k = raw.find(">", j)
+            return len(raw) if k < 0 else k + 1
+        return _value_end(raw, j)
+    if c in "+-":
+        j = _skip_space(raw, i + 1)
+        if j < len(raw) and not (raw[j].isdigit() or raw[j] == "."):
+            return _value_end(raw, j)
+    if c.isalpha():
+        j = i
+        while j < len(raw) and raw[j].isalpha():
+            j += 1
+        name = raw[i:j].lower()
+        j = _skip_space(raw, j)
+        if j < len(raw) and raw[j] == "[":
+            end = _bracket_end(raw, j)
+            if name == "atan":
+                k = _skip_space(raw, end)
+                if k < len(raw) and raw[k] == "/":
+                    k = _skip_space(raw, k + 1)
+                    if k < len(raw) and raw[k] == "[":
+                        end = _bracket_end(raw, k)
+            return end
+        return i
+    m = _NUMBER.match(raw, i)
+    return m.end() if m else i
+
+
 def _words(raw: str) -> tuple[list[tuple[str, int, int, int, str]], int]:
-    """Words of a line outside comments: (letter, start of word, start of number, end, number
-    text), and where new words go (after the last word)."""
+    """Words of a line outside comments: (letter, start of word, start of value, end, value
+    text), and where new words go (after the last word). Parameter settings (``#1 = 5``) are
+    skipped; an O-word line has no words. A value may be an expression (``X[#1 * 2]``)."""
     out = []
-    if "(" not in raw and ";" not in raw:
-        for m in _WORD.finditer(raw):
-            out.append((m.group(1).upper(), m.start(), m.start(3), m.end(), m.group(3)))
-    else:
-        i, n = 0, len(raw)
-        while i < n:
-            ch = raw[i]
-            if ch == "(":
-                j = raw.find(")", i)
-                i = n if j < 0 else j + 1
+    i, n = 0, len(raw)
+    first = True
+    while i < n:
+        ch = raw[i]
+        if ch in " \t":
+            i += 1
+            continue
+        if ch == "(":
+            j = raw.find(")", i)
+            i = n if j < 0 else j + 1
+            continue
+        if ch == ";":
+            break
+        if first and ch in "Oo":
+            return [], len(raw.rstrip())
+        if ch == "#":                       # a parameter setting: #... = value
+            j = _value_end(raw, i)
+            j = _skip_space(raw, j)
+            i = _value_end(raw, j + 1) if j < n and raw[j] == "=" else j + 1
+            continue
+        if ch.isalpha():
+            start = _skip_space(raw, i + 1)
+            end = _value_end(raw, start)
+            if end > start:
+                out.append((ch.upper(), i, start, end, raw[start:end]))
+                if ch not in "Nn/":
+                    first = False
+                i = end
                 continue
-            if ch == ";":
-                break
-            m = _WORD.match(raw, i)
-            if m:
-                out.append((m.group(1).upper(), m.start(), m.start(3), m.end(), m.group(3)))
-                i = m.end()
-            else:
-                i += 1
+        if ch != "/":
+            first = False
+        i += 1
     insert_at = out[-1][3] if out else len(raw.rstrip())
     return out, insert_at
 
@@ -85,7 +158,10 @@ def edit_line(raw: str, sets: list[tuple[str, str]], remove: tuple[str, ...] = (
 
 
 def _decimals_of(text: str) -> int:
+    """Decimals of a number as written (0 for an expression: its value is not written)."""
     text = text.replace(" ", "")
+    if not _NUMBER.fullmatch(text):
+        return 0
     return len(text) - text.index(".") - 1 if "." in text else 0
 
 
@@ -131,6 +207,10 @@ _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
 def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
                     piece_feed_mm_min: np.ndarray) -> str:
     """The program text with the pieces' feeds (see the module docstring)."""
+    if program.rows is not None:
+        from fuzzyfeed.program.rewrite_rows import rewrite_rows
+
+        return rewrite_rows(program, piece_move, piece_end, piece_feed_mm_min)
     lines = program.lines
     n_lines = len(lines)
     kind = program.kind
@@ -193,12 +273,12 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
             want_v = float(want)
             if f_lines[li]:
                 if abs(float(feed_value[li]) - want_v) > 1e-9:
-                    if "(" in raw or ";" in raw:
+                    if any(c in raw for c in "(;#["):
                         raw = edit_line(raw, [("F", want)])
                     else:
                         raw = _F_WORD.sub("F" + want, raw, count=1)
             elif f_in_force is None or abs(f_in_force - want_v) > 1e-9:
-                if "(" in raw or ";" in raw:
+                if any(c in raw for c in "(;#["):
                     raw = edit_line(raw, [("F", want)])
                 else:
                     raw = raw.rstrip() + " F" + want

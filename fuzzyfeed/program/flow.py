@@ -1,0 +1,475 @@
+"""Execute a program's lines as LinuxCNC does — parameters, expressions and O-word control flow —
+into the sequence of executed lines (*rows*) and their words with plain values.
+
+Each source line is compiled once (:func:`fuzzyfeed.program.expr.compile_line`) and evaluated
+at every execution. O-words: ``sub``/``endsub``/``return`` and ``call [args]`` (``#1`` … ``#30``
+and unprefixed names local to the call; ``#<_value>`` holds a returned value), subroutines
+defined before or after their call (also after M2/M30, where LinuxCNC looks for them too) or in
+``NAME.ngc`` beside the program for ``o<NAME> call``; ``if``/``elseif``/``else``/``endif``,
+``while``/``endwhile``, ``do``/``while``, ``repeat [n]``/``endrepeat``, ``break``, ``continue``;
+Fanuc-style ``O100`` … ``M99`` subroutines called by ``M98 P100 [L n]``. The program ends at the
+first M2/M30 executed (or at the end of the file). Read-only parameters: ``#<_metric>``,
+``_imperial``, ``_absolute``, ``_incremental``, ``_feed``, ``_rpm``, ``_motion_mode``,
+``_plane``, ``_coord_system``, ``_inverse_time``, ``_units_per_minute``, ``_units_per_rev``,
+``_call_level``, ``_vmajor``, ``_vminor`` and ``#5220`` (coordinate system 1–9) and ``#5400``
+(tool); the other system parameters (offsets, positions, probe results) depend on the machine
+and are refused when read.
+
+Limits: at most :data:`MAX_ROWS` executed lines with words and :data:`MAX_STEPS` lines in all (a
+loop that never ends is refused in one line, naming the limit), calls nested at most
+:data:`MAX_CALL_DEPTH` deep (LinuxCNC's limit).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fuzzyfeed.errors import PathFormatError
+from fuzzyfeed.program.expr import LineCode, Parameters, clean_line, compile_line, evaluate
+
+#: Most executed lines that carry words (rows) and most lines stepped through in all.
+MAX_ROWS = 1_000_000
+MAX_STEPS = 4_000_000
+#: Deepest nesting of subroutine calls (LinuxCNC's INTERP_SUB_ROUTINE_LEVELS).
+MAX_CALL_DEPTH = 10
+_LETTER_INDEX = {ch: ord(ch) - 97 for ch in "abcdefghijklmnopqrstuvwxyz"}
+
+
+@dataclass
+class Source:
+    """One file's lines (raw), their compiled forms (lazily) and its O-word structure."""
+
+    path: Path
+    lines: list[str]
+    code: dict = field(default_factory=dict)
+    subs: dict = field(default_factory=dict)         # label -> (first line, end line)
+    jumps: dict = field(default_factory=dict)        # line -> control data (see _scan)
+
+    def compiled(self, i: int) -> LineCode | None:
+        """The compiled line ``i`` (None for a blank, comment-only or '%' line)."""
+        if i in self.code:
+            return self.code[i]
+        raw = self.lines[i]
+        try:
+            text = clean_line(raw)
+        except PathFormatError as exc:
+            raise self.error(i, str(exc)) from None
+        if not text or text == "%":
+            code = None
+        elif "%" in text:
+            raise self.error(i, "'%' must stand alone on its line")
+        else:
+            try:
+                code = compile_line(text)
+            except PathFormatError as exc:
+                raise self.error(i, str(exc)) from None
+            if not code.words and not code.settings and code.oword is None:
+                code = None
+        self.code[i] = code
+        return code
+
+    def error(self, i: int, message: str) -> PathFormatError:
+        text = self.lines[i].strip()
+        if len(text) > 80:
+            text = text[:77] + "..."
+        return PathFormatError(f"{self.path}:{i + 1}: {message} in {text!r}")
+
+
+@dataclass(frozen=True)
+class Execution:
+    """The executed rows of a program: per row the file and line it comes from (``row_line``:
+    the line index in the main file, −1 for a line of another file), and the tokens of every
+    row as the vectorised reader takes them (row, letter 0–25, value)."""
+
+    row_line: np.ndarray
+    row_where: tuple            # per row: (path, 1-based line) for messages
+    tl: np.ndarray
+    tc: np.ndarray
+    tv: np.ndarray
+    ended: bool                 # an M2/M30 was executed
+    in_order: bool              # every main-file line runs at most once, in file order
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.row_line.size)
+
+
+def needs_execution(body: str) -> bool:
+    """True when the (upper-case, comment-free) program text uses anything beyond plain words:
+    parameters, expressions, O-words, polar words or M98/M99."""
+    return any(ch in body for ch in "#[<O@^$") or "M98" in body or "M99" in body
+
+
+def _scan(src: Source) -> None:
+    """Find the subroutines and match every control O-word of ``src`` (see the module docstring)."""
+    stack: list[tuple[str, str, int]] = []     # (scope-qualified label, keyword, line)
+    scope = ""
+    fanuc_open = None
+    for i in range(len(src.lines)):
+        code = src.compiled(i)
+        if code is None:
+            continue
+        if code.fanuc_return and fanuc_open is not None:
+            src.subs[fanuc_open[0]] = (fanuc_open[1], i)
+            fanuc_open = None
+            continue
+        ow = code.oword
+        if ow is None:
+            continue
+        kw, label = ow.keyword, ow.label
+        if kw == "":
+            fanuc_open = (label, i)
+            continue
+        if kw == "sub":
+            if scope:
+                raise src.error(i, f"subroutine O{label} defined inside subroutine O{scope}")
+            if label in src.subs:
+                raise src.error(i, f"subroutine O{label} defined twice")
+            scope = label
+            src.subs[label] = (i, None)
+            continue
+        if kw == "endsub":
+            if scope != label:
+                raise src.error(i, f"'O{label} endsub' without 'O{label} sub'")
+            if stack:
+                raise src.error(stack[-1][2], f"'O{stack[-1][0].split('#')[1]} {stack[-1][1]}' not closed before endsub")
+            src.subs[label] = (src.subs[label][0], i)
+            scope = ""
+            continue
+        if kw in ("call", "return"):
+            continue
+        key = f"{scope}#{label}"
+        if kw in ("if", "do", "repeat") or (kw == "while" and not (stack and stack[-1][0] == key and stack[-1][1] == "do")):
+            if any(s[0] == key for s in stack):
+                raise src.error(i, f"O{label} is already open (line {[s[2] for s in stack if s[0] == key][0] + 1})")
+            stack.append((key, kw, i))
+            src.jumps[i] = {"kind": kw, "branches": [], "end": None}
+            continue
+        if not stack or stack[-1][0] != key:
+            opener = {"elseif": "if", "else": "if", "endif": "if", "endwhile": "while", "while": "do",
+                      "endrepeat": "repeat", "break": "while/do/repeat", "continue": "while/do/repeat"}[kw]
+            if kw in ("break", "continue") and any(s[0] == key for s in stack):
+                loop = [s for s in stack if s[0] == key][-1]
+                src.jumps[i] = {"kind": kw, "loop": loop[2]}
+                continue
+            raise src.error(i, f"'O{label} {kw}' without a matching open 'O{label} {opener}'")
+        head = stack[-1]
+        data = src.jumps[head[2]]
+        if kw in ("elseif", "else"):
+            if head[1] != "if":
+                raise src.error(i, f"'O{label} {kw}' inside 'O{label} {head[1]}'")
+            data["branches"].append(i)
+            src.jumps[i] = {"kind": kw, "if": head[2]}
+        elif kw in ("break", "continue"):
+            if head[1] == "if":
+                loops = [s for s in stack if s[0] == key and s[1] != "if"]
+                if not loops:
+                    raise src.error(i, f"'O{label} {kw}' outside a loop")
+                head = loops[-1]
+            src.jumps[i] = {"kind": kw, "loop": head[2]}
+        else:
+            expected = {"endif": "if", "endwhile": "while", "while": "do", "endrepeat": "repeat"}[kw]
+            if head[1] != expected:
+                raise src.error(i, f"'O{label} {kw}' closes 'O{label} {head[1]}' (line {head[2] + 1})")
+            data["end"] = i
+            src.jumps[i] = {"kind": kw, "open": head[2]}
+            stack.pop()
+    if stack:
+        key, kw, i = stack[-1]
+        raise src.error(i, f"'O{key.split('#')[1]} {kw}' is never closed")
+    if scope:
+        raise src.error(src.subs[scope][0], f"'O{scope} sub' has no 'O{scope} endsub'")
+
+
+class _State:
+    """The modal state the read-only parameters report."""
+
+    def __init__(self):
+        self.metric, self.absolute, self.feed, self.rpm = 1.0, 1.0, 0.0, 0.0
+        self.motion, self.plane, self.coord, self.feed_mode, self.tool, self.next_tool = 800.0, 170.0, 540.0, 940.0, 0.0, 0.0
+
+    def update(self, words) -> None:
+        for letter, value in words:
+            if letter == "g":
+                g = round(value * 10)
+                if g in (200, 210):
+                    self.metric = 1.0 if g == 210 else 0.0
+                elif g in (900, 910):
+                    self.absolute = 1.0 if g == 900 else 0.0
+                elif g in (170, 180, 190):
+                    self.plane = float(g)
+                elif g in (930, 940, 950):
+                    self.feed_mode = float(g)
+                elif 540 <= g <= 593:
+                    self.coord = float(g)
+                elif g in (0, 10, 20, 30, 800) or 730 <= g <= 890:
+                    self.motion = float(g)
+            elif letter == "f":
+                self.feed = value
+            elif letter == "s":
+                self.rpm = abs(value)
+            elif letter == "t":
+                self.next_tool = value
+            elif letter == "m" and round(value) == 6:
+                self.tool = self.next_tool
+
+    def system(self, params: Parameters) -> dict:
+        coord_number = lambda: {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8,
+                                593: 9}.get(int(self.coord), 1)
+        out = {
+            "_metric": lambda: self.metric, "_imperial": lambda: 1.0 - self.metric,
+            "_absolute": lambda: self.absolute, "_incremental": lambda: 1.0 - self.absolute,
+            "_feed": lambda: self.feed, "_rpm": lambda: self.rpm, "_motion_mode": lambda: self.motion,
+            "_plane": lambda: self.plane, "_coord_system": lambda: self.coord,
+            "_inverse_time": lambda: 1.0 if self.feed_mode == 930 else 0.0,
+            "_units_per_minute": lambda: 1.0 if self.feed_mode == 940 else 0.0,
+            "_units_per_rev": lambda: 1.0 if self.feed_mode == 950 else 0.0,
+            "_call_level": lambda: float(params.level), "_vmajor": lambda: 2.0, "_vminor": lambda: 9.0,
+            "_current_tool": lambda: self.tool, "_selected_tool": lambda: self.next_tool,
+            5220: lambda: float(coord_number()), 5400: lambda: self.tool,
+        }
+        unsupported = [5161 + k for k in range(230)] + [5401 + k for k in range(28)]
+        for k in unsupported:
+            if k not in out:
+                out[k] = _unsupported(k)
+        for name in ("_x", "_y", "_z", "_a", "_b", "_c", "_u", "_v", "_w", "_abs_x", "_abs_y",
+                     "_abs_z", "_abs_a", "_abs_b", "_abs_c", "_tool_offset", "_retract_r_plane",
+                     "_retract_old_z", "_ccomp", "_line", "_spindle_on", "_spindle_cw", "_mist",
+                     "_flood", "_speed_override", "_feed_override", "_adaptive_feed", "_feed_hold",
+                     "_current_pocket", "_selected_pocket", "_task", "_metric_machine",
+                     "_remap_level", "_spindle_rpm_mode", "_spindle_css_mode", "_ijk_absolute_mode",
+                     "_lathe_diameter_mode", "_lathe_radius_mode"):
+            out.setdefault(name, _unsupported(name))
+        return out
+
+
+def _unsupported(key):
+    what = f"#{key}" if isinstance(key, int) else f"#<{key}>"
+
+    def fail():
+        raise PathFormatError(f"system parameter {what} is not supported (it depends on the "
+                              "machine: offsets, position, probe or I/O)")
+    return fail
+
+
+def execute(path: Path, lines: list[str]) -> Execution:
+    """Run the program (see the module docstring) and return its rows."""
+    main = Source(Path(path), lines)
+    _scan(main)
+    sources = {str(main.path): main}
+    state = _State()
+    params = Parameters()
+    params.system = state.system(params)
+    row_line: list[int] = []
+    row_where: list[tuple] = []
+    tl: list[int] = []
+    tc: list[int] = []
+    tv: list[float] = []
+    calls: list[dict] = []              # frames: return (source, line), repeat counters, label
+    repeats: dict = {}
+    src, pc = main, 0
+    steps = 0
+    ended = False
+    in_order = True
+    last_main = -1
+    while True:
+        if pc >= len(src.lines):
+            if calls:
+                raise src.error(len(src.lines) - 1, "the file ends inside a subroutine call")
+            break
+        steps += 1
+        if steps > MAX_STEPS:
+            raise src.error(pc, f"the program runs more than {MAX_STEPS:,} lines (a loop that "
+                                "never ends?)")
+        code = src.compiled(pc)
+        if code is None:
+            pc += 1
+            continue
+        ow = code.oword
+        if ow is not None:
+            src, pc = _control(src, pc, ow, params, calls, repeats, sources)
+            continue
+        if code.fanuc_return and calls and calls[-1].get("fanuc"):
+            src, pc = _return(params, calls, None)
+            continue
+        if code.fanuc_return:
+            raise src.error(pc, "M99 outside a subroutine (an endless program) is not supported")
+        try:
+            words = evaluate(code, params)
+        except PathFormatError as exc:
+            raise src.error(pc, str(exc)) from None
+        if code.fanuc_call:
+            src, pc = _fanuc_call(src, pc, words, params, calls)
+            continue
+        if src is main:
+            if pc <= last_main:
+                in_order = False
+            last_main = pc
+        else:
+            in_order = False
+        row = len(row_line)
+        if row >= MAX_ROWS:
+            raise src.error(pc, f"the program executes more than {MAX_ROWS:,} lines with words")
+        row_line.append(pc if src is main else -1)
+        row_where.append((src.path, pc + 1))
+        stop = False
+        for letter, value in words:
+            if letter == "n":
+                continue
+            tl.append(row)
+            tc.append(_LETTER_INDEX[letter])
+            tv.append(value)
+            if letter == "m" and round(value) in (2, 30) and abs(value - round(value)) < 1e-4:
+                stop = True
+        state.update(words)
+        if stop:
+            ended = True
+            break
+        pc += 1
+    return Execution(row_line=np.asarray(row_line, dtype=np.int64), row_where=tuple(row_where),
+                     tl=np.asarray(tl, dtype=np.int64), tc=np.asarray(tc, dtype=np.int64),
+                     tv=np.asarray(tv, dtype=float), ended=ended, in_order=in_order)
+
+
+def _eval_arg(src: Source, pc: int, fn, params: Parameters) -> float:
+    try:
+        return fn(params)
+    except PathFormatError as exc:
+        raise src.error(pc, str(exc)) from None
+
+
+def _control(src, pc, ow, params, calls, repeats, sources):
+    """Execute O-word line ``pc``: the next (source, line) to run."""
+    kw = ow.keyword
+    jump = src.jumps.get(pc)
+    if kw == "sub":
+        if calls and calls[-1]["entry"] == (id(src), pc):
+            return src, pc + 1
+        end = src.subs[ow.label][1]
+        return src, end + 1                       # a definition met in passing is skipped
+    if kw == "":                                   # Fanuc 'O100' met in passing: skip to M99
+        end = src.subs.get(ow.label, (pc, None))[1]
+        if end is None:
+            raise src.error(pc, f"O{ow.label} (Fanuc-style subroutine) has no M99")
+        if calls and calls[-1]["entry"] == (id(src), pc):
+            return src, pc + 1
+        return src, end + 1
+    if kw in ("endsub", "return"):
+        if not calls:
+            raise src.error(pc, f"'O{ow.label} {kw}' outside a subroutine call")
+        value = _eval_arg(src, pc, ow.args[0], params) if ow.args else None
+        return _return(params, calls, value)
+    if kw == "call":
+        args = [_eval_arg(src, pc, fn, params) for fn in ow.args]
+        target = _find_sub(src, pc, ow.label, sources)
+        if len(calls) >= MAX_CALL_DEPTH:
+            raise src.error(pc, f"subroutine calls nested more than {MAX_CALL_DEPTH} deep")
+        params.enter(args)
+        params.return_value, params.value_returned = 0.0, 0.0
+        calls.append({"ret": (src, pc + 1), "entry": (id(target[0]), target[1]), "fanuc": False})
+        return target[0], target[1] + 1
+    if kw == "if":
+        if _eval_arg(src, pc, ow.args[0], params) != 0.0:
+            return src, pc + 1
+        for b in jump["branches"]:
+            bow = src.compiled(b).oword
+            if bow.keyword == "else" or _eval_arg(src, b, bow.args[0], params) != 0.0:
+                return src, b + 1
+        return src, jump["end"] + 1
+    if kw in ("elseif", "else"):                   # reached after a branch ran: to endif
+        return src, src.jumps[jump["if"]]["end"] + 1
+    if kw == "endif":
+        return src, pc + 1
+    if kw == "do":
+        return src, pc + 1
+    if kw == "while" and jump.get("kind") == "while" and "open" in jump:     # closes a do
+        if _eval_arg(src, pc, ow.args[0], params) != 0.0:
+            return src, jump["open"] + 1
+        return src, pc + 1
+    if kw == "while":
+        if _eval_arg(src, pc, ow.args[0], params) != 0.0:
+            return src, pc + 1
+        return src, jump["end"] + 1
+    if kw == "endwhile":
+        return src, jump["open"]
+    if kw == "repeat":
+        key = (len(calls), id(src), pc)
+        if key not in repeats:
+            count = _eval_arg(src, pc, ow.args[0], params)
+            repeats[key] = int(count + (0.5 if count >= 0 else -0.5))
+        if repeats[key] > 0:
+            repeats[key] -= 1
+            return src, pc + 1
+        del repeats[key]
+        return src, jump["end"] + 1
+    if kw == "endrepeat":
+        return src, jump["open"]
+    if kw in ("break", "continue"):
+        loop = jump["loop"]
+        data = src.jumps[loop]
+        if kw == "break":
+            repeats.pop((len(calls), id(src), loop), None)
+            return src, data["end"] + 1
+        if data["kind"] == "do":
+            return src, data["end"]                # the closing 'while' tests again
+        return src, loop if data["kind"] in ("while", "repeat") else data["end"]
+    raise src.error(pc, f"O-word '{kw}' is not supported")  # pragma: no cover - all keywords above
+
+
+def _return(params, calls, value):
+    frame = calls.pop()
+    params.leave()
+    if value is not None:
+        params.return_value, params.value_returned = value, 1.0
+    return frame["ret"]
+
+
+def _find_sub(src: Source, pc: int, label: str, sources: dict):
+    """(source, first line) of subroutine ``label``: in this file, or ``NAME.ngc`` beside it."""
+    for candidate in [src] + [s for s in sources.values() if s is not src]:
+        if label in candidate.subs:
+            return candidate, candidate.subs[label][0]
+    if label.startswith("<"):
+        name = label[1:-1]
+        folder = src.path.parent
+        for entry in (os.listdir(folder) if folder.is_dir() else []):
+            if entry.lower() == name + ".ngc":
+                path = folder / entry
+                from fuzzyfeed.base.files import read_text
+
+                text = read_text(path, "G-code", PathFormatError, latin1=True)
+                other = Source(path, text.splitlines())
+                _scan(other)
+                sources[str(path)] = other
+                if label in other.subs:
+                    return other, other.subs[label][0]
+                raise src.error(pc, f"{path.name} does not define 'O{label} sub'")
+    raise src.error(pc, f"subroutine O{label} is not defined in this file"
+                        + (f" nor in {label[1:-1]}.ngc beside it" if label.startswith("<") else ""))
+
+
+def _fanuc_call(src, pc, words, params, calls):
+    """M98 P<n> [L<k>]: call the Fanuc-style subroutine O<n> k times."""
+    values = dict(words)
+    if "p" not in values:
+        raise src.error(pc, "M98 without a P word (the subroutine number)")
+    label = str(int(round(values["p"])))
+    times = int(round(values.get("l", 1.0)))
+    if label not in src.subs:
+        raise src.error(pc, f"M98 P{label}: no 'O{label}' subroutine in this file")
+    if len(calls) + times > MAX_CALL_DEPTH * 1000:
+        raise src.error(pc, f"M98 L{times}: too many repeats")
+    start = src.subs[label][0]
+    ret = (src, pc + 1)
+    # k calls in a row: each return goes to the next call, the last back after the M98 line
+    for _ in range(times):
+        params.enter([])
+        calls.append({"ret": ret, "entry": (id(src), start), "fanuc": True})
+        ret = (src, start)
+    if times < 1:
+        return src, pc + 1
+    return src, start + 1
