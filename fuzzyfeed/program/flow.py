@@ -271,6 +271,7 @@ def execute(path: Path, lines: list[str]) -> Execution:
     tv: list[float] = []
     calls: list[dict] = []              # frames: return (source, line), repeat counters, label
     repeats: dict = {}
+    flags = {"break": False, "continue": False}
     src, pc = main, 0
     steps = 0
     ended = False
@@ -291,7 +292,7 @@ def execute(path: Path, lines: list[str]) -> Execution:
             continue
         ow = code.oword
         if ow is not None:
-            src, pc = _control(src, pc, ow, params, calls, repeats, sources)
+            src, pc = _control(src, pc, ow, params, calls, repeats, sources, flags)
             continue
         if code.fanuc_return and calls and calls[-1].get("fanuc"):
             src, pc = _return(params, calls, None)
@@ -342,8 +343,12 @@ def _eval_arg(src: Source, pc: int, fn, params: Parameters) -> float:
         raise src.error(pc, str(exc)) from None
 
 
-def _control(src, pc, ow, params, calls, repeats, sources):
-    """Execute O-word line ``pc``: the next (source, line) to run."""
+def _control(src, pc, ow, params, calls, repeats, sources, flags):
+    """Execute O-word line ``pc``: the next (source, line) to run. ``flags`` carries LinuxCNC's
+    ``doing_break``/``doing_continue``, which outlive their loop: a ``break`` out of a while or
+    repeat loop leaves ``doing_break`` set, so the next do/while loop ends after one pass; a
+    ``continue`` in a do/while loop leaves ``doing_continue`` set, so the next ``break`` out of a
+    while or repeat loop goes back to its test (``interp_o_word.cc``, as rs274 runs it)."""
     kw = ow.keyword
     jump = src.jumps.get(pc)
     if kw == "sub":
@@ -387,8 +392,10 @@ def _control(src, pc, ow, params, calls, repeats, sources):
     if kw == "do":
         return src, pc + 1
     if kw == "while" and jump.get("kind") == "while" and "open" in jump:     # closes a do
-        if _eval_arg(src, pc, ow.args[0], params) != 0.0:
+        again = _eval_arg(src, pc, ow.args[0], params) != 0.0
+        if again and not flags["break"]:
             return src, jump["open"] + 1
+        flags["break"] = False
         return src, pc + 1
     if kw == "while":
         if _eval_arg(src, pc, ow.args[0], params) != 0.0:
@@ -412,11 +419,19 @@ def _control(src, pc, ow, params, calls, repeats, sources):
         loop = jump["loop"]
         data = src.jumps[loop]
         if kw == "break":
+            flags["break"] = True
+            if data["kind"] == "do":
+                return src, data["end"]            # the closing 'while' ends the loop
+            if flags["continue"]:                  # LinuxCNC: a continue flag left by a do loop
+                flags["continue"] = False          # makes this break loop back instead
+                return src, loop
             repeats.pop((len(calls), id(src), loop), None)
             return src, data["end"] + 1
+        flags["continue"] = True
         if data["kind"] == "do":
             return src, data["end"]                # the closing 'while' tests again
-        return src, loop if data["kind"] in ("while", "repeat") else data["end"]
+        flags["continue"] = False
+        return src, loop
     raise src.error(pc, f"O-word '{kw}' is not supported")  # pragma: no cover - all keywords above
 
 

@@ -49,6 +49,7 @@ class Rows:
     feed_mode: np.ndarray       # (R,) 93, 94, 95
     has_f: np.ndarray           # (R,) the row has an F word
     feed_value: np.ndarray      # (R,) F in force after the row (program units)
+    feed_reset: np.ndarray      # (R,) F set to 0 on the row (G94/G95 given, or a change of mode)
     move_row: np.ndarray        # (M,) the row of every move
 
 
@@ -90,6 +91,7 @@ class Program:
     work_offset: np.ndarray           # 54.0 … 59.3: the coordinate system in force
     length_offset: np.ndarray         # 43.0, 43.1, 43.2 or 49.0: tool length offset mode
     has_f: np.ndarray                 # bool: the line has an F word
+    feed_reset: np.ndarray            # bool: F is set to 0 on the line (G94/G95, change of mode)
     # per move (M)
     move_line: np.ndarray             # 0-based line index (−1: a line of another file)
     kind: np.ndarray                  # RAPID, LINE, ...

@@ -65,7 +65,8 @@ _GROUPS = {
     "control": [610, 611, 640],
     "spindle": [960, 970],
     "retract": [980, 990],
-    "nonmodal": [40, 100, 280, 281, 300, 301, 530, 920, 921, 922, 923, 520],
+    "nonmodal": [40, 100, 280, 281, 300, 301, 530, 920, 520],
+    "g92_offsets": [921, 922, 923],
     "lathe": [80],
 }
 _REFUSED_G = {
@@ -440,9 +441,12 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
     # feed: F in force, reset to 0 where the feed mode changes (LinuxCNC does)
     f_col = col("F")
     has_f = ~np.isnan(f_col)
+    # LinuxCNC sets F to 0 at every G94/G95 (also when already in force) and at a change of mode
     fm_change = np.zeros(n, bool)
     fm_change[1:] = feed_mode[1:] != feed_mode[:-1]
     fm_change[0] = feed_mode[0] != 94
+    if gcol["feed_mode"] is not None:
+        fm_change |= np.isin(gcol["feed_mode"], [940, 950])
     feed_value = _ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0)
     if has_f.any() and (f_col[has_f] < 0).any():
         i = int(np.flatnonzero(has_f & (f_col < 0))[0])
@@ -458,11 +462,15 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
         abc_has |= has(ch)
     nonmodal = gcol["nonmodal"]
     nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
-    g10_l, g28, g30, g53, g92 = nm(100), nm(280), nm(300), nm(530), nm(920) | nm(921) | nm(922) | nm(923)
+    g10_l, g28, g30, g53 = nm(100), nm(280), nm(300), nm(530)
+    g92 = nm(920)
+    if gcol["g92_offsets"] is not None:
+        g92 = g92 | (gcol["g92_offsets"] >= 0)
     g52_local = nm(520)
-    takes_axes = g10_l | g92 | g52_local | g28 | g30  # axis words are not a target
+    covets = g10_l | nm(920) | g52_local | g28 | g30   # LinuxCNC's mode_zero_covets_axes
+    takes_axes = covets                                # axis words are not a target
     motion_here = gcol["motion"] >= 0 if gcol["motion"] is not None else np.zeros(n, bool)
-    both = takes_axes & motion_here & (gcol["motion"] != 800 if gcol["motion"] is not None else False)
+    both = covets & motion_here & (gcol["motion"] != 800 if gcol["motion"] is not None else False)
     if both.any():
         i = int(np.argmax(both))
         fail(i, f"G{gcol['motion'][i] / 10:g} with G{int(gcol['nonmodal'][i]) / 10:g}: two G codes that "
@@ -474,6 +482,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
     no_motion = moving & (motion < 0) & ~g53
     if no_motion.any():
         fail(int(np.argmax(no_motion)), "axis words with no motion mode (G0, G1, G2, G3) in force")
+    _modal_checks(fail, n, gcol, motion, motion_here, moving, any_xyz | abc_has, has, g53, absolute,
+                  nm(920) | g52_local, feed_value)
     after_g80 = moving & (motion == 800)
     if after_g80.any():
         fail(int(np.argmax(after_g80)), "axis words with G80 in force (G80 cancels the motion "
@@ -599,13 +609,15 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
     if rows is None:
         per_line = {k: _pad(v, len(lines)) for k, v in state.items()}
         per_line["has_f"] = _pad(has_f, len(lines), False)
+        per_line["feed_reset"] = _pad(fm_change, len(lines), False)
         move_line, row_info = move_rows, None
     else:
         per_line = {k: lines_of_rows(v, rows.row_line, len(lines)) for k, v in state.items()}
         per_line["has_f"] = lines_of_rows(has_f, rows.row_line, len(lines), False)
+        per_line["feed_reset"] = lines_of_rows(fm_change, rows.row_line, len(lines), False)
         move_line = rows.row_line[move_rows]
         row_info = Rows(line=rows.row_line, feed_mode=feed_mode, has_f=has_f, feed_value=feed_value,
-                        move_row=move_rows)
+                        feed_reset=fm_change, move_row=move_rows)
         runs = np.bincount(rows.row_line[rows.row_line >= 0], minlength=len(lines))
         no_split |= (move_line < 0) | (runs[np.maximum(move_line, 0)] > 1)
     return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line, **per_line,
@@ -613,6 +625,33 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
                    rows=row_info)
+
+
+def _modal_checks(fail, n, gcol, motion, motion_here, moving, axis_words, has, g53, absolute, g92_g52,
+                  feed_value) -> None:
+    """LinuxCNC's block checks that need the modal state (``enhance_block``, ``check_g_codes``,
+    the arc and feed checks of ``convert_arc``/``convert_straight``)."""
+    no_axes = g92_g52 & ~axis_words
+    if no_axes.any():
+        fail(int(np.argmax(no_axes)), "G92/G52 without axis words (LinuxCNC refuses it)")
+    to_be = np.where(motion_here | axis_words, motion, -1)
+    bad53 = g53 & ~np.isin(to_be, [0, 10])
+    if bad53.any():
+        fail(int(np.argmax(bad53)), "G53 needs G0 or G1 on its line or in force with axis words")
+    inc53 = g53 & ~absolute
+    if inc53.any():
+        fail(int(np.argmax(inc53)), "G53 in incremental distance mode (G91): LinuxCNC refuses it")
+    code = gcol["motion"] if gcol["motion"] is not None else np.full(n, -1)
+    centre = has("I") | has("J") | has("K") | has("R")
+    bare_arc = np.isin(code, [20, 30]) & ~axis_words & ~centre
+    if bare_arc.any():
+        i = int(np.argmax(bare_arc))
+        fail(i, f"G{code[i] // 10} with neither axis nor centre words (LinuxCNC refuses it)")
+    no_feed = np.isin(code, [10, 20, 30]) & ~(feed_value > 0)
+    if no_feed.any():
+        i = int(np.argmax(no_feed))
+        fail(i, f"G{code[i] // 10} with no F in force (F = 0): LinuxCNC refuses a feed move at F 0, "
+                "even with no axis words")
 
 
 def _pad(arr: np.ndarray, total: int, value=None) -> np.ndarray:

@@ -246,10 +246,7 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
         text = format_feed_exact(float(feed_value[li]))
         want_first[li] = (m, text)
         want_last[li] = text
-    mode_change = np.zeros(n_lines, bool)
-    fm = program.feed_mode
-    mode_change[1:] = fm[1:] != fm[:-1]
-    mode_change[0] = fm[0] != 94
+    mode_change = program.feed_reset
     out_lines = []
     f_in_force = None   # value in program units
     end = min(program.end_line + 1, n_lines)

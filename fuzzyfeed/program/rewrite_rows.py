@@ -94,20 +94,19 @@ def _follow_feeds(rows, row_move, feed_move, first, last):
     cause: dict = {}                         # added line -> the advised lines that made it needed
     line_of = rows.line.tolist()
     mode = rows.feed_mode.tolist()
+    reset = rows.feed_reset.tolist()
     has_f = rows.has_f.tolist()
     value = rows.feed_value.tolist()
     moves = row_move.tolist()
     while True:
         f = 0.0
-        prev_mode = 94
         set_at = -1                          # the last row where the original F was set
         restart = False
         touched: list[int] = []              # advised lines run since set_at
         for r in range(len(line_of)):
             li = line_of[r]
-            if mode[r] != prev_mode:
+            if reset[r]:
                 f, set_at, touched = 0.0, r, []
-                prev_mode = mode[r]
             if li in first:
                 f = last[li]
                 touched.append(li)
