@@ -36,7 +36,7 @@ def rs274_moves(path, tmp_path) -> list[tuple[str, np.ndarray]]:
 
 
 def _value(text: str, params: Parameters | None = None) -> float:
-    return evaluate(compile_line(clean_line("X" + text)), params or Parameters())[0][1]
+    return evaluate(compile_line(clean_line("X" + text)), params or Parameters())[0]
 
 
 class _Expressions:

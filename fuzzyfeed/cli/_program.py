@@ -88,6 +88,8 @@ def run_program(args: argparse.Namespace) -> int:
     path = resolve_shape_path(base)
     table = table_from_args(args)
     program = read_program(path)
+    if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
+        return _pass_through(args, path, program)
     cuts = None
     if selector is not None and program.n_cuts:
         described = [f"{k + 1} (line {int(program.move_line[program.cut_moves(k)[0]]) + 1})"
@@ -126,6 +128,37 @@ def run_program(args: argparse.Namespace) -> int:
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
     if text is not None:
         print(f"wrote {args.gcode}")
+    return 0
+
+
+#: The CSV columns of a program's advice (fuzzyfeed.program.feeds.advice_columns), written as
+#: a header alone when a program has nothing to advise.
+ADVICE_COLUMNS = ("cut", "source_line", "u", "x_mm", "y_mm", "z_mm", "s_mm", "curvature_1_mm",
+                  "curvature_window_max_1_mm", "curvature_variation", "feed_pct_controller", "feed_pct",
+                  "programmed_feed_mm_min", "feed_mm_min")
+
+
+def _pass_through(args: argparse.Namespace, path: Path, program) -> int:
+    """A program with no cut: --gcode gets its bytes unchanged, the CSV its header, one notice."""
+    import warnings
+
+    from fuzzyfeed.base.atomic import atomic_write
+    from fuzzyfeed.errors import FuzzyfeedNotice
+    from fuzzyfeed.io.csv import write_columns
+    from fuzzyfeed.program.model import why_nothing_to_advise
+
+    warnings.warn(f"{path}: nothing to advise ({why_nothing_to_advise(program)}); the program is "
+                  "written back unchanged", FuzzyfeedNotice, stacklevel=2)
+    from fuzzyfeed.io.csv import write_metadata
+
+    reason = why_nothing_to_advise(program)
+    write_columns(args.output, {name: np.zeros(0) for name in ADVICE_COLUMNS})
+    write_metadata(args.output, list(ADVICE_COLUMNS), {"source": str(path), "generator": "fuzzyfeed",
+                                                       "advice": f"nothing to advise: {reason}"})
+    if args.gcode:
+        with atomic_write(args.gcode, "wb") as handle:
+            handle.write(path.read_bytes())
+    print(f"wrote {args.output}" + (f" and {args.gcode}" if args.gcode else ""))
     return 0
 
 

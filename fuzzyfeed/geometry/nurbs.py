@@ -337,6 +337,14 @@ def _power_basis(p: int, knots: np.ndarray, points: np.ndarray, weights: np.ndar
     """
     homogeneous = np.hstack([points * weights[:, None], weights[:, None]])
     n = points.shape[0]
+    if p == 1:   # N = (1 - t, t) on every span: the same as the recursion, without the loop
+        i = np.arange(1, n)
+        i = i[knots[i + 1] > knots[i]]
+        spans = np.concatenate([[knots[1]], knots[i + 1]])
+        out = np.stack([homogeneous[i - 1], -homogeneous[i - 1] + homogeneous[i]], axis=1)
+        spans.flags.writeable = False
+        out.flags.writeable = False
+        return spans, out
     breaks, coeffs = [knots[p]], []
     for i in range(p, n):
         if knots[i + 1] > knots[i]:

@@ -243,6 +243,10 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
     pts = float_array(points, "points")
     if pts.ndim != 2 or pts.shape[0] < 2 or pts.shape[1] not in (2, 3):
         raise InputError(f"points: shape {pts.shape}; need at least 2 points of 2 or 3 coordinates")
+    if max_step_mm is not None and np.isfinite(max_step_mm) and max_step_mm > 0:
+        lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        point_budget(float(segment_pieces(lengths, float(max_step_mm)).sum()) + 1,
+                     f"samples at most {max_step_mm:g} mm apart along {float(lengths.sum()):.6g} mm")
     result = polyline_curvature(pts, tolerance_mm, path_tolerance_mm)
     dim = pts.shape[1]
     xyz = _pad3(pts)

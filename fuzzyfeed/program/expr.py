@@ -197,18 +197,21 @@ class _Reader:
             inner = self.value()
             if c == "+":
                 return inner
+            if hasattr(inner, "const"):
+                return _const(-inner.const)
             return lambda p: -inner(p)
         if "a" <= c <= "z":
             return self.unary()
         m = _NUMBER.match(self.text, self.i)
         raw = m.group(0)
         self.i = m.end()
-        number = _parse_number(raw)
-        return lambda p: number
+        return _const(_parse_number(raw))
 
     def integer(self):
         """A value that must be within 0.0001 of an integer (LinuxCNC's read_integer_value)."""
         fn = self.value()
+        if hasattr(fn, "const"):
+            return _const(_as_integer(fn.const))
 
         def get(p):
             return _as_integer(fn(p))
@@ -264,6 +267,9 @@ class _Reader:
             name = self.name()
             return lambda p: p.get_named(name)
         index = self.integer()
+        if hasattr(index, "const"):
+            k = index.const
+            return lambda p: p.get(k)
         return lambda p: p.get(index(p))
 
     def unary(self):
@@ -299,9 +305,9 @@ class _Reader:
             if self.peek() != "[":
                 raise self.fail("'[' missing after the '/' of ATAN[y]/[x]")
             arg2 = self.expression()
-            return lambda p: math.degrees(math.atan2(arg(p), arg2(p)))
+            return _fold(lambda p: math.degrees(math.atan2(arg(p), arg2(p))), arg, arg2)
         fn = _function(name)
-        return lambda p: _finite(fn(arg(p)))
+        return _fold(lambda p: _finite(fn(arg(p))), arg)
 
 
 def _parse_number(raw: str) -> float:
@@ -435,7 +441,25 @@ def _build(operands: list, ops: list):
 
 
 def _combine(name, a, b):
-    return lambda p: _binary(name, a(p), b(p))
+    return _fold(lambda p: _binary(name, a(p), b(p)), a, b)
+
+
+def _const(value: float):
+    """A value known when the line is read (its function carries it as ``.const``)."""
+    fn = lambda p: value      # noqa: E731 - a function object that can carry the attribute
+    fn.const = value
+    return fn
+
+
+def _fold(fn, *args):
+    """``fn`` computed once when every argument is a constant and it raises no error (an error
+    belongs to the line's execution, which may never come)."""
+    if all(hasattr(a, "const") for a in args):
+        try:
+            return _const(fn(None))
+        except PathFormatError:
+            return fn
+    return fn
 
 
 # ------------------------------------------------------------------------------ a whole line
@@ -450,14 +474,20 @@ class OWord:
 
 @dataclass(frozen=True)
 class LineCode:
-    """A compiled line: its words (letter, value function) in order, its parameter settings
-    ((number function | name), value function), its O-word (or None), and what it uses."""
+    """A compiled line: its words (letter, value function) in order without N, its parameter
+    settings ((number function | name), value function), its O-word (or None), and what the
+    executor needs fast: the letters as indices 0–25, the values when all are constants, whether
+    it stops the program (M2/M30; None when an M word is computed) and sets modal state."""
 
     words: tuple
     settings: tuple
     oword: OWord | None
     fanuc_call: bool = False          # M98 P... [L...]
     fanuc_return: bool = False        # M99
+    letters: tuple = ()
+    constants: tuple | None = None
+    stops: bool | None = False
+    modal: bool = False
 
 
 def compile_line(text: str) -> LineCode:
@@ -469,9 +499,9 @@ def compile_line(text: str) -> LineCode:
     settings: list = []
     if r.peek() == "n":
         r.i += 1
-        words.append(("n", r.value()))
+        r.value()                            # the line number: no effect
     if r.peek() == "o":
-        return LineCode(tuple(words), (), _oword(r))
+        return LineCode((), (), _oword(r))
     fanuc_call = fanuc_return = False
     while r.i < len(text):
         c = r.peek()
@@ -499,17 +529,23 @@ def compile_line(text: str) -> LineCode:
             raise r.fail("an O-word must come first on its line")
         else:
             raise r.fail(f"bad character '{c}' used")
+    stops: bool | None = False
     for letter, fn in words:
         if letter == "m":
-            try:
-                value = fn(None)
-            except (AttributeError, TypeError, PathFormatError):
+            if not hasattr(fn, "const"):
+                stops = None
                 continue
+            value = fn.const
             if value == 98:
                 fanuc_call = True
             elif value == 99:
                 fanuc_return = True
-    return LineCode(tuple(words), tuple(settings), None, fanuc_call, fanuc_return)
+            elif stops is not None and value in (2.0, 30.0):
+                stops = True
+    constants = tuple(fn.const for _, fn in words) if all(hasattr(fn, "const") for _, fn in words) else None
+    return LineCode(tuple(words), tuple(settings), None, fanuc_call, fanuc_return,
+                    letters=tuple(ord(c) - 97 for c, _ in words), constants=constants, stops=stops,
+                    modal=any(c in "gfstm" for c, _ in words))
 
 
 def _oword(r: _Reader) -> OWord:
@@ -548,9 +584,10 @@ def _oword(r: _Reader) -> OWord:
     return OWord(label, keyword, tuple(args))
 
 
-def evaluate(code: LineCode, params: Parameters) -> list[tuple[str, float]]:
-    """The words of ``code`` with their values now, then its parameter settings applied."""
-    words = [(letter, fn(params)) for letter, fn in code.words]
+def evaluate(code: LineCode, params: Parameters) -> list[float]:
+    """The values of ``code``'s words now (in the order of ``code.letters``), then its parameter
+    settings applied."""
+    words = list(code.constants) if code.constants is not None else [fn(params) for _, fn in code.words]
     if code.settings:
         done = [(target if isinstance(target, str) else target(params), fn(params))
                 for target, fn in code.settings]

@@ -32,11 +32,10 @@ from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.program.expr import LineCode, Parameters, clean_line, compile_line, evaluate
 
 #: Most executed lines that carry words (rows) and most lines stepped through in all.
-MAX_ROWS = 1_000_000
-MAX_STEPS = 4_000_000
+MAX_ROWS = 500_000
+MAX_STEPS = 1_000_000
 #: Deepest nesting of subroutine calls (LinuxCNC's INTERP_SUB_ROUTINE_LEVELS).
 MAX_CALL_DEPTH = 10
-_LETTER_INDEX = {ch: ord(ch) - 97 for ch in "abcdefghijklmnopqrstuvwxyz"}
 
 
 @dataclass
@@ -50,26 +49,25 @@ class Source:
     jumps: dict = field(default_factory=dict)        # line -> control data (see _scan)
 
     def compiled(self, i: int) -> LineCode | None:
-        """The compiled line ``i`` (None for a blank, comment-only or '%' line)."""
-        if i in self.code:
-            return self.code[i]
-        raw = self.lines[i]
-        try:
-            text = clean_line(raw)
-        except PathFormatError as exc:
-            raise self.error(i, str(exc)) from None
-        if not text or text == "%":
-            code = None
-        elif "%" in text:
-            raise self.error(i, "'%' must stand alone on its line")
-        else:
+        """The compiled line ``i`` (None for a blank, comment-only or '%' line); a line that
+        cannot be read raises its one-line error (kept: it is raised again if the line runs)."""
+        code = self.code.get(i, _UNREAD)
+        if code is _UNREAD:
             try:
-                code = compile_line(text)
+                text = clean_line(self.lines[i])
+                if not text or text == "%":
+                    code = None
+                elif "%" in text:
+                    raise PathFormatError("'%' must stand alone on its line")
+                else:
+                    code = compile_line(text)
+                    if not code.words and not code.settings and code.oword is None:
+                        code = None
             except PathFormatError as exc:
-                raise self.error(i, str(exc)) from None
-            if not code.words and not code.settings and code.oword is None:
-                code = None
-        self.code[i] = code
+                code = self.error(i, str(exc))
+            self.code[i] = code
+        if isinstance(code, PathFormatError):
+            raise code
         return code
 
     def error(self, i: int, message: str) -> PathFormatError:
@@ -86,7 +84,9 @@ class Execution:
     row as the vectorised reader takes them (row, letter 0–25, value)."""
 
     row_line: np.ndarray
-    row_where: tuple            # per row: (path, 1-based line) for messages
+    files: tuple                # the files rows come from (the program first)
+    row_src: np.ndarray         # per row: index into files
+    row_pc: np.ndarray          # per row: 0-based line in its file
     tl: np.ndarray
     tc: np.ndarray
     tv: np.ndarray
@@ -96,6 +96,10 @@ class Execution:
     @property
     def n_rows(self) -> int:
         return int(self.row_line.size)
+
+    def where(self, row: int) -> tuple[Path, int]:
+        """(file, 1-based line) of ``row``, for messages."""
+        return self.files[int(self.row_src[row])], int(self.row_pc[row]) + 1
 
 
 def needs_execution(body: str) -> bool:
@@ -110,7 +114,10 @@ def _scan(src: Source) -> None:
     scope = ""
     fanuc_open = None
     for i in range(len(src.lines)):
-        code = src.compiled(i)
+        try:
+            code = src.compiled(i)
+        except PathFormatError:
+            continue             # raised when (if) the line runs
         if code is None:
             continue
         if code.fanuc_return and fanuc_open is not None:
@@ -192,8 +199,9 @@ class _State:
         self.metric, self.absolute, self.feed, self.rpm = 1.0, 1.0, 0.0, 0.0
         self.motion, self.plane, self.coord, self.feed_mode, self.tool, self.next_tool = 800.0, 170.0, 540.0, 940.0, 0.0, 0.0
 
-    def update(self, words) -> None:
-        for letter, value in words:
+    def update(self, letters, values) -> None:
+        for k, value in zip(letters, values):
+            letter = chr(97 + k)
             if letter == "g":
                 g = round(value * 10)
                 if g in (200, 210):
@@ -265,11 +273,13 @@ def execute(path: Path, lines: list[str]) -> Execution:
     params = Parameters()
     params.system = state.system(params)
     row_line: list[int] = []
-    row_where: list[tuple] = []
-    tl: list[int] = []
+    row_src: list[int] = []             # index into files
+    row_pc: list[int] = []
+    files: list[Path] = [main.path]
+    counts: list[int] = []              # words per row
     tc: list[int] = []
     tv: list[float] = []
-    calls: list[dict] = []              # frames: return (source, line), repeat counters, label
+    calls: list[dict] = []              # frames: return (source, line), entry, Fanuc or not
     repeats: dict = {}
     flags = {"break": False, "continue": False}
     src, pc = main, 0
@@ -277,6 +287,7 @@ def execute(path: Path, lines: list[str]) -> Execution:
     ended = False
     in_order = True
     last_main = -1
+    file_index = 0
     while True:
         if pc >= len(src.lines):
             if calls:
@@ -286,54 +297,74 @@ def execute(path: Path, lines: list[str]) -> Execution:
         if steps > MAX_STEPS:
             raise src.error(pc, f"the program runs more than {MAX_STEPS:,} lines (a loop that "
                                 "never ends?)")
-        code = src.compiled(pc)
+        code = src.code.get(pc, _UNREAD)
+        if code is _UNREAD or isinstance(code, PathFormatError):
+            code = src.compiled(pc)
         if code is None:
             pc += 1
             continue
         ow = code.oword
         if ow is not None:
+            before = src
             src, pc = _control(src, pc, ow, params, calls, repeats, sources, flags)
-            continue
-        if code.fanuc_return and calls and calls[-1].get("fanuc"):
-            src, pc = _return(params, calls, None)
+            if src is not before:
+                file_index = _file_index(files, src.path)
             continue
         if code.fanuc_return:
-            raise src.error(pc, "M99 outside a subroutine (an endless program) is not supported")
+            if not (calls and calls[-1].get("fanuc")):
+                raise src.error(pc, "M99 outside a subroutine (an endless program) is not supported")
+            src, pc = _return(params, calls, None, repeats)
+            continue
         try:
-            words = evaluate(code, params)
+            values = evaluate(code, params)
         except PathFormatError as exc:
             raise src.error(pc, str(exc)) from None
         if code.fanuc_call:
-            src, pc = _fanuc_call(src, pc, words, params, calls)
+            src, pc = _fanuc_call(src, pc, list(zip(code.letters, values)), params, calls)
+            continue
+        if not code.letters:          # parameter settings only: no row
+            pc += 1
             continue
         if src is main:
             if pc <= last_main:
                 in_order = False
             last_main = pc
+            row_line.append(pc)
         else:
             in_order = False
-        row = len(row_line)
-        if row >= MAX_ROWS:
+            row_line.append(-1)
+        if len(row_line) > MAX_ROWS:
             raise src.error(pc, f"the program executes more than {MAX_ROWS:,} lines with words")
-        row_line.append(pc if src is main else -1)
-        row_where.append((src.path, pc + 1))
-        stop = False
-        for letter, value in words:
-            if letter == "n":
-                continue
-            tl.append(row)
-            tc.append(_LETTER_INDEX[letter])
-            tv.append(value)
-            if letter == "m" and round(value) in (2, 30) and abs(value - round(value)) < 1e-4:
-                stop = True
-        state.update(words)
+        row_src.append(file_index)
+        row_pc.append(pc)
+        counts.append(len(values))
+        tc.extend(code.letters)
+        tv.extend(values)
+        if code.modal:
+            state.update(code.letters, values)
+        stop = code.stops
+        if stop is None:
+            stop = any(k == 12 and abs(v - round(v)) < 1e-4 and round(v) in (2, 30)
+                       for k, v in zip(code.letters, values))
         if stop:
             ended = True
             break
         pc += 1
-    return Execution(row_line=np.asarray(row_line, dtype=np.int64), row_where=tuple(row_where),
-                     tl=np.asarray(tl, dtype=np.int64), tc=np.asarray(tc, dtype=np.int64),
-                     tv=np.asarray(tv, dtype=float), ended=ended, in_order=in_order)
+    n_rows = len(row_line)
+    tl = np.repeat(np.arange(n_rows, dtype=np.int64), np.asarray(counts, dtype=np.int64))
+    return Execution(row_line=np.asarray(row_line, dtype=np.int64), files=tuple(files),
+                     row_src=np.asarray(row_src, dtype=np.int64), row_pc=np.asarray(row_pc, dtype=np.int64),
+                     tl=tl, tc=np.asarray(tc, dtype=np.int64), tv=np.asarray(tv, dtype=float),
+                     ended=ended, in_order=in_order)
+
+
+_UNREAD = object()
+
+
+def _file_index(files: list, path: Path) -> int:
+    if path not in files:
+        files.append(path)
+    return files.index(path)
 
 
 def _eval_arg(src: Source, pc: int, fn, params: Parameters) -> float:
@@ -367,7 +398,7 @@ def _control(src, pc, ow, params, calls, repeats, sources, flags):
         if not calls:
             raise src.error(pc, f"'O{ow.label} {kw}' outside a subroutine call")
         value = _eval_arg(src, pc, ow.args[0], params) if ow.args else None
-        return _return(params, calls, value)
+        return _return(params, calls, value, repeats)
     if kw == "call":
         args = [_eval_arg(src, pc, fn, params) for fn in ow.args]
         target = _find_sub(src, pc, ow.label, sources)
@@ -435,8 +466,10 @@ def _control(src, pc, ow, params, calls, repeats, sources, flags):
     raise src.error(pc, f"O-word '{kw}' is not supported")  # pragma: no cover - all keywords above
 
 
-def _return(params, calls, value):
+def _return(params, calls, value, repeats):
     frame = calls.pop()
+    for key in [k for k in repeats if k[0] > len(calls)]:    # loops left by the return
+        del repeats[key]
     params.leave()
     if value is not None:
         params.return_value, params.value_returned = value, 1.0
@@ -469,7 +502,7 @@ def _find_sub(src: Source, pc: int, label: str, sources: dict):
 
 def _fanuc_call(src, pc, words, params, calls):
     """M98 P<n> [L<k>]: call the Fanuc-style subroutine O<n> k times."""
-    values = dict(words)
+    values = {chr(97 + k): v for k, v in words}
     if "p" not in values:
         raise src.error(pc, "M98 without a P word (the subroutine number)")
     label = str(int(round(values["p"])))

@@ -107,6 +107,8 @@ class Program:
     nurbs: dict = field(default_factory=dict)   # move index -> Nurbs (G5.2 block, in mm)
     nurbs_lines: dict = field(default_factory=dict)  # move index -> (first, last) line of the block
     rows: Rows | None = None          # executed rows, when lines run more than once or out of order
+    rotary: np.ndarray | None = None  # (M,) bool: the move turns a rotary axis (A/B/C; U/V/W)
+    known: np.ndarray | None = None   # (M,) bool: the move starts from a known point
 
     @property
     def n_cuts(self) -> int:
@@ -131,6 +133,27 @@ class Program:
         for m, curve in self.nurbs.items():
             out[m] = curve.length
         return out
+
+
+def why_nothing_to_advise(program: Program) -> str:
+    """Why ``program`` has no cut: its moves counted by what keeps them from being advised (rapids,
+    drilling cycles, rotary moves, feed moves in G93/G95, from unknown positions, or no move)."""
+    kind = program.kind
+    if kind.size == 0:
+        return "no moves"
+    feed_line = program.move_line
+    mode = program.feed_mode[np.maximum(feed_line, 0)]
+    rotary = program.rotary if program.rotary is not None else np.zeros(kind.size, bool)
+    known = program.known if program.known is not None else np.ones(kind.size, bool)
+    cut = np.isin(kind, ADVISED_KINDS)
+    parts = [(np.isin(kind, (RAPID, HOME)), "rapid move(s)"),
+             (kind == CYCLE, "drilling cycle(s), kept as written"),
+             (cut & rotary, "move(s) turning a rotary axis (A/B/C), kept as written"),
+             (cut & ~rotary & (mode != 94), "feed move(s) in G93/G95, kept as written"),
+             (((kind == KEPT) | (cut & ~known)) & ~rotary & (mode == 94),
+              "move(s) from a position the offsets leave unknown, kept as written")]
+    said = [f"{int(sel.sum())} {what}" for sel, what in parts if sel.any()]
+    return "; ".join(said) if said else "only moves of zero length"
 
 
 def arc_geometry(program: Program, m: int) -> dict:

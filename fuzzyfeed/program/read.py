@@ -272,13 +272,13 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
     def fail(i: int, message: str):
         if rows is None:
             _fail(path, int(i) + 1, message)
-        where, number = rows.row_where[int(i)]
+        where, number = rows.where(int(i))
         raise PathFormatError(f"{where}:{number}: {message}")
 
     def text_of(i: int) -> str:
         if rows is None:
             return lines[int(i)].strip()
-        where, number = rows.row_where[int(i)]
+        where, number = rows.where(int(i))
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
     letter = {ch: tc == ord(ch) - 65 for ch in _LETTERS}
@@ -624,7 +624,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
                    move_line=move_line, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
-                   rows=row_info)
+                   rows=row_info, rotary=abc_has[move_rows], known=known[move_rows])
 
 
 def _modal_checks(fail, n, gcol, motion, motion_here, moving, axis_words, has, g53, absolute, g92_g52,
