@@ -33,7 +33,8 @@ SHAPE is a shipped shape's name (see `fuzzyfeed shapes`) or a path to a shape fi
 
 #: Arguments that name output files (attribute, flag) and input files (attribute, name in messages).
 OUTPUT_ARGS = (("output", "-o"), ("plot", "--plot"), ("gcode", "--gcode"), ("gcode_g52", "--gcode-g52"))
-INPUT_ARGS = (("shape", "SHAPE"), ("rules", "--rules"), ("table", "TABLE"), ("tables", "TABLE"))
+INPUT_ARGS = (("shape", "SHAPE"), ("rules", "--rules"), ("table", "TABLE"), ("tables", "TABLE"),
+              ("tool_table", "--tool-table"))
 
 
 class ArgumentParser(argparse.ArgumentParser):

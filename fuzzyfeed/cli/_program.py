@@ -13,6 +13,23 @@ import numpy as np
 from fuzzyfeed.errors import ExportError, MachineLimitsError
 
 
+def add_program_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--tool-table`` and ``--tool-units``: the tool diameters cutter compensation needs."""
+    parser.add_argument("--tool-table", metavar="FILE", default=None,
+                        help="G-code programs: a LinuxCNC tool table (T1 P1 D6.0 Z0.5 ...); with it "
+                             "moves under G41/G42 are advised on the tool centre's path, LinuxCNC's "
+                             "way (without it, the programmed contour, with a notice)")
+    parser.add_argument("--tool-units", choices=("mm", "inch"), default="mm",
+                        help="length units of the tool table's diameters, the machine's units "
+                             "(default: %(default)s; LinuxCNC's stand-alone rs274 reads inch)")
+
+
+def refuse_program_arguments(args: argparse.Namespace) -> None:
+    """Refuse the program-only flags for a shape."""
+    if args.tool_table is not None:
+        raise ExportError("--tool-table applies to G-code programs only (cutter compensation)")
+
+
 def is_program(spec: str) -> bool:
     """True when SHAPE names a G-code file (with or without #N)."""
     from fuzzyfeed.program.model import GCODE_SUFFIXES
@@ -87,7 +104,12 @@ def run_program(args: argparse.Namespace) -> int:
     base, selector = split_selector(args.shape)
     path = resolve_shape_path(base)
     table = table_from_args(args)
-    program = read_program(path)
+    tools = None
+    if args.tool_table is not None:
+        from fuzzyfeed.program.tools import read_tool_table
+
+        tools = read_tool_table(args.tool_table, args.tool_units)
+    program = read_program(path, tools=tools)
     if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
         return _pass_through(args, path, program)
     cuts = None

@@ -8,6 +8,7 @@ import numpy as np
 
 from fuzzyfeed.cli._common import (add_shape_argument, check_feed_mm_min, point_count, positive_float,
                                    table_from_args)
+from fuzzyfeed.cli._program import add_program_arguments, refuse_program_arguments
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
 from fuzzyfeed.errors import InputError, MachineLimitsError
@@ -67,6 +68,7 @@ def register(sub) -> None:
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed and curvature against arc length and the path coloured by feed")
     add_gcode_arguments(p)
+    add_program_arguments(p)
     p.set_defaults(run=run, csv_sidecar=True)
 
 
@@ -202,6 +204,7 @@ def run(args: argparse.Namespace) -> int:
         return run_program(args)
     if args.step_mm is not None:
         raise MachineLimitsError("--step-mm applies to G-code programs only; shapes take --points")
+    refuse_program_arguments(args)
     shapes = drawing_paths(args)
     if shapes is not None and len(shapes) > 1:
         return run_paths(args, shapes)

@@ -42,6 +42,7 @@ import numpy as np
 
 from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
+from fuzzyfeed.program.compensation import comp_per_line, compensate
 from fuzzyfeed.program.flow import execute, needs_execution
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks
 from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program, Rows,
@@ -59,7 +60,7 @@ _GROUPS = {
     "arc_distance": [901, 911],
     "feed_mode": [930, 940, 950],
     "units": [200, 210],
-    "comp": [400],
+    "comp": [400, 410, 411, 420, 421],
     "length": [430, 431, 432, 490],
     "coord": [540, 550, 560, 570, 580, 590, 591, 592, 593],
     "control": [610, 611, 640],
@@ -70,8 +71,7 @@ _GROUPS = {
     "lathe": [80],
 }
 _REFUSED_G = {
-    50: "cubic spline", 51: "quadratic spline", 410: "cutter compensation",
-    420: "cutter compensation", 411: "cutter compensation", 421: "cutter compensation",
+    50: "cubic spline", 51: "quadratic spline",
     330: "spindle-synchronised motion", 331: "rigid tapping", 760: "threading cycle",
     382: "probing", 383: "probing", 384: "probing", 385: "probing", 70: "lathe diameter mode",
     171: "UV plane", 181: "WU plane", 191: "VW plane",
@@ -211,17 +211,20 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     return pos, epoch
 
 
-def read_program(path: str | os.PathLike, text: str | None = None) -> Program:
-    """Read a G-code program (see the module docstring); ``text`` if already read."""
+def read_program(path: str | os.PathLike, text: str | None = None, tools: dict | None = None) -> Program:
+    """Read a G-code program (see the module docstring); ``text`` if already read; ``tools`` the
+    tool diameters (mm) by tool number, for cutter compensation
+    (:func:`fuzzyfeed.program.tools.read_tool_table`)."""
     path = Path(path)
     if text is None:
         from fuzzyfeed.base.files import read_text
         # G-code may be Latin-1 (comments in old controllers' files often are)
         text = read_text(path, "G-code", PathFormatError, latin1=True)
-    return parse_program(text, path)
+    return parse_program(text, path, tools)
 
 
-def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
+def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | None = None) -> Program:
+    """A program from its text (see :func:`read_program`)."""
     path = Path(path)
     newline = "\r\n" if "\r\n" in text else "\n"
     lines = text.split("\n")
@@ -245,15 +248,15 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
         end_line = n_all
         n = n_all
     if needs_execution(body):
-        return _parse_executed(path, lines, newline)
+        return _parse_executed(path, lines, newline, tools)
     if n == 0 or not body.strip():
         raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
                               "nothing to advise")
     tl, tc, tv = _tokenise(body, path, lines)
-    return _interpret(path, lines, newline, end_line, n, tl, tc, tv)
+    return _interpret(path, lines, newline, end_line, n, tl, tc, tv, tools=tools)
 
 
-def _parse_executed(path: Path, lines: list[str], newline: str) -> Program:
+def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | None) -> Program:
     """A program with parameters, expressions or O-words: executed first (see the module docs)."""
     ex = execute(path, lines)
     if ex.n_rows == 0 or ex.tl.size == 0:
@@ -263,11 +266,11 @@ def _parse_executed(path: Path, lines: list[str], newline: str) -> Program:
         last = int(ex.row_line[-1])
         end_line = last if ex.ended else len(lines)
         n = last + 1 if ex.ended else len(lines)
-        return _interpret(path, lines, newline, end_line, n, ex.row_line[ex.tl], ex.tc, ex.tv)
-    return _interpret(path, lines, newline, len(lines), ex.n_rows, ex.tl, ex.tc, ex.tv, rows=ex)
+        return _interpret(path, lines, newline, end_line, n, ex.row_line[ex.tl], ex.tc, ex.tv, tools=tools)
+    return _interpret(path, lines, newline, len(lines), ex.n_rows, ex.tl, ex.tc, ex.tv, rows=ex, tools=tools)
 
 
-def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Program:
+def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=None) -> Program:
     """The program from its tokens: per line (or, with ``rows``, per executed row) the words."""
     def fail(i: int, message: str):
         if rows is None:
@@ -453,6 +456,17 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
         fail(i, f"F{f_col[i]:g}: a feed must be >= 0")
     t_col = col("T")
     tool = _ffill(np.where(has("T"), t_col, -1), has("T"), -1).astype(np.int64)
+    # the tool in the spindle: the T in force at an M6, or M61's Q
+    m6 = np.zeros(n, bool)
+    m6[m_line[m_int == 6]] = True
+    m61 = np.zeros(n, bool)
+    m61[m_line[m_int == 61]] = True
+    loaded_set = m6 | (m61 & has("Q"))
+    loaded = _ffill(np.where(m6, tool, np.where(loaded_set, np.nan_to_num(col("Q")), 0)).astype(np.int64),
+                    loaded_set, 0)
+    comp_code = modal("comp", 400)
+    comp_side, comp_radius = comp_per_line(comp_code, gany("comp"), col("D"), loaded, plane, scale, tools,
+                                           fail)
 
     # --- which lines move, and how ---
     xyz_has = [has(ch) for ch in "XYZ"]
@@ -573,6 +587,36 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None) -> Prog
     for m in nurbs:
         endp[m] = nurbs[m].control_points[-1]
 
+    # --- cutter compensation: the tool centre's path, where the tool's radius is known ---
+    side_m = comp_side[move_rows]
+    unknown_r = (side_m != 0) & np.isnan(comp_radius[move_rows])
+    if unknown_r.any():
+        i = int(move_rows[np.argmax(unknown_r)])
+        i = int(np.flatnonzero(gany("comp")[:i + 1])[-1])        # the G41/G42 line
+        _notice(f"{path}:{int(rows.where(i)[1]) if rows is not None else i + 1}: cutter compensation "
+                "with no tool diameter (give --tool-table FILE, or G41.1/G42.1 D<diameter>): the "
+                "programmed contour is advised, not the tool centre's path")
+        side_m = np.where(unknown_r, 0, side_m)
+    if (side_m != 0).any():
+        moved_kinds = np.isin(kind, [RAPID, LINE, ARC])
+        bad = (side_m != 0) & ~moved_kinds
+        if bad.any():
+            fail(move_rows[np.argmax(bad)], "only G0, G1, G2 and G3 moves can run under cutter "
+                                            "compensation (LinuxCNC refuses the others)")
+        comp = compensate(kind, start, endp, centre, turns, side_m, comp_radius[move_rows] * 1.0,
+                          bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg))
+        src = comp.src
+        remap = {int(old): k for k, old in enumerate(src) if int(old) in nurbs}
+        nurbs = {remap[m]: c for m, c in nurbs.items()}
+        nurbs_lines = {remap[m]: v for m, v in nurbs_lines.items()}
+        in_comp = side_m[src] != 0
+        move_rows, kind, start, endp = move_rows[src], comp.kind, comp.start, comp.end
+        centre = np.where((kind == ARC)[:, None] & in_comp[:, None], comp.centre, centre[src])
+        turns = np.where(in_comp, comp.turns, turns[src])
+        arc_plane = np.where(kind == ARC, np.where(in_comp, 17, arc_plane[src]), 0)
+        feed_mm, no_split = feed_mm[src], no_split[src] | in_comp
+        fmode = fmode[src]
+
     # --- cuts ---
     moved = np.any(endp != start, axis=1) | (turns != 0) | (kind == NURBS)
     advisable = np.isin(kind, [LINE, ARC, NURBS]) & (feed_mode[move_rows] == 94)
@@ -652,6 +696,14 @@ def _modal_checks(fail, n, gcol, motion, motion_here, moving, axis_words, has, g
         i = int(np.argmax(no_feed))
         fail(i, f"G{code[i] // 10} with no F in force (F = 0): LinuxCNC refuses a feed move at F 0, "
                 "even with no axis words")
+
+
+def _notice(message: str) -> None:
+    import warnings
+
+    from fuzzyfeed.errors import FuzzyfeedNotice
+
+    warnings.warn(message, FuzzyfeedNotice, stacklevel=4)
 
 
 def _pad(arr: np.ndarray, total: int, value=None) -> np.ndarray:

@@ -237,6 +237,11 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
     advised = piece_lo >= 0
     for m in np.flatnonzero(feed_kind & advised).tolist():
         li = int(move_line[m])
+        if li in want_first:   # several moves on one line (a corner arc of cutter compensation):
+            slowest = min(want_first[li][1], p_text[piece_lo[m]], key=float)    # one F, the slowest
+            want_first[li] = (want_first[li][0], slowest)
+            want_last[li] = slowest
+            continue
         want_first[li] = (m, p_text[piece_lo[m]])
         want_last[li] = p_text[piece_hi[m] - 1]
     for m in np.flatnonzero(feed_kind & ~advised).tolist():
