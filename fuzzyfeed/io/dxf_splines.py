@@ -60,6 +60,31 @@ def split_bezier_joints(p: int, knots: np.ndarray, points: np.ndarray, weights: 
         pts, w = pts[right_start:], w[right_start:]
 
 
+def split_at_corners(curve: Nurbs) -> list[Nurbs]:
+    """``curve`` cut at every interior knot where its tangent turns (a corner: knot multiplicity
+    = degree with the control polygon bending there): each knot raised to multiplicity p + 1 by
+    knot insertion (the curve unchanged), then cut, so every piece is smooth inside."""
+    from fuzzyfeed.geometry.sampling import tangent_breaks
+
+    corners, _ = tangent_breaks(curve)
+    if corners.size == 0:
+        return [curve]
+    p = curve.degree
+    k = np.asarray(curve.knots, dtype=float)
+    w = np.asarray(curve.weights, dtype=float)
+    pw = np.column_stack([curve.control_points * w[:, None], w])
+    for u in corners:
+        while np.count_nonzero(k == u) < p + 1:
+            k, pw = insert_knot(p, k, pw, float(u))
+    pieces = []
+    for u in corners:
+        j = int(np.argmax(k == u))
+        pieces.append((np.concatenate([k[:j], [u] * (p + 1)]), pw[:j]))
+        k, pw = np.concatenate([[u] * (p + 1), k[j + p + 1:]]), pw[j:]
+    pieces.append((k, pw))
+    return [Nurbs(p, kk, q[:, :-1] / q[:, -1:], q[:, -1]) for kk, q in pieces]
+
+
 def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
 
     if len(entity.control_points) > 0:
@@ -99,7 +124,9 @@ def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
     curves = []
     for k, pts, w in parts:
         try:
-            curves.append(Nurbs(degree, k, pts, w))
+            curves.extend(split_at_corners(Nurbs(degree, k, pts, w)))
         except NurbsError as exc:
             raise PathFormatError(f"{where}: {exc}") from None
+    if len(curves) > len(parts):
+        how += f", cut into {len(curves)} smooth pieces at {len(curves) - len(parts)} corner knot(s)"
     return curves, how

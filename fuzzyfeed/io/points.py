@@ -71,6 +71,9 @@ def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Pat
         raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must lie within "
                               f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     extent = float(np.ptp(pts, axis=0).max())
+    if extent == 0:
+        raise PathFormatError(f"{where}: every point repeats the first; a path needs at least 2 "
+                              "distinct points")
     if extent < MIN_EXTENT_MM:
         raise PathFormatError(f"{where}: all points within {extent:g} mm of each other; a path needs "
                               f"points more than {MIN_EXTENT_MM:g} mm apart")

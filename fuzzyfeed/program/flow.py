@@ -15,9 +15,9 @@ first M2/M30 executed (or at the end of the file). Read-only parameters: ``#<_me
 (tool); the other system parameters (offsets, positions, probe results) depend on the machine
 and are refused when read.
 
-Limits: at most :data:`MAX_ROWS` executed lines with words and :data:`MAX_STEPS` lines in all (a
-loop that never ends is refused in one line, naming the limit), calls nested at most
-:data:`MAX_CALL_DEPTH` deep (LinuxCNC's limit).
+Limits: at most :data:`MAX_ROWS` executed lines with words, and at most :data:`MAX_REPEATS` runs
+of lines that already ran (loops and calls; a loop that never ends is refused in one line, naming
+the limit, in about a second), calls nested at most :data:`MAX_CALL_DEPTH` deep (LinuxCNC's limit).
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.program.expr import LineCode, Parameters, clean_line, compile_line, evaluate
 
 #: Most executed lines that carry words (rows) and most lines stepped through in all.
-MAX_ROWS = 500_000
-MAX_STEPS = 1_000_000
+MAX_ROWS = 2_000_000
+MAX_REPEATS = 500_000
 #: Deepest nesting of subroutine calls (LinuxCNC's INTERP_SUB_ROUTINE_LEVELS).
 MAX_CALL_DEPTH = 10
 
@@ -45,8 +45,12 @@ class Source:
     path: Path
     lines: list[str]
     code: dict = field(default_factory=dict)
+    seen: bytearray = field(default_factory=bytearray)       # lines run at least once
     subs: dict = field(default_factory=dict)         # label -> (first line, end line)
     jumps: dict = field(default_factory=dict)        # line -> control data (see _scan)
+
+    def __post_init__(self):
+        self.seen = bytearray(len(self.lines))
 
     def compiled(self, i: int) -> LineCode | None:
         """The compiled line ``i`` (None for a blank, comment-only or '%' line); a line that
@@ -293,10 +297,13 @@ def execute(path: Path, lines: list[str]) -> Execution:
             if calls:
                 raise src.error(len(src.lines) - 1, "the file ends inside a subroutine call")
             break
-        steps += 1
-        if steps > MAX_STEPS:
-            raise src.error(pc, f"the program runs more than {MAX_STEPS:,} lines (a loop that "
-                                "never ends?)")
+        if src.seen[pc]:
+            steps += 1
+            if steps > MAX_REPEATS:
+                raise src.error(pc, f"the program runs lines again more than {MAX_REPEATS:,} times "
+                                    "(a loop that never ends?)")
+        else:
+            src.seen[pc] = 1
         code = src.code.get(pc, _UNREAD)
         if code is _UNREAD or isinstance(code, PathFormatError):
             code = src.compiled(pc)

@@ -44,7 +44,7 @@ from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
 from fuzzyfeed.program.compensation import comp_per_line, compensate
 from fuzzyfeed.program.flow import execute, needs_execution
-from fuzzyfeed.program.motion import arc_centres, nurbs_blocks
+from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
 from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program, Rows,
                                     lines_of_rows)
 
@@ -54,7 +54,8 @@ _TO_SPACE = str.maketrans({c: " " for c in _LETTERS + "\n"})
 
 # G codes by modal group (code × 10 as an integer)
 _GROUPS = {
-    "motion": [0, 10, 20, 30, 52, 53, 800, 730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890],
+    "motion": [0, 10, 20, 30, 50, 51, 52, 53, 330, 331, 382, 383, 384, 385, 800, 730, 740, 810, 820,
+               830, 840, 850, 860, 870, 880, 890],
     "plane": [170, 180, 190],
     "distance": [900, 910],
     "arc_distance": [901, 911],
@@ -71,9 +72,7 @@ _GROUPS = {
     "lathe": [80],
 }
 _REFUSED_G = {
-    50: "cubic spline", 51: "quadratic spline",
-    330: "spindle-synchronised motion", 331: "rigid tapping", 760: "threading cycle",
-    382: "probing", 383: "probing", 384: "probing", 385: "probing", 70: "lathe diameter mode",
+    760: "threading cycle", 70: "lathe diameter mode",
     171: "UV plane", 181: "WU plane", 191: "VW plane",
 }
 _GROUP_ID = {name: k for k, name in enumerate(_GROUPS)}
@@ -508,6 +507,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         which = "/".join(ch for ch in "IJKR" if has(ch)[i])
         fail(i, f"{which} with G{motion[i] / 10:g}: arc words belong to G2/G3")
     cycle_line = moving & np.isin(motion, list(_CYCLES))
+    probe_line = moving & np.isin(motion, [382, 383, 384, 385])   # ends where the probe trips
+    tap_line = moving & (motion == 331)                           # rigid tapping: back where it began
     control_point = nurbs_open & any_xyz
     # frame resets: before the motion of their line (offsets), after it (homing, G53, cycles)
     coord_change = np.zeros(n, bool)
@@ -524,7 +525,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     pre = []
     for k in range(3):
         p = pre_all | (pre_z if k == 2 else False)
-        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k])
+        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | probe_line
         if k == 2:
             q = q | cycle_line
         else:
@@ -533,7 +534,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         post.append(q)
 
     # --- positions ---
-    updates = (moving | control_point) & ~g53
+    updates = (moving | control_point) & ~g53 & ~tap_line
     pos_after = np.empty((n, 3))
     epoch_after = np.empty((n, 3), dtype=np.int64)
     for k, ch in enumerate("XYZ"):
@@ -586,6 +587,10 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
                                       pos_before, pos_after)
     for m in nurbs:
         endp[m] = nurbs[m].control_points[-1]
+    splines = spline_moves(fail, kind, move_rows, motion, plane, start, endp, col, scale, known)
+    kind[list(splines)] = NURBS
+    nurbs.update(splines)
+    kind[np.isin(mo, [50, 51]) & (kind != NURBS)] = KEPT        # from an unknown point
 
     # --- cutter compensation: the tool centre's path, where the tool's radius is known ---
     side_m = comp_side[move_rows]

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.program.model import HOME, RAPID, Program
-from fuzzyfeed.program.rewrite import _split_lines, edit_line, feed_texts_down, format_feed_exact
+from fuzzyfeed.program.lines import edit_line, feed_texts_down, format_feed_exact, split_lines
 
 #: Two feeds equal within this (program units per minute).
 _SAME = 1e-9
@@ -56,7 +56,7 @@ def rewrite_rows(program: Program, piece_move: np.ndarray, piece_end: np.ndarray
         if li in split:
             m = split[li]
             lo, hi = piece_lo[m], piece_hi[m]
-            out.extend(_split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
+            out.extend(split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
         elif li in first:
             out.append(edit_line(raw, [("F", first[li][1])]))
         elif li in added:
