@@ -4,7 +4,6 @@ fuzzyfeed's reader, and programs with subroutines, loops and branches give the s
 
 from __future__ import annotations
 
-import math
 import random
 import re
 import subprocess
@@ -15,7 +14,7 @@ import pytest
 from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.program.expr import Parameters, clean_line, compile_line, evaluate
 from fuzzyfeed.program.model import ARC, LINE, RAPID
-from fuzzyfeed.program.read import parse_program, read_program
+from fuzzyfeed.program.read import read_program
 from test_gcode_export import rs274_binary
 
 _CALL = re.compile(r"^\s*\d+\s+N\S*\s+(STRAIGHT_TRAVERSE|STRAIGHT_FEED|ARC_FEED)\((.*)\)\s*$")

@@ -28,11 +28,8 @@ import re
 from dataclasses import dataclass
 
 from fuzzyfeed.errors import PathFormatError
+from fuzzyfeed.program.params import MAX_PARAMETER, SUB_PARAMS, Parameters
 
-#: LinuxCNC's RS274NGC_MAX_PARAMETERS: numbered parameters are #1 … #5601.
-MAX_PARAMETER = 5601
-#: Call arguments #1 … #30 (INTERP_SUB_PARAMS) are local to a subroutine call.
-SUB_PARAMS = 30
 #: EQ/NE/LE/GE compare within this (TOLERANCE_EQUAL).
 TOLERANCE_EQUAL = 1e-6
 #: Longest expression nesting read (LinuxCNC's stack is 7 operators deep per level; this bounds
@@ -86,85 +83,6 @@ def clean_line(raw: str) -> str:
             raise _err("comment '(' not closed on this line")
         raw = "".join(out)
     return raw.replace(" ", "").replace("\t", "").lower()
-
-
-class Parameters:
-    """Numbered and named parameters with LinuxCNC's scoping: #1 … #30 and names without a
-    leading ``_`` belong to the current call level; #31 … #5601 and ``_`` names are global.
-    ``system`` maps read-only names (``_metric``, ``_feed`` …) and system numbers to functions of
-    no argument that give their value now (the reader's modal state)."""
-
-    def __init__(self, system: dict | None = None):
-        self.numbered = [0.0] * (MAX_PARAMETER + 1)
-        self.frames: list[dict] = [{}]
-        self.saved_args: list[list[float]] = []
-        self.globals: dict[str, float] = {}
-        self.system = system or {}
-        self.return_value = 0.0
-        self.value_returned = 0.0
-
-    # numbered
-    def get(self, index: int) -> float:
-        if not 1 <= index <= MAX_PARAMETER:
-            raise _err(f"parameter #{index} is out of range (#1 … #{MAX_PARAMETER})")
-        fn = self.system.get(index)
-        if fn is not None:
-            return fn()
-        return self.numbered[index]
-
-    def set(self, index: int, value: float) -> None:
-        if not 1 <= index <= MAX_PARAMETER:
-            raise _err(f"parameter #{index} is out of range (#1 … #{MAX_PARAMETER})")
-        if index in self.system:
-            raise _err(f"parameter #{index} is read-only (or not supported: it depends on the "
-                       "machine's offsets and position)")
-        self.numbered[index] = value
-
-    # named
-    def get_named(self, name: str) -> float:
-        value = self._find(name)
-        if value is None:
-            raise _err(f"named parameter #<{name}> is not defined")
-        return value
-
-    def exists(self, name: str) -> bool:
-        return self._find(name) is not None
-
-    def _find(self, name: str) -> float | None:
-        if name.startswith("_"):
-            if name == "_value":
-                return self.return_value
-            if name == "_value_returned":
-                return self.value_returned
-            fn = self.system.get(name)
-            if fn is not None:
-                return fn()
-            return self.globals.get(name)
-        return self.frames[-1].get(name)
-
-    def set_named(self, name: str, value: float) -> None:
-        if name.startswith("_"):
-            if name in self.system or name in ("_value", "_value_returned"):
-                raise _err(f"named parameter #<{name}> is read-only")
-            self.globals[name] = value
-        else:
-            self.frames[-1][name] = value
-
-    # call levels
-    def enter(self, args: list[float]) -> None:
-        """A subroutine call: #1 … #30 saved and set to ``args`` (0 for the rest), a new scope."""
-        self.saved_args.append(self.numbered[1:SUB_PARAMS + 1])
-        values = list(args) + [0.0] * (SUB_PARAMS - len(args))
-        self.numbered[1:SUB_PARAMS + 1] = values
-        self.frames.append({})
-
-    def leave(self) -> None:
-        self.numbered[1:SUB_PARAMS + 1] = self.saved_args.pop()
-        self.frames.pop()
-
-    @property
-    def level(self) -> int:
-        return len(self.frames) - 1
 
 
 # ------------------------------------------------------------------------------ compiling

@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.errors import PathFormatError
-from fuzzyfeed.program.expr import LineCode, Parameters, clean_line, compile_line, evaluate
+from fuzzyfeed.program.expr import LineCode, clean_line, compile_line, evaluate
+from fuzzyfeed.program.params import ModalState, Parameters
 
 #: Most executed lines that carry words (rows) and most lines stepped through in all.
 MAX_ROWS = 2_000_000
@@ -196,84 +197,12 @@ def _scan(src: Source) -> None:
         raise src.error(src.subs[scope][0], f"'O{scope} sub' has no 'O{scope} endsub'")
 
 
-class _State:
-    """The modal state the read-only parameters report."""
-
-    def __init__(self):
-        self.metric, self.absolute, self.feed, self.rpm = 1.0, 1.0, 0.0, 0.0
-        self.motion, self.plane, self.coord, self.feed_mode, self.tool, self.next_tool = 800.0, 170.0, 540.0, 940.0, 0.0, 0.0
-
-    def update(self, letters, values) -> None:
-        for k, value in zip(letters, values):
-            letter = chr(97 + k)
-            if letter == "g":
-                g = round(value * 10)
-                if g in (200, 210):
-                    self.metric = 1.0 if g == 210 else 0.0
-                elif g in (900, 910):
-                    self.absolute = 1.0 if g == 900 else 0.0
-                elif g in (170, 180, 190):
-                    self.plane = float(g)
-                elif g in (930, 940, 950):
-                    self.feed_mode = float(g)
-                elif 540 <= g <= 593:
-                    self.coord = float(g)
-                elif g in (0, 10, 20, 30, 800) or 730 <= g <= 890:
-                    self.motion = float(g)
-            elif letter == "f":
-                self.feed = value
-            elif letter == "s":
-                self.rpm = abs(value)
-            elif letter == "t":
-                self.next_tool = value
-            elif letter == "m" and round(value) == 6:
-                self.tool = self.next_tool
-
-    def system(self, params: Parameters) -> dict:
-        coord_number = lambda: {540: 1, 550: 2, 560: 3, 570: 4, 580: 5, 590: 6, 591: 7, 592: 8,
-                                593: 9}.get(int(self.coord), 1)
-        out = {
-            "_metric": lambda: self.metric, "_imperial": lambda: 1.0 - self.metric,
-            "_absolute": lambda: self.absolute, "_incremental": lambda: 1.0 - self.absolute,
-            "_feed": lambda: self.feed, "_rpm": lambda: self.rpm, "_motion_mode": lambda: self.motion,
-            "_plane": lambda: self.plane, "_coord_system": lambda: self.coord,
-            "_inverse_time": lambda: 1.0 if self.feed_mode == 930 else 0.0,
-            "_units_per_minute": lambda: 1.0 if self.feed_mode == 940 else 0.0,
-            "_units_per_rev": lambda: 1.0 if self.feed_mode == 950 else 0.0,
-            "_call_level": lambda: float(params.level), "_vmajor": lambda: 2.0, "_vminor": lambda: 9.0,
-            "_current_tool": lambda: self.tool, "_selected_tool": lambda: self.next_tool,
-            5220: lambda: float(coord_number()), 5400: lambda: self.tool,
-        }
-        unsupported = [5161 + k for k in range(230)] + [5401 + k for k in range(28)]
-        for k in unsupported:
-            if k not in out:
-                out[k] = _unsupported(k)
-        for name in ("_x", "_y", "_z", "_a", "_b", "_c", "_u", "_v", "_w", "_abs_x", "_abs_y",
-                     "_abs_z", "_abs_a", "_abs_b", "_abs_c", "_tool_offset", "_retract_r_plane",
-                     "_retract_old_z", "_ccomp", "_line", "_spindle_on", "_spindle_cw", "_mist",
-                     "_flood", "_speed_override", "_feed_override", "_adaptive_feed", "_feed_hold",
-                     "_current_pocket", "_selected_pocket", "_task", "_metric_machine",
-                     "_remap_level", "_spindle_rpm_mode", "_spindle_css_mode", "_ijk_absolute_mode",
-                     "_lathe_diameter_mode", "_lathe_radius_mode"):
-            out.setdefault(name, _unsupported(name))
-        return out
-
-
-def _unsupported(key):
-    what = f"#{key}" if isinstance(key, int) else f"#<{key}>"
-
-    def fail():
-        raise PathFormatError(f"system parameter {what} is not supported (it depends on the "
-                              "machine: offsets, position, probe or I/O)")
-    return fail
-
-
 def execute(path: Path, lines: list[str]) -> Execution:
     """Run the program (see the module docstring) and return its rows."""
     main = Source(Path(path), lines)
     _scan(main)
     sources = {str(main.path): main}
-    state = _State()
+    state = ModalState()
     params = Parameters()
     params.system = state.system(params)
     row_line: list[int] = []

@@ -44,143 +44,16 @@ from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
 from fuzzyfeed.program.compensation import comp_per_line, compensate
 from fuzzyfeed.program.flow import execute, needs_execution
+from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
+from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
 from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program, Rows,
                                     lines_of_rows)
 
-_LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
-_NUMBER_CHARS = b"0123456789.+-"
-_TO_SPACE = str.maketrans({c: " " for c in _LETTERS + "\n"})
-
-# G codes by modal group (code × 10 as an integer)
-_GROUPS = {
-    "motion": [0, 10, 20, 30, 50, 51, 52, 53, 330, 331, 382, 383, 384, 385, 800, 730, 740, 810, 820,
-               830, 840, 850, 860, 870, 880, 890],
-    "plane": [170, 180, 190],
-    "distance": [900, 910],
-    "arc_distance": [901, 911],
-    "feed_mode": [930, 940, 950],
-    "units": [200, 210],
-    "comp": [400, 410, 411, 420, 421],
-    "length": [430, 431, 432, 490],
-    "coord": [540, 550, 560, 570, 580, 590, 591, 592, 593],
-    "control": [610, 611, 640],
-    "spindle": [960, 970],
-    "retract": [980, 990],
-    "nonmodal": [40, 100, 280, 281, 300, 301, 530, 920, 520],
-    "g92_offsets": [921, 922, 923],
-    "lathe": [80],
-}
-_REFUSED_G = {
-    760: "threading cycle", 70: "lathe diameter mode",
-    171: "UV plane", 181: "WU plane", 191: "VW plane",
-}
-_GROUP_ID = {name: k for k, name in enumerate(_GROUPS)}
-_G_LUT = np.full(1000, -1, dtype=np.int16)
-for _name, _codes in _GROUPS.items():
-    _G_LUT[_codes] = _GROUP_ID[_name]
-_CYCLES = {730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890}
-_M_ACCEPTED = set(range(0, 10)) | {30, 48, 49, 50, 51, 52, 53, 60, 61, 62, 63, 64, 65, 66,
-                                   67, 68, 70, 71, 72, 73} | set(range(100, 200))
-_M_STOP = {0, 1, 2, 30, 60}          # executed after the motion of their line
-_M_BREAK = {0, 1, 2, 6, 30, 60}      # the tool stops: a cut ends there
 #: Largest number a word may hold (mm or inch): beyond, a coordinate leaves the ±1 km of
 #: MAX_COORDINATE_MM even in mm (checked again in mm on the positions).
 _MAX_WORD = 1e6
-_LENGTH_LETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"]
-
-
-def _fail(path: Path, line: int, message: str) -> None:
-    raise PathFormatError(f"{path}:{line}: {message}")
-
-
-def _strip_comments(raw: str, path: Path, number: int) -> str:
-    depth = 0
-    out = []
-    for ch in raw:
-        if ch == ";" and not depth:
-            break
-        if ch == "(":
-            if depth:
-                _fail(path, number, "nested comment '(' inside '(...)'")
-            depth = 1
-        elif ch == ")":
-            if not depth:
-                _fail(path, number, "')' without '('")
-            depth = 0
-        elif not depth:
-            out.append(ch)
-    if depth:
-        _fail(path, number, "comment '(' not closed on this line")
-    return "".join(out)
-
-
-def _clean_lines(lines: list[str], text: str, path: Path) -> list[str]:
-    """Program lines without comments, '%' lines or a leading '/', upper case, no blanks."""
-    clean = list(lines)
-    if "(" in text or ")" in text or ";" in text:
-        for i, raw in enumerate(lines):
-            if "(" in raw or ")" in raw or ";" in raw:
-                clean[i] = _strip_comments(raw, path, i + 1)
-    if "%" in text:
-        for i, raw in enumerate(clean):
-            if "%" in raw:
-                if raw.strip() != "%":
-                    _fail(path, i + 1, f"'%' in {lines[i].strip()!r}: '%' must stand alone on its line")
-                clean[i] = ""
-    return clean
-
-
-def _malformed(path: Path, body: str, pos: int, lines: list[str]) -> None:
-    line = body.count("\n", 0, pos) + 1
-    text = lines[line - 1].strip()
-    start = pos   # a parameter name reaches back to its '#<' (the checks may stop inside it)
-    while start > 0 and (body[start - 1].isalpha() or body[start - 1] in "_<"):
-        start -= 1
-    if start > 0 and body[start - 1] == "#":
-        pos = start - 1
-    frag = body[pos:pos + 12].split("\n")[0]
-    if frag[:1] in "#[<" or (frag[:1] == "O"):
-        _fail(path, line, f"'{frag}' in {text!r}: parameters, expressions and O-words are not "
-                          "supported (expand the program first)")
-    _fail(path, line, f"malformed word at '{frag}' in {text!r}; expected a letter followed by a number")
-
-
-def _tokenise(body: str, path: Path, lines: list[str]):
-    """(line index, letter index 0-25, value) arrays of every word of ``body``."""
-    raw = body.encode("ascii", errors="replace")
-    b = np.frombuffer(raw, dtype=np.uint8)
-    if b.size == 0:
-        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
-    is_letter = (b >= 65) & (b <= 90)
-    is_nl = b == 10
-    is_num = np.isin(b, np.frombuffer(_NUMBER_CHARS, dtype=np.uint8))
-    bad = ~(is_letter | is_nl | is_num)
-    if bad.any():
-        _malformed(path, body, int(np.argmax(bad)), lines)
-    letter_pos = np.flatnonzero(is_letter)
-    nxt = np.append(b, 10)[letter_pos + 1]
-    no_number = ~np.isin(nxt, np.frombuffer(_NUMBER_CHARS, dtype=np.uint8))
-    if no_number.any():
-        _malformed(path, body, int(letter_pos[np.argmax(no_number)]), lines)
-    prev = np.insert(b, 0, 10)[:-1]
-    orphan = is_num & ((prev == 10) | ((prev != 10) & ~np.insert(is_letter | is_num, 0, False)[:-1]))
-    if orphan.any():
-        _malformed(path, body, int(np.argmax(orphan)), lines)
-    numbers = body.translate(_TO_SPACE).split()
-    try:
-        values = np.array(numbers, dtype=float)
-    except ValueError:
-        for k, text in enumerate(numbers):
-            try:
-                float(text)
-            except ValueError:
-                _malformed(path, body, int(letter_pos[k]), lines)
-        raise
-    if values.size != letter_pos.size:  # pragma: no cover - guarded by the checks above
-        _malformed(path, body, int(letter_pos[0]), lines)
-    line_of = np.cumsum(is_nl)[letter_pos]
-    return line_of, b[letter_pos].astype(np.int64) - 65, values
+_LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"]
 
 
 def _ffill(values: np.ndarray, has: np.ndarray, default):
@@ -231,7 +104,7 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | 
         lines.pop()
     if newline == "\r\n" or "\r" in text:
         lines = [ln.rstrip("\r") for ln in lines]
-    clean = _clean_lines(lines, text, path)
+    clean = clean_lines(lines, text, path)
     body = "\n".join(clean).upper().replace(" ", "").replace("\t", "")
     if "/" in body:
         body = re.sub(r"(?m)^/", "", body)
@@ -251,7 +124,7 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | 
     if n == 0 or not body.strip():
         raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
                               "nothing to advise")
-    tl, tc, tv = _tokenise(body, path, lines)
+    tl, tc, tv = tokenise(body, path, lines)
     return _interpret(path, lines, newline, end_line, n, tl, tc, tv, tools=tools)
 
 
@@ -273,7 +146,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     """The program from its tokens: per line (or, with ``rows``, per executed row) the words."""
     def fail(i: int, message: str):
         if rows is None:
-            _fail(path, int(i) + 1, message)
+            fail_at(path, int(i) + 1, message)
         where, number = rows.where(int(i))
         raise PathFormatError(f"{where}:{number}: {message}")
 
@@ -283,8 +156,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         where, number = rows.where(int(i))
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
-    letter = {ch: tc == ord(ch) - 65 for ch in _LETTERS}
-    big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTH_LETTERS)
+    letter = {ch: tc == ord(ch) - 65 for ch in LETTERS}
+    big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTHLETTERS)
     if big.any():
         k = int(np.argmax(big))
         text = f"{tv[k]:.6g}"
@@ -315,49 +188,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
 
     # --- G codes by group ---
     gmask = letter["G"]
-    g_line, g_val = tl[gmask], tv[gmask]
-    g10 = np.rint(g_val * 10).astype(np.int64)
-    odd = (np.abs(g_val * 10 - g10) > 1e-6) | (g10 < 0) | (g10 >= 1000)
-    if odd.any():
-        k = int(np.argmax(odd))
-        fail(g_line[k], f"G{g_val[k]:g}: unsupported G code")
-    for k in np.flatnonzero(np.isin(g10, list(_REFUSED_G))):
-        code = int(g10[k])
-        what = _REFUSED_G[code]
-        hint = " (cutter compensation: post the program with compensation done by the CAM)" \
-            if what == "cutter compensation" else ""
-        fail(g_line[k], f"G{code / 10:g} ({what}) is not supported; the path would be read "
-                        f"wrong{hint}")
-    grp = _G_LUT[g10]
-    if (grp < 0).any():
-        k = int(np.argmax(grp < 0))
-        fail(g_line[k], f"G{g_val[k]:g}: unsupported G code")
-    # G80 beside another motion code on a line gives way to it (LinuxCNC's read_g)
-    motion_gid = _GROUP_ID["motion"]
-    is_g80 = (grp == motion_gid) & (g10 == 800)
-    if is_g80.any():
-        motion_lines = g_line[(grp == motion_gid) & ~is_g80]
-        drop = is_g80 & np.isin(g_line, motion_lines)
-        first80 = np.ones(g_line.size, bool)       # G80 G80: one G80
-        idx80 = np.flatnonzero(is_g80)
-        first80[idx80[1:][g_line[idx80[1:]] == g_line[idx80[:-1]]]] = False
-        keep = ~drop & first80
-        g_line, g_val, g10, grp = g_line[keep], g_val[keep], g10[keep], grp[keep]
-    gcol = {}
-    for name, gid in _GROUP_ID.items():
-        sel = grp == gid
-        if not sel.any():
-            gcol[name] = None
-            continue
-        li = g_line[sel]
-        dup = np.flatnonzero(np.diff(li) == 0)
-        if dup.size:
-            codes = g_val[sel]
-            fail(li[dup[0]], f"two G codes of one modal group on one line: G{codes[dup[0]]:g} "
-                             f"and G{codes[dup[0] + 1]:g}")
-        c = np.full(n, -1, dtype=np.int64)
-        c[li] = g10[sel]
-        gcol[name] = c
+    g_line, g10, gcol = g_columns(fail, n, tl[gmask], tv[gmask])
 
     def gany(name):
         c = gcol[name]
@@ -375,7 +206,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     m_line, m_val = tl[mmask], tv[mmask]
     m_int = np.rint(m_val).astype(np.int64)
     for k in range(m_val.size):
-        if m_val[k] != m_int[k] or int(m_int[k]) not in _M_ACCEPTED:
+        if m_val[k] != m_int[k] or int(m_int[k]) not in M_ACCEPTED:
             what = " (subroutine calls are not supported)" if m_int[k] in (98, 99) else ""
             fail(m_line[k], f"M{m_val[k]:g}: unsupported M code{what}")
     e_col = cols["E"]
@@ -388,9 +219,9 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
             fail(i, f"E word with no M66, M67 or M68 to use it in {text_of(i)!r} (LinuxCNC "
                     "refuses it; a number written as 1e6 reads as 1 E6)")
     m_stop = np.zeros(n, bool)
-    m_stop[m_line[np.isin(m_int, list(_M_STOP))]] = True
+    m_stop[m_line[np.isin(m_int, list(M_STOP))]] = True
     m_break = np.zeros(n, bool)
-    m_break[m_line[np.isin(m_int, list(_M_BREAK))]] = True
+    m_break[m_line[np.isin(m_int, list(M_BREAK))]] = True
 
     # --- modal state per line ---
     def modal(name, default):
@@ -495,7 +326,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     no_motion = moving & (motion < 0) & ~g53
     if no_motion.any():
         fail(int(np.argmax(no_motion)), "axis words with no motion mode (G0, G1, G2, G3) in force")
-    _modal_checks(fail, n, gcol, motion, motion_here, moving, any_xyz | abc_has, has, g53, absolute,
+    modal_checks(fail, n, gcol, motion, motion_here, moving, any_xyz | abc_has, has, g53, absolute,
                   nm(920) | g52_local, feed_value)
     after_g80 = moving & (motion == 800)
     if after_g80.any():
@@ -506,7 +337,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         i = int(np.argmax(bad_arcwords))
         which = "/".join(ch for ch in "IJKR" if has(ch)[i])
         fail(i, f"{which} with G{motion[i] / 10:g}: arc words belong to G2/G3")
-    cycle_line = moving & np.isin(motion, list(_CYCLES))
+    cycle_line = moving & np.isin(motion, list(CYCLES))
     probe_line = moving & np.isin(motion, [382, 383, 384, 385])   # ends where the probe trips
     tap_line = moving & (motion == 331)                           # rigid tapping: back where it began
     control_point = nurbs_open & any_xyz
@@ -567,7 +398,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     kind[mo == 0] = RAPID
     kind[mo == 10] = LINE
     kind[(mo == 20) | (mo == 30)] = ARC
-    kind[np.isin(mo, list(_CYCLES))] = CYCLE
+    kind[np.isin(mo, list(CYCLES))] = CYCLE
     hl = home_line[move_rows] | g53[move_rows]
     kind[hl & ((mo == 0) | home_line[move_rows])] = HOME
     kind[g53[move_rows] & (mo != 0)] = KEPT
@@ -674,33 +505,6 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
                    rows=row_info, rotary=abc_has[move_rows], known=known[move_rows])
-
-
-def _modal_checks(fail, n, gcol, motion, motion_here, moving, axis_words, has, g53, absolute, g92_g52,
-                  feed_value) -> None:
-    """LinuxCNC's block checks that need the modal state (``enhance_block``, ``check_g_codes``,
-    the arc and feed checks of ``convert_arc``/``convert_straight``)."""
-    no_axes = g92_g52 & ~axis_words
-    if no_axes.any():
-        fail(int(np.argmax(no_axes)), "G92/G52 without axis words (LinuxCNC refuses it)")
-    to_be = np.where(motion_here | axis_words, motion, -1)
-    bad53 = g53 & ~np.isin(to_be, [0, 10])
-    if bad53.any():
-        fail(int(np.argmax(bad53)), "G53 needs G0 or G1 on its line or in force with axis words")
-    inc53 = g53 & ~absolute
-    if inc53.any():
-        fail(int(np.argmax(inc53)), "G53 in incremental distance mode (G91): LinuxCNC refuses it")
-    code = gcol["motion"] if gcol["motion"] is not None else np.full(n, -1)
-    centre = has("I") | has("J") | has("K") | has("R")
-    bare_arc = np.isin(code, [20, 30]) & ~axis_words & ~centre
-    if bare_arc.any():
-        i = int(np.argmax(bare_arc))
-        fail(i, f"G{code[i] // 10} with neither axis nor centre words (LinuxCNC refuses it)")
-    no_feed = np.isin(code, [10, 20, 30]) & ~(feed_value > 0)
-    if no_feed.any():
-        i = int(np.argmax(no_feed))
-        fail(i, f"G{code[i] // 10} with no F in force (F = 0): LinuxCNC refuses a feed move at F 0, "
-                "even with no axis words")
 
 
 def _notice(message: str) -> None:

@@ -100,13 +100,12 @@ def _follow_feeds(rows, row_move, feed_move, first, last):
     moves = row_move.tolist()
     while True:
         f = 0.0
-        set_at = -1                          # the last row where the original F was set
         restart = False
-        touched: list[int] = []              # advised lines run since set_at
+        touched: list[int] = []              # advised lines run since the original F was set
         for r in range(len(line_of)):
             li = line_of[r]
             if reset[r]:
-                f, set_at, touched = 0.0, r, []
+                f, touched = 0.0, []
             if li in first:
                 f = last[li]
                 touched.append(li)
@@ -115,7 +114,7 @@ def _follow_feeds(rows, row_move, feed_move, first, last):
                 f = added[li]
             elif has_f[r]:
                 f = value[r]
-                set_at, touched = r, []
+                touched = []
             m = moves[r]
             if m < 0 or not feed_move[m] or mode[r] == 93:
                 continue
