@@ -251,7 +251,8 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
         lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
         if float(segment_pieces(lengths, float(max_step_mm)).sum()) + 1 > MAX_POINTS:
             # a path this long is sampled inside its segments more coarsely: within the budget
-            wider = float(lengths.sum()) / (MAX_POINTS - 2 * lengths.size - 1)
+            room = MAX_POINTS - lengths.size - 2         # ceil adds at most one piece a segment
+            wider = float(lengths.sum()) / room if room > 0 else np.inf
             if not wider > max_step_mm:
                 point_budget(np.inf, f"{pts.shape[0]} points sampled inside long segments")
             import warnings

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.errors import NurbsError, PathFormatError
-from fuzzyfeed.geometry.nurbs import Nurbs, insert_knot
+from fuzzyfeed.geometry.nurbs import MIN_EXTENT_MM, Nurbs, insert_knot
 
 
 def _clamp_start(p: int, knots: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -82,7 +82,12 @@ def split_at_corners(curve: Nurbs) -> list[Nurbs]:
         pieces.append((np.concatenate([k[:j], [u] * (p + 1)]), pw[:j]))
         k, pw = np.concatenate([[u] * (p + 1), k[j + p + 1:]]), pw[j:]
     pieces.append((k, pw))
-    return [Nurbs(p, kk, q[:, :-1] / q[:, -1:], q[:, -1]) for kk, q in pieces]
+    out = []
+    for kk, q in pieces:
+        pts = q[:, :-1] / q[:, -1:]
+        if float(np.ptp(pts, axis=0).max()) >= MIN_EXTENT_MM:      # a piece of no length is no path
+            out.append(Nurbs(p, kk, pts, q[:, -1]))
+    return out
 
 
 def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
@@ -123,6 +128,8 @@ def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
             how += f", cut into {len(parts)} pieces at discontinuous Bézier joints"
     curves = []
     for k, pts, w in parts:
+        if float(np.ptp(pts, axis=0).max()) < MIN_EXTENT_MM:       # a piece of no length is no path
+            continue
         try:
             curves.extend(split_at_corners(Nurbs(degree, k, pts, w)))
         except NurbsError as exc:

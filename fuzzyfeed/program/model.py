@@ -27,8 +27,11 @@ NO_FEED_RULE = ("feed move with no F in force (F = 0); the program must give an 
                 "first feed move")
 
 # move kinds
-RAPID, LINE, ARC, NURBS, CYCLE, KEPT, HOME = range(7)
-KIND_NAMES = ("rapid", "line", "arc", "nurbs", "cycle", "kept", "home")
+RAPID, LINE, ARC, NURBS, CYCLE, KEPT, HOME, SYNCED = range(8)
+KIND_NAMES = ("rapid", "line", "arc", "nurbs", "cycle", "kept", "home", "synced")
+#: Kinds whose feed is not an F word (rapids, homing, spindle-synchronised G33/G33.1): no F is
+#: ever written on their lines.
+NO_F_KINDS = (RAPID, HOME, SYNCED)
 #: Kinds the advisor changes (their feed is advised per cut).
 ADVISED_KINDS = (LINE, ARC, NURBS)
 #: Plane codes: G17 (XY), G18 (XZ), G19 (YZ) -> (first axis, second axis, normal axis) indices,
@@ -147,6 +150,7 @@ def why_nothing_to_advise(program: Program) -> str:
     known = program.known if program.known is not None else np.ones(kind.size, bool)
     cut = np.isin(kind, ADVISED_KINDS)
     parts = [(np.isin(kind, (RAPID, HOME)), "rapid move(s)"),
+             (kind == SYNCED, "spindle-synchronised move(s) (G33/G33.1), kept as written"),
              (kind == CYCLE, "drilling cycle(s), kept as written"),
              (cut & rotary, "move(s) turning a rotary axis (A/B/C), kept as written"),
              (cut & ~rotary & (mode != 94), "feed move(s) in G93/G95, kept as written"),

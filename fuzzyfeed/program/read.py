@@ -47,8 +47,8 @@ from fuzzyfeed.program.flow import execute, needs_execution
 from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
 from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
-from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program, Rows,
-                                    lines_of_rows)
+from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, SYNCED, Program,
+                                    Rows, lines_of_rows)
 
 #: Largest number a word may hold (mm or inch): beyond, a coordinate leaves the ±1 km of
 #: MAX_COORDINATE_MM even in mm (checked again in mm on the positions).
@@ -399,6 +399,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     kind[mo == 10] = LINE
     kind[(mo == 20) | (mo == 30)] = ARC
     kind[np.isin(mo, list(CYCLES))] = CYCLE
+    kind[np.isin(mo, [330, 331])] = SYNCED
     hl = home_line[move_rows] | g53[move_rows]
     kind[hl & ((mo == 0) | home_line[move_rows])] = HOME
     kind[g53[move_rows] & (mo != 0)] = KEPT
@@ -408,7 +409,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     fmode = feed_mode[move_rows]
     kept = np.isin(kind, [LINE, ARC]) & (~known[move_rows] | abc_has[move_rows] | (fmode != 94))
     kind[kept & (kind == ARC) & ~known[move_rows]] = KEPT
-    feed_mm = np.where(np.isin(kind, [RAPID, HOME]), np.nan, feed_value[move_rows] * scale[move_rows])
+    feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * scale[move_rows])
     no_split = m_stop[move_rows].copy()
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
                                                        endp, col, inch, scale, ij_absolute)

@@ -23,7 +23,7 @@ import re
 import numpy as np
 
 from fuzzyfeed.program.lines import edit_line, feed_texts_down, format_feed_exact, split_lines
-from fuzzyfeed.program.model import HOME, RAPID, Program
+from fuzzyfeed.program.model import NO_F_KINDS, Program
 
 _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
 
@@ -57,7 +57,7 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
     # per feed move: the F text wanted on its line (first piece) and in force after it (last)
     want_first = {}
     want_last = {}
-    feed_kind = ~np.isin(kind, [RAPID, HOME])
+    feed_kind = ~np.isin(kind, NO_F_KINDS)
     advised = piece_lo >= 0
     for m in np.flatnonzero(feed_kind & advised).tolist():
         li = int(move_line[m])

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fuzzyfeed.program.model import HOME, RAPID, Program
+from fuzzyfeed.program.model import NO_F_KINDS, Program
 from fuzzyfeed.program.lines import edit_line, feed_texts_down, format_feed_exact, split_lines
 
 #: Two feeds equal within this (program units per minute).
@@ -43,7 +43,7 @@ def rewrite_rows(program: Program, piece_move: np.ndarray, piece_end: np.ndarray
     p_val = [float(t) for t in p_text]
     row_move = np.full(rows.line.size, -1)
     row_move[rows.move_row] = np.arange(n_moves)
-    feed_move = ~np.isin(kind, [RAPID, HOME])
+    feed_move = ~np.isin(kind, NO_F_KINDS)
     advised = {int(m) for m in np.flatnonzero(piece_lo >= 0)}
     while True:
         first, last, split = _advised_lines(advised, move_line, piece_lo, piece_hi, p_val, p_text)
