@@ -502,3 +502,62 @@ def test_zero_radius_circle_is_skipped_with_a_notice(tmp_path):
                                              r"1 CIRCLE of radius 0 \(first: CIRCLE"):
         shapes = load_shapes(str(tmp_path / "zero.dxf"))
     assert len(shapes) == 1 and shapes[0].curve.length == pytest.approx(4 * math.pi)
+
+
+def test_spline_with_a_corner_knot_is_cut_there_and_advised(tmp_path, capsys):
+    """A degree-2 SPLINE whose interior knot has multiplicity 2 (= degree) with the control
+    polygon bending there is an L with a sharp corner: the advisor refused it (a corner has no
+    feed). It is cut at the knot into two smooth pieces (the curve unchanged), chained and advised."""
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    doc.modelspace().add_open_spline([(0, 0), (10, 0), (20, 0), (20, 10), (20, 20)], degree=2,
+                                     knots=[0, 0, 0, 0.5, 0.5, 1, 1, 1])
+    doc.saveas(tmp_path / "corner.dxf")
+    shape = load_shape(str(tmp_path / "corner.dxf"))
+    assert shape.polyline is not None                          # two pieces: a point sequence
+    assert shape.curve.length == pytest.approx(40.0, abs=1e-6)
+    corner = np.flatnonzero(np.all(np.isclose(shape.polyline, [20, 0]), axis=1))
+    assert corner.size == 1                                    # the corner is a vertex
+    assert main(["advise", str(tmp_path / "corner.dxf"), "-o", str(tmp_path / "a.csv")]) == 0
+    feed = np.genfromtxt(tmp_path / "a.csv", delimiter=",", names=True)
+    at = np.argmin(np.hypot(feed["x_mm"] - 20, feed["y_mm"]))
+    assert feed["feed_pct"][at] < 0.5 * feed["feed_pct"].max()   # slow at the corner
+
+
+def test_open_insert_chains_are_open_paths(tmp_path):
+    """A block holding an open chain (three LINEs of a U), inserted twice: two open paths, each
+    the U's length, none refused."""
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    block = doc.blocks.new("U")
+    for a, b in [((0, 10), (0, 0)), ((0, 0), (10, 0)), ((10, 0), (10, 10))]:
+        block.add_line(a, b)
+    msp = doc.modelspace()
+    msp.add_blockref("U", (0, 0))
+    msp.add_blockref("U", (30, 0), dxfattribs={"rotation": 90})
+    doc.saveas(tmp_path / "u.dxf")
+    shapes = load_shapes(str(tmp_path / "u.dxf"))
+    assert len(shapes) == 2
+    for shape in shapes:
+        pts = shape.polyline
+        assert shape.curve.length == pytest.approx(30.0)
+        assert np.linalg.norm(pts[0] - pts[-1]) == pytest.approx(10.0)     # open: the U's mouth
+
+
+def test_degenerate_entities_are_counted_in_one_notice(tmp_path):
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    msp.add_lwpolyline([(0, 0), (10, 0), (10, 10)])
+    for k in range(3):
+        msp.add_line((k, k), (k, k))                      # zero length
+    msp.add_arc((5, 5), 0, 0, 90)                         # zero radius
+    msp.add_lwpolyline([(7, 7), (7, 7)])                  # one point
+    doc.saveas(tmp_path / "degenerate.dxf")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        shapes = load_shapes(str(tmp_path / "degenerate.dxf"))
+    said = [str(w.message) for w in caught if issubclass(w.category, FuzzyfeedNotice)]
+    assert len(shapes) == 1 and shapes[0].curve.length == pytest.approx(20.0)
+    assert len(said) == 1 and "5 degenerate entities skipped" in said[0], said
+    assert "3 LINE of zero length" in said[0] and "1 ARC of radius 0" in said[0] and "1 LWPOLYLINE of one point" in said[0]

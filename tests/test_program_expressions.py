@@ -258,3 +258,24 @@ def test_loop_flags_outlive_their_loop_as_in_rs274(tmp_path):
     ends = [nums[:3] for _, nums in moves]
     np.testing.assert_allclose(ours.end, ends, atol=6e-5)
     assert [e[1] for e in ends[3:7]] == [1, 2, 3, 4]    # the break at j = 2 did not leave the loop
+
+
+def test_advised_program_keeps_the_users_expressions(tmp_path, capsys):
+    """The program written back keeps every expression on lines that are not split; a split
+    line gets plain numbers; rs274 makes the same moves from both (only feeds change)."""
+    from canon import canon, compare
+    from fuzzyfeed.cli import main
+
+    program = tmp_path / "expr.ngc"
+    program.write_text("G21 G90 G17\n#<r> = 12\n#2 = [360 / 17]\nG0 X0 Y0 Z5\nG1 Z-1 F[#<r> * 50]\n"
+                       "G1 X[#<r> * 10] Y0\nG3 X[#<r> * 10] Y[#<r> * 2] I0 J#<r>\nG1 X[cos[#2] * 3] Y[sin[#2] * 3]\n"
+                       "G0 Z5\nM2\n")
+    out = tmp_path / "out.ngc"
+    assert main(["advise", str(program), "-o", str(tmp_path / "a.csv"), "--gcode", str(out)]) == 0
+    old, new = program.read_text().splitlines(), out.read_text().splitlines()
+    kept = [ln for ln in old if "[" in ln and any(n.startswith(ln.split(" F")[0]) for n in new)]
+    assert len(kept) >= 3                                           # expression lines kept as written
+    split = [ln for ln in new if ln not in old and "[" not in ln]
+    assert split and all(re.fullmatch(r"G[123] [XYZIJ0-9. -]+F[0-9.]+", ln) for ln in split), split
+    result = compare(canon(program, tmp_path), canon(out, tmp_path))
+    assert result.min_ratio < 0.5
