@@ -459,9 +459,9 @@ MESSAGES = {
     "flag-jerk-tiny-compare": "--jerk-mm-s3", "flag-acc-tiny": "--axis-acc-mm-s2",
     "csv-near-equal-1e-300": "p.csv", "gcode-million-digit-number": "p.ngc:3",
     "gcode-coordinate-1e300-digits": "1 km", "gcode-incremental-past-1km": "1 km",
-    "gcode-cut-past-sample-budget": "--step-mm", "gcode-endless-loop": "500,000 times",
+    "gcode-cut-past-sample-budget": "--step-mm", "gcode-endless-loop": "250,000 times",
     "toml-knotvector-16": "knots must lie within", "toml-knotvector-17": "knots must lie within",
-    "gcode-divide-by-zero": "divide by zero", "gcode-comp-gouge": "gouging",
+    "gcode-divide-by-zero": "divide by zero", "gcode-long-sum": "characters", "gcode-comp-gouge": "gouging",
     "gcode-tool-not-in-table": "not in the tool table", "gcode-tool-table-garbage": "t.tbl:2",
     "dxf-only-degenerate": "no curve to follow",
 }

@@ -408,8 +408,16 @@ class LineCode:
     modal: bool = False
 
 
+#: Longest line (without comments and spaces) read with expressions: LinuxCNC reads 255
+#: characters; a longer one is refused before it is compiled.
+MAX_LINE = 4096
+
+
 def compile_line(text: str) -> LineCode:
     """Compile a cleaned line (see :func:`clean_line`); raises PathFormatError on bad syntax."""
+    if len(text) > MAX_LINE:
+        raise _err(f"a line of {len(text):,} characters (without comments and spaces); LinuxCNC reads "
+                   f"at most 255, fuzzyfeed at most {MAX_LINE:,} in a program with expressions")
     r = _Reader(text)
     if r.peek() == "/":
         r.i += 1

@@ -34,7 +34,7 @@ from fuzzyfeed.program.params import ModalState, Parameters
 
 #: Most executed lines that carry words (rows) and most lines stepped through in all.
 MAX_ROWS = 2_000_000
-MAX_REPEATS = 500_000
+MAX_REPEATS = 250_000
 #: Deepest nesting of subroutine calls (LinuxCNC's INTERP_SUB_ROUTINE_LEVELS).
 MAX_CALL_DEPTH = 10
 
