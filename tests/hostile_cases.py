@@ -297,7 +297,7 @@ GCODE_PROGRAMS = {
     "comp-gouge": "G21 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X10 Y0\nG1 X10 Y2\nG1 X20 Y2\nM2\n",
     "comp-twice": "G21 F100\nG0 X0 Y0\nG41.1 D1\nG1 X10\nG42.1 D1\nG1 Y10\nM2\n",
     "comp-cycle": "G21 F100\nG0 X-10 Y-10\nG41.1 D2\nG1 X0 Y0\nG81 X5 Y5 Z-1 R1\nM2\n",
-    "comp-xz": "G21 F100 G18\nG0 X0 Z0\nG41.1 D1\nG1 X10\nM2\n",
+    "comp-yz": "G21 F100 G19\nG0 Y0 Z0\nG41.1 D1\nG1 Y10\nM2\n",
     # modal rules
     "two-motion-codes": "G21\nG0 G1 X1 F100\nM2\n",
     "g80-axis-words": "G21\nG80 X1\nM2\n",

@@ -1,5 +1,5 @@
-"""Cutter radius compensation (G41/G42) against LinuxCNC's interpreter: random contours of lines
-and arcs (convex and concave corners, arcs inside and outside, arc and line entries, R and IJK
+"""Cutter radius compensation (G41/G42) against LinuxCNC's interpreter: random contours in G17 and
+G18 of lines and arcs (convex and concave corners, arcs inside and outside, arc and line entries, R and IJK
 arcs, rapids and Z moves under compensation, both sides, a negative diameter) are compensated by
 rs274 and by fuzzyfeed's reader; both refuse the same programs (a gouge, an entry shorter than
 the radius) and give the same tool-centre moves on the others: every end point and arc centre
@@ -48,6 +48,16 @@ def rs274_moves(text: str, folder) -> tuple[list | None, str]:
 
 
 def random_contour(rng: random.Random) -> str:
+    """A contour in G17, or in G18 (a quarter of them: the same words on Z and X, I and K)."""
+    text = _random_xy_contour(rng)
+    if rng.random() < 0.25:
+        swap = {"X": "Z", "Y": "X", "Z": "Y", "I": "K", "J": "I"}
+        text = re.sub(r"(?<![A-Z])([XYZIJ])(?=[-.\d])", lambda m: swap[m.group(1)], text)
+        text = text.replace("G17", "G18")
+    return text
+
+
+def _random_xy_contour(rng: random.Random) -> str:
     side = rng.choice(["G41", "G42"])
     tool = rng.choice(["T1 M6", "T2 M6", "T3 M6"])
     n = rng.randint(3, 8)
@@ -105,13 +115,16 @@ def test_random_contours_equal_rs274(tmp_path):
         assert theirs is not None, f"program {k}: rs274 refuses ({why}), fuzzyfeed accepts\n{text}"
         accepted += 1
         assert ours.kind.size == len(theirs), f"program {k}\n{text}"
+        xz = "G18" in text
         for j, (call, nums) in enumerate(theirs):
-            end = nums[:3] if call != "ARC_FEED" else [nums[0], nums[1], nums[5]]
+            end = nums[:3]
+            if call == "ARC_FEED":     # first, second plane axis, centre, turn, normal axis
+                end = [nums[1], nums[5], nums[0]] if xz else [nums[0], nums[1], nums[5]]
+                centre = ours.centre[j, [2, 0]] if xz else ours.centre[j, :2]
+                np.testing.assert_allclose(centre, nums[2:4], atol=1e-3)
+                assert np.sign(ours.turns[j]) == np.sign(nums[4])
             assert ours.kind[j] == KINDS[call], (k, j, call)
             np.testing.assert_allclose(ours.end[j], end, atol=1e-3, err_msg=f"program {k} move {j}\n{text}")
-            if call == "ARC_FEED":
-                np.testing.assert_allclose(ours.centre[j, :2], nums[2:4], atol=1e-3)
-                assert np.sign(ours.turns[j]) == np.sign(nums[4])
     assert accepted >= 30 and refused >= 10, (accepted, refused)
 
 
@@ -169,7 +182,7 @@ def test_round_trip_with_a_tool_table_advises_the_tool_centre(tmp_path, capsys):
 @pytest.mark.parametrize("text, rule", [
     ("G21 F100\nG0 X0 Y0\nG41.1 D4\nG1 X1 Y0\n", "entry move is not longer than the tool radius"),
     ("G21 F100\nG0 X0 Y0\nG41.1\nG1 X10 Y0\n", "G41.1 with no D word"),
-    ("G21 F100\nG18\nG0 X0 Y0\nG41.1 D1\nG1 X10\n", "G17 only"),
+    ("G21 F100\nG19\nG0 X0 Y0\nG41.1 D1\nG1 Y10\n", "G17 \\(XY\\) and G18 \\(XZ\\) only"),
     ("G21 F100\nG0 X0 Y0\nG41.1 D1\nG1 X10\nG42.1 D1\nG1 Y10\n", "while cutter compensation is on"),
     ("G21 F100\nG0 X-10 Y-10\nG41.1 D2\nG1 X0 Y0\nG1 X10\nG81 X5 Y5 Z-1 R1\n", "only G0, G1, G2 and G3"),
     ("G21 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X10 Y0\nG1 X10 Y2\nG1 X20 Y2\n", "without gouging"),

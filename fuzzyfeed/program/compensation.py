@@ -11,7 +11,8 @@ radius around the programmed corner is inserted (a rapid to its end for G0); at 
 the previous move is cut back where the two offset moves meet (line-line, line-arc, arc-line,
 arc-arc), refused where the tool cannot reach the corner without gouging. A move without XY motion
 keeps the tool where it is (its XY end follows the corner cut-back). G40 ends compensation: the
-next move goes from the compensated point to its programmed end. Only the XY plane (G17).
+next move goes from the compensated point to its programmed end. In G18 the same computation runs
+on (Z, X), as LinuxCNC's does (a mill's tool: lathe tool orientations are not read).
 
 Every output move belongs to the programmed move whose line made it (an inserted corner arc to the
 line after the corner, as LinuxCNC runs it at that line's F). Lengths are in mm.
@@ -318,36 +319,57 @@ class _Compensator:
 
 
 def compensate(kind: np.ndarray, start: np.ndarray, end: np.ndarray, centre: np.ndarray,
-               turns: np.ndarray, side: np.ndarray, radius_mm: np.ndarray, inch: bool, fail) -> Compensated:
+               turns: np.ndarray, side: np.ndarray, radius_mm: np.ndarray, plane: np.ndarray, inch: bool,
+               fail) -> Compensated:
     """The moves after compensation (see the module docstring). Per programmed move: ``side``
     +1 (G41, left), −1 (G42, right) or 0 (off), ``radius_mm`` the tool radius (used where side
-    ≠ 0); ``fail(move, message)`` raises the caller's one-line error."""
+    ≠ 0), ``plane`` 17 or 18 (XZ: the algorithm runs on (Z, X) as LinuxCNC's does);
+    ``fail(move, message)`` raises the caller's one-line error."""
     comp = _Compensator(fail, inch)
     current = None
     programmed = None
     first = True
+    axes = np.array([0, 1, 2])
+    order: list[tuple[_Move, bool]] = []          # every output move and whether it follows on
+
+    def flush_out():
+        for mv in comp.out:                          # back from plane coordinates to X, Y, Z
+            xyz = np.empty(3)
+            xyz[axes] = mv.end
+            mv.end = xyz
+            c = np.full(3, math.nan)
+            if mv.kind == ARC:
+                c[axes[0]], c[axes[1]] = mv.centre
+            mv.centre = tuple(c)
+            order.append((mv, True))
+        comp.out = []
+
     for m in range(kind.size):
         s = int(side[m])
-        p = end[m]
         if s == 0:
+            follows = not first
             if not first:                                   # G40: flush, the tool stays where it is
                 comp.move_endpoint_and_flush(m, current[0], current[1])
                 comp.dequeue()
+                flush_out()
                 first = True
-            comp.out.append(_Move(int(kind[m]), p.copy(), m, centre=tuple(centre[m, :2]), turn=int(turns[m])))
-            current = p.copy()
+            order.append((_Move(int(kind[m]), end[m].copy(), m, centre=tuple(centre[m]),
+                                turn=int(turns[m])), follows))
             continue
+        if first:
+            axes = np.array([2, 0, 1]) if int(plane[m]) == 18 else np.array([0, 1, 2])
+        p = end[m][axes]
         r = float(radius_mm[m])
         if r < 0:
             r, s = -r, -s
-        here = start[m] if current is None or first else current
+        here = start[m][axes] if current is None or first else current
         if kind[m] in (RAPID, LINE):
             if first:
                 new = comp.straight_first(m, int(kind[m]), s, r, here, p)
             else:
                 new = comp.straight_next(m, int(kind[m]), s, r, here, programmed, p)
         elif kind[m] == ARC:
-            c = (float(centre[m, 0]), float(centre[m, 1]))
+            c = (float(centre[m, axes[0]]), float(centre[m, axes[1]]))
             if first:
                 new = comp.arc_first(m, s, r, here, p, c, int(turns[m]))
             else:
@@ -358,18 +380,21 @@ def compensate(kind: np.ndarray, start: np.ndarray, end: np.ndarray, centre: np.
         first = False
         current = new
         programmed = p.copy()
+        flush_out()
     comp.dequeue()
-    moves = comp.out
-    n = len(moves)
+    flush_out()
+    n = len(order)
     out_start = np.empty((n, 3))
     prev = start[0] if kind.size else np.zeros(3)
-    for k, mv in enumerate(moves):
-        out_start[k] = prev
+    for k, (mv, follows) in enumerate(order):
+        # a compensated move starts where the last one ended; others where the program put them
+        out_start[k] = prev if follows else start[mv.src]
         prev = mv.end
+    moves = [mv for mv, _ in order]
     return Compensated(src=np.array([mv.src for mv in moves], dtype=np.int64),
                        kind=np.array([mv.kind for mv in moves], dtype=np.int8),
                        start=out_start, end=np.array([mv.end for mv in moves]).reshape(n, 3),
-                       centre=np.array([[mv.centre[0], mv.centre[1], math.nan] for mv in moves]).reshape(n, 3),
+                       centre=np.array([mv.centre for mv in moves], dtype=float).reshape(n, 3),
                        turns=np.array([mv.turn for mv in moves], dtype=np.int64))
 
 
@@ -384,9 +409,9 @@ def comp_per_line(comp_code: np.ndarray, comp_given: np.ndarray, d_col: np.ndarr
     radius = np.full(n, np.nan)
     for i in np.flatnonzero(comp_given & (side != 0)):
         code = int(comp_code[i])
-        if plane[i] != 17:
-            fail(i, f"G{code / 10:g} in the G{int(plane[i])} plane: cutter compensation works in G17 only "
-                    "here (LinuxCNC's XZ compensation is for lathes)")
+        if plane[i] not in (17, 18):
+            fail(i, f"G{code / 10:g} in the G{int(plane[i])} plane: cutter compensation works in G17 (XY) "
+                    "and G18 (XZ) only (LinuxCNC refuses the others)")
         if i > 0 and side[i - 1] != 0:
             fail(i, f"G{code / 10:g} while cutter compensation is on: turn it off with G40 first "
                     "(LinuxCNC refuses it)")

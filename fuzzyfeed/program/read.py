@@ -441,7 +441,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
             fail(move_rows[np.argmax(bad)], "only G0, G1, G2 and G3 moves can run under cutter "
                                             "compensation (LinuxCNC refuses the others)")
         comp = compensate(kind, start, endp, centre, turns, side_m, comp_radius[move_rows] * 1.0,
-                          bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg))
+                          plane[move_rows], bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg))
         src = comp.src
         remap = {int(old): k for k, old in enumerate(src) if int(old) in nurbs}
         nurbs = {remap[m]: c for m, c in nurbs.items()}
@@ -450,7 +450,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         move_rows, kind, start, endp = move_rows[src], comp.kind, comp.start, comp.end
         centre = np.where((kind == ARC)[:, None] & in_comp[:, None], comp.centre, centre[src])
         turns = np.where(in_comp, comp.turns, turns[src])
-        arc_plane = np.where(kind == ARC, np.where(in_comp, 17, arc_plane[src]), 0)
+        arc_plane = np.where(kind == ARC, np.where(in_comp, plane[move_rows], arc_plane[src]), 0)
         feed_mm, no_split = feed_mm[src], no_split[src] | in_comp
         fmode = fmode[src]
 
