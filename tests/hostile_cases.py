@@ -290,7 +290,7 @@ GCODE_PROGRAMS = {
     "sub-twice": "G21\no1 sub\no1 endsub\no1 sub\no1 endsub\nM2\n",
     "m98-no-sub": "G21\nM98 P7\nM2\n",
     "m99-main": "G21\nG0 X0\nM99\n",
-    "polar-word": "G21\nG0 @10 ^30\nM2\n",
+    "polar-beside-x": "G21\nG0 X1 @10 ^30\nM2\n",
     # cutter compensation
     "comp-entry-short": "G21 F100\nG0 X0 Y0\nG41.1 D4\nG1 X1 Y0\nM2\n",
     "comp-no-d": "G21 F100\nG0 X0 Y0\nG42.1\nG1 X10\nM2\n",

@@ -279,3 +279,22 @@ def test_advised_program_keeps_the_users_expressions(tmp_path, capsys):
     assert split and all(re.fullmatch(r"G[123] [XYZIJ0-9. -]+F[0-9.]+", ln) for ln in split), split
     result = compare(canon(program, tmp_path), canon(out, tmp_path))
     assert result.min_ratio < 0.5
+
+
+def test_polar_words_are_kept_and_the_position_after_them_unknown(tmp_path):
+    """``@``/``^`` move the tool to a point that depends on where it is: such a move, and the moves
+    after it until a rapid sets X and Y, are kept as written; the rest is advised and rs274 makes
+    the same moves from the program written back."""
+    from canon import canon, compare
+    from fuzzyfeed.cli import main
+    from fuzzyfeed.program.model import KEPT
+
+    program = tmp_path / "polar.ngc"
+    program.write_text("G21 G90 G17 F300\nG0 X10 Y0\nG1 @10 ^30\nG1 X5 Y5\nG0 X0 Y0\nG1 X10\nG1 Y10\n"
+                       "G1 X0\nM2\n")
+    ours = read_program(program)
+    assert list(ours.kind[1:3]) == [KEPT, KEPT] and ours.cut[1:3].tolist() == [-1, -1]
+    out = tmp_path / "out.ngc"
+    assert main(["advise", str(program), "-o", str(tmp_path / "a.csv"), "--gcode", str(out)]) == 0
+    assert "G1 @10 ^30\nG1 X5 Y5\n" in out.read_text()
+    assert compare(canon(program, tmp_path), canon(out, tmp_path)).min_ratio < 0.5

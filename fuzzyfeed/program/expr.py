@@ -12,7 +12,7 @@ a function ``abs acos asin atan[y]/[x] cos exp exists[#<name>] fix fup ln round 
 integer exponent, division by zero, ``sqrt``/``ln``/``acos``/``asin`` out of range, NaN and
 infinity are errors, as in LinuxCNC. ``^`` inside brackets (LinuxCNC's power is ``**``) is read
 as a power, as Mach3 and Fanuc macro dialects write it; outside brackets ``^`` and ``@`` are
-LinuxCNC's polar words.
+LinuxCNC's polar words (angle and radius), letter codes 26 and 27 of a line's words.
 
 Parameter settings on a line (``#1 = 5``, ``#<depth> = [#1 * 2]``) take effect after the whole
 line is read ("in parallel": ``#1=10 #2=#1`` gives ``#2`` the old ``#1``). A line is compiled once
@@ -52,6 +52,8 @@ O_KEYWORDS = ("sub", "endsub", "call", "do", "while", "repeat", "if", "elseif", 
               "break", "continue", "endwhile", "endrepeat", "return")
 #: Letters that are words of a line (``o`` only at its start, ``n`` only first).
 WORD_LETTERS = set("abcdefghijklmnpqrstuvwxyz")
+#: The polar words' letter codes after the 26 letters: ``@`` radius, ``^`` angle.
+POLAR_LETTERS = {"@": 26, "^": 27}
 
 
 def _err(message: str) -> PathFormatError:
@@ -444,8 +446,9 @@ def compile_line(text: str) -> LineCode:
         elif c in WORD_LETTERS and c != "n":
             r.i += 1
             words.append((c, r.value()))
-        elif c in "@^":
-            raise r.fail(f"polar coordinate word '{c}' is not supported (write X and Y)")
+        elif c in "@^":                      # polar radius and angle: words of their own
+            r.i += 1
+            words.append((c, r.value()))
         elif c == "$":
             r.i += 1
             r.value()                        # spindle selection: no effect on the path
@@ -470,7 +473,8 @@ def compile_line(text: str) -> LineCode:
                 stops = True
     constants = tuple(fn.const for _, fn in words) if all(hasattr(fn, "const") for _, fn in words) else None
     return LineCode(tuple(words), tuple(settings), None, fanuc_call, fanuc_return,
-                    letters=tuple(ord(c) - 97 for c, _ in words), constants=constants, stops=stops,
+                    letters=tuple(POLAR_LETTERS.get(c, ord(c) - 97) for c, _ in words),
+                    constants=constants, stops=stops,
                     modal=any(c in "gfstm" for c, _ in words))
 
 

@@ -304,6 +304,14 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     abc_has = np.zeros(n, bool)
     for ch in "ABCUVW":
         abc_has |= has(ch)
+    # polar words (@ radius, ^ angle): the XY they reach depends on where the tool is; the move is
+    # kept as written and X, Y are unknown after it (LinuxCNC: G17 only, never beside X or Y)
+    polar = np.zeros(n, bool)
+    polar[tl[tc >= 26]] = True
+    bad_polar = polar & (xyz_has[0] | xyz_has[1] | (plane != 17))
+    if bad_polar.any():
+        i = int(np.argmax(bad_polar))
+        fail(i, "polar words (@, ^) beside X or Y, or outside G17 (LinuxCNC refuses them)")
     nonmodal = gcol["nonmodal"]
     nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
     g10_l, g28, g30, g53 = nm(100), nm(280), nm(300), nm(530)
@@ -322,7 +330,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     arcs_words = has("I") | has("J") | has("K") | has("R")
     is_arc_mode = (motion == 20) | (motion == 30)
     full_circle = is_arc_mode & ~any_xyz & (has("I") | has("J") | has("K")) & ~takes_axes
-    moving = (any_xyz | abc_has | full_circle) & ~takes_axes & ~nurbs_open
+    moving = (any_xyz | abc_has | full_circle | polar) & ~takes_axes & ~nurbs_open
     no_motion = moving & (motion < 0) & ~g53
     if no_motion.any():
         fail(int(np.argmax(no_motion)), "axis words with no motion mode (G0, G1, G2, G3) in force")
@@ -357,6 +365,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     for k in range(3):
         p = pre_all | (pre_z if k == 2 else False)
         q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | probe_line
+        if k < 2:
+            q = q | (polar & moving)
         if k == 2:
             q = q | cycle_line
         else:
@@ -400,6 +410,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     kind[(mo == 20) | (mo == 30)] = ARC
     kind[np.isin(mo, list(CYCLES))] = CYCLE
     kind[np.isin(mo, [330, 331])] = SYNCED
+    kind[polar[move_rows] & (kind != CYCLE)] = KEPT
     hl = home_line[move_rows] | g53[move_rows]
     kind[hl & ((mo == 0) | home_line[move_rows])] = HOME
     kind[g53[move_rows] & (mo != 0)] = KEPT
