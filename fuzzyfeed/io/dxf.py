@@ -359,7 +359,10 @@ def _contours(path: Path) -> tuple[list[Contour], str]:
     scale, units = _units_factor(doc, path)
     try:
         pieces, other = _collect(doc, path, scale)
-    except PathFormatError:
+    except PathFormatError as exc:
+        if "must lie within" in str(exc) and "--units" not in units:   # the stated units may be wrong
+            raise PathFormatError(f"{exc} (the drawing's units: {units}; --units mm|inch reads its "
+                                  "numbers in other units)") from None
         raise
     except Exception as exc:  # noqa: BLE001 — any ezdxf failure on a strange file is one line
         raise PathFormatError(f"{path}: ezdxf could not read the drawing's entities "

@@ -116,6 +116,20 @@ def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
         raise PathFormatError(f"{where}: control point {i} = {points[i].tolist()}; must be finite")
     points = points * scale
     weights = np.ones(len(points)) if weights is None or weights.size == 0 else weights
+    implied = knots.size - len(points) - 1
+    if knots.size != len(points) + degree + 1 and 1 <= implied < degree and \
+            np.ptp(knots[:implied + 1]) == 0 and np.ptp(knots[-implied - 1:]) == 0:
+        # a writer that states the wrong degree: the knots and control points make a clamped
+        # curve of degree `implied` (arcs written as rational quadratics flagged degree 3)
+        import warnings
+
+        from fuzzyfeed.errors import FuzzyfeedNotice
+
+        warnings.warn(f"{where}: degree {degree} stated, but its {knots.size} knots and {len(points)} "
+                      f"control points make a clamped curve of degree {implied}: read as degree "
+                      f"{implied}", FuzzyfeedNotice, stacklevel=2)
+        how += f", degree {implied} (the file says {degree})"
+        degree = implied
     valid = (degree >= 1 and knots.size == len(points) + degree + 1 and np.all(np.diff(knots) >= 0)
              and np.isfinite(knots).all() and np.all(weights > 0))
     if valid and (np.ptp(knots[:degree + 1]) > 0 or np.ptp(knots[-degree - 1:]) > 0):

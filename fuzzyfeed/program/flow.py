@@ -11,8 +11,9 @@ Fanuc-style ``O100`` … ``M99`` subroutines called by ``M98 P100 [L n]``. The p
 first M2/M30 executed (or at the end of the file). Read-only parameters: ``#<_metric>``,
 ``_imperial``, ``_absolute``, ``_incremental``, ``_feed``, ``_rpm``, ``_motion_mode``,
 ``_plane``, ``_coord_system``, ``_inverse_time``, ``_units_per_minute``, ``_units_per_rev``,
-``_call_level``, ``_vmajor``, ``_vminor`` and ``#5220`` (coordinate system 1–9) and ``#5400``
-(tool); the other system parameters (offsets, positions, probe results) depend on the machine
+``_call_level``, ``_vmajor``, ``_vminor``, ``#5220`` (coordinate system 1–9), ``#5400`` (tool)
+and the probe results ``#5061``–``#5063``, ``#5070`` (read as the last G38.x's target, with a
+notice); the other system parameters (offsets, positions, tool data, I/O) depend on the machine
 and are refused when read.
 
 Limits: at most :data:`MAX_ROWS` executed lines with words, and at most :data:`MAX_REPEATS` runs
@@ -202,7 +203,7 @@ def execute(path: Path, lines: list[str]) -> Execution:
     main = Source(Path(path), lines)
     _scan(main)
     sources = {str(main.path): main}
-    state = ModalState()
+    state = ModalState(str(main.path))
     params = Parameters()
     params.system = state.system(params)
     row_line: list[int] = []

@@ -100,11 +100,19 @@ class Parameters:
 class ModalState:
     """The modal state the read-only parameters report, updated from every executed line."""
 
-    def __init__(self):
+    def __init__(self, where: str = "the program"):
         self.metric, self.absolute, self.feed, self.rpm = 1.0, 1.0, 0.0, 0.0
         self.motion, self.plane, self.coord, self.feed_mode, self.tool, self.next_tool = 800.0, 170.0, 540.0, 940.0, 0.0, 0.0
+        self.where = where
+        self.probe: dict | None = None     # the target words of the last G38.x (absolute) line
+        self.probe_said = False
 
     def update(self, letters, values) -> None:
+        if any(k == 6 and round(v * 10) in (382, 383, 384, 385) for k, v in zip(letters, values)):
+            absolute = self.absolute == 1.0 and not any(k == 6 and round(v * 10) == 910
+                                                        for k, v in zip(letters, values))
+            self.probe = {chr(97 + k): v for k, v in zip(letters, values) if k in (23, 24, 25)} \
+                if absolute else {}
         for k, value in zip(letters, values):
             letter = chr(97 + k)
             if letter == "g":
@@ -145,7 +153,11 @@ class ModalState:
             "_current_tool": lambda: self.tool, "_selected_tool": lambda: self.next_tool,
             5220: lambda: float(coord_number()), 5400: lambda: self.tool,
         }
-        unsupported = [5161 + k for k in range(230)] + [5401 + k for k in range(28)]
+        for k, axis in ((5061, "x"), (5062, "y"), (5063, "z")):
+            out[k] = self._probe_value(k, axis)
+        out[5070] = self._probe_value(5070, None)
+        unsupported = ([5064 + k for k in range(6)] + [5161 + k for k in range(230)] + [5399]
+                       + [5401 + k for k in range(28)])    # probe, offsets, M66, tool data, position
         for k in unsupported:
             if k not in out:
                 out[k] = _unsupported(k)
@@ -158,6 +170,26 @@ class ModalState:
                      "_lathe_diameter_mode", "_lathe_radius_mode"):
             out.setdefault(name, _unsupported(name))
         return out
+
+
+    def _probe_value(self, number: int, axis: str | None):
+        """#5061–#5063 (where the probe tripped) read as the last G38.x's target in X, Y, Z, and
+        #5070 (tripped) as 1, with one notice: the machine measures them; the advice follows the
+        path the program takes when the probe trips at its target."""
+        def value() -> float:
+            if self.probe is None or (axis is not None and axis not in self.probe):
+                return _unsupported(number)()
+            if not self.probe_said:
+                import warnings
+
+                from fuzzyfeed.errors import FuzzyfeedNotice
+
+                warnings.warn(f"{self.where}: probe results (#5061-#5063, #5070) read as the probe's "
+                              "target (the machine measures them); the advice follows the path the "
+                              "program takes then", FuzzyfeedNotice, stacklevel=2)
+                self.probe_said = True
+            return 1.0 if axis is None else float(self.probe[axis])
+        return value
 
 
 def _unsupported(key):
