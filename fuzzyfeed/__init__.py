@@ -39,7 +39,18 @@ _LAZY = {
 }
 
 
+def _batch_api(paths, out, **options):
+    """``fuzzyfeed.batch(paths, out, ...)``: the batch command's Python face,
+    :func:`fuzzyfeed.cli.batch.batch` (the package :mod:`fuzzyfeed.batch` is callable and lands here,
+    so the engine never imports the command line it serves)."""
+    from fuzzyfeed.cli.batch import batch
+
+    return batch(paths, out, **options)
+
+
 def __getattr__(name: str):
+    if name == "batch":      # the package, callable: fuzzyfeed.batch(paths, out, ...)
+        return importlib.import_module("fuzzyfeed.batch")
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'fuzzyfeed' has no attribute {name!r}")
@@ -49,7 +60,7 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | {"batch"})
 
 
 __all__ = sorted([
@@ -57,6 +68,7 @@ __all__ = sorted([
     "Nurbs",
     "PathSamples",
     "__version__",
+    "batch",
     "sample_by_arc_length",
     "sample_uniform_u",
     *_LAZY,

@@ -41,6 +41,16 @@ class ExportError(ValueError, FuzzyfeedError):
     """A profile cannot be exported in the requested format."""
 
 
+class BatchError(ValueError, FuzzyfeedError):
+    """A batch cannot run as asked (no input found, results folder among the inputs, a cluster
+    that cannot be reached or runs another fuzzyfeed)."""
+
+
+class FileConflictError(FuzzyfeedError):
+    """A file to be written changed on disk since it was read, or is another file; the caller
+    asks before overwriting it."""
+
+
 class FuzzyfeedNotice(UserWarning):
     """Something the user should know that is not an error (a damaged file read through recovery,
     units assumed); the CLI prints it as one line ``fuzzyfeed: notice: ...`` on stderr."""

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "fuzzyfeed"
-HEAVY = ("matplotlib", "pandas", "ezdxf", "skfuzzy", "tqdm")
+HEAVY = ("matplotlib", "pandas", "ezdxf", "skfuzzy", "tqdm", "panel", "bokeh", "tomlkit", "dask", "distributed")
 
 
 def module_imports(path: Path, top_level_only: bool) -> set[str]:

@@ -45,6 +45,13 @@ def test_shipped_shapes_are_feasible(trajectories, name):
 
 
 @pytest.mark.parametrize("name", shape_names())
+def test_seven_phase_transitions_are_feasible_and_not_slower_than_cosine(trajectories, name):
+    seven = schedule(load_shape(name).curve, transition="seven-phase")
+    assert_feasible(seven)
+    assert seven.cycle_time_s <= trajectories[name].cycle_time_s + 1e-9
+
+
+@pytest.mark.parametrize("name", shape_names())
 def test_approach_1_is_feasible_and_the_default_not_slower(trajectories, name):
     traj = schedule(load_shape(name).curve, approach=1)  # seed 000's own choice, kept as an option
     assert_feasible(traj)
@@ -56,8 +63,9 @@ def test_approach_1_keeps_seed_000_figures_on_wm():
     # follows the schedule (fluctuation with parameter compensation ≤ 0.001 %)
     from fuzzyfeed.geometry.interpolate import feed_fluctuation
 
-    traj = schedule(load_shape("wm").curve, approach=1)
+    traj = schedule(load_shape("wm").curve, approach=1, transition="cosine")  # the paper's scheduler
     assert traj.n_critical >= 4 and traj.n_blocks == traj.n_critical + 1
+    assert all(seg.jerk_mm_s3 is None for b in traj.blocks for seg in b.segments)  # cosine transitions
     fluct = feed_fluctuation(traj.curve, traj.u, traj.s_mm)
     assert np.nanmax(fluct) * 100 <= 1e-3
 
@@ -236,13 +244,16 @@ def test_zero_or_negative_limits_are_refused(field, value):
         MachineLimits(**{field: value})
 
 
-def test_straight_line_is_one_block_at_the_command_feed():
+@pytest.mark.parametrize("transition, t_ramp", [
+    ("cosine", math.pi * math.sqrt(100 / 20_000)),  # jerk-limited cosine 0 -> 100 mm/s (eq. (20))
+    ("seven-phase", 100 / 1000 + 1000 / 10_000),  # Δv = A²/J: T = Δv/A + A/J, no plateau
+])
+def test_straight_line_is_one_block_at_the_command_feed(transition, t_ramp):
     line = Nurbs(1, [0, 0, 1, 1], [[0, 0, 0], [60, 80, 0]])
     lim = MachineLimits(feed_mm_s=100, axis_vel_mm_s=1000, axis_acc_mm_s2=1000, jerk_mm_s3=10_000)
-    traj = schedule(line, lim)
+    traj = schedule(line, lim, transition=transition)
     assert_feasible(traj)
     assert traj.n_blocks == 1 and traj.n_critical == 0
-    t_ramp = math.pi * math.sqrt(100 / 20_000)  # jerk-limited cosine 0 -> 100 mm/s
     expected = 100 / 100 + t_ramp  # cruise + two half ramps
     assert traj.cycle_time_s == pytest.approx(expected, abs=2 * lim.ts_s)
 
@@ -375,6 +386,74 @@ def test_a_corner_inside_a_merged_block_is_held():
                                            * lengths[:, None], axis=0)])
     from slw_cases import polyline
 
-    traj = schedule(polyline(pts), MachineLimits(), blend=False)
+    # the case needs the cosine's longer transitions: the seven-phase ramps reach the caps
+    # without merging those blocks (run below too)
+    traj = schedule(polyline(pts), MachineLimits(), blend=False, transition="cosine")
     assert traj.stats.merged >= 1  # the case: a corner's junction merged into a block
     assert_feasible(traj)
+    assert_feasible(schedule(polyline(pts), MachineLimits(), blend=False, transition="seven-phase"))
+
+
+# ---------------------------------------------------------------------- issue 27: the last limit breaks
+def chord_jerk(traj) -> np.ndarray:
+    """|d³/dt³ Σ|ΔP_k|| / J per tick: the tangential jerk of the motion along the chords."""
+    ts = traj.limits.ts_s
+    chord = np.linalg.norm(np.diff(traj.xyz, axis=0), axis=1)
+    acc = np.diff(np.concatenate([[0.0], chord / ts, [0.0]])) / ts
+    return np.abs(np.diff(acc)) / ts / traj.limits.jerk_mm_s3
+
+
+def test_a_near_cusp_keeps_the_jerk_along_the_path():
+    """A random cubic whose curve turns 90° within 0.45 µm at u ≈ 0.79 (the issue: 13.8 × J at a
+    knot at 0.42 mm/s): the chord across the turn was 10 % shorter than the step, and the jerk of
+    the distance travelled along the chords 9.3 × J. The interpolation now makes every chord of a
+    smooth stretch μ × its step, the near-cusp's too."""
+    traj = schedule(slw_cases.cusp_cubic(), MachineLimits())
+    assert_feasible(traj)
+    jerk = chord_jerk(traj)
+    k = int(np.argmax(jerk))
+    assert jerk[k] <= 1.001, (jerk[k], traj.feed_mm_s[k])
+    assert traj.feed_mm_s.min() < 0.5 < traj.feed_mm_s.max()  # the slow pass is in the schedule
+
+
+def test_a_slow_y_axis_is_held_between_two_reference_points():
+    """wm on a Y axis of 30 mm/s and 100 mm/s²: with seven-phase transitions the look-ahead, reading
+    T and κN interpolated between reference points 0.1 mm apart, passed 100.36 % of A_y at a
+    short block's peak; samples within 1 % of a limit are now read at the path itself."""
+    lim = MachineLimits(axis_vel_mm_s=(100, 30, 100), axis_acc_mm_s2=(1000, 100, 1000))
+    m = assert_feasible(schedule(load_shape("wm").curve, lim, transition="seven-phase"))
+    assert m["axis_acc"] <= 1 + 5e-5
+
+
+@pytest.mark.parametrize("transition", ["seven-phase", "cosine"])
+def test_every_tick_of_the_shipped_shapes_on_a_slow_y_axis_is_within_the_limits(transition):
+    lim = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+    for name in ("trident2", "wm"):
+        m = measure(schedule(load_shape(name).curve, lim, transition=transition))
+        assert max(m[k] for k in ("feed", "axis_vel", "axis_acc", "jerk")) <= 1 + 5e-5, (name, m)
+
+
+def test_a_breach_left_after_the_repairs_is_one_line_naming_limit_axis_place_and_ratio(monkeypatch):
+    """A random parabola on unequal axes whose positions' second differences pass A_y by 0.08 % at
+    a curvature peak the look-ahead holds exactly: the schedule is redone with the feed lowered
+    there. Without those repairs the breach is the error, never a schedule over a limit."""
+    import fuzzyfeed.slw.trajectory as trajectory
+
+    rng = np.random.default_rng(27)
+    curve, lim = slw_cases.general_nurbs(rng), slw_cases.ratio_machine(rng)
+    m = assert_feasible(schedule(curve, lim, transition="seven-phase"))
+    assert m["axis_acc"] <= 1 + 5e-5
+    monkeypatch.setattr(trajectory, "TICK_REPAIRS", 0)
+    with pytest.raises(InputError, match=r"^acceleration y at s = [0-9.]+ mm: 1\.000[0-9] x its limit of "
+                                         r"280\.104 mm/s\^2; the schedule breaks a machine limit"):
+        schedule(curve, lim, transition="seven-phase")
+
+
+def test_a_kink_under_full_tangential_acceleration_and_a_corner_within_a_tick_hold_the_axis():
+    """A blended polyline on axes 212/113/77 mm/s² with J·Ts² = 0.2 mm/s, with seven-phase
+    transitions: a 0.2° join passed while the tangential acceleration used all of A_y (109 %),
+    and a corner capped at 0.156 mm/s that the chords either side crossed at 0.2 (107 %)."""
+    rng = np.random.default_rng(4)
+    curve, lim = slw_cases.corner_polyline(rng), slw_cases.ratio_machine(rng)
+    m = assert_feasible(schedule(curve, lim, transition="seven-phase"))
+    assert m["axis_acc"] <= 1 + 5e-5

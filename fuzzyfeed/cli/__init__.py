@@ -20,7 +20,7 @@ from fuzzyfeed import __version__
 from fuzzyfeed.errors import FuzzyfeedError
 
 #: Subcommand modules in the order ``--help`` lists them.
-COMMANDS = ("shapes", "plot", "advise", "rules", "schedule", "compare", "tune")
+COMMANDS = ("shapes", "plot", "advise", "batch", "rules", "design", "schedule", "compare", "tune")
 
 DESCRIPTION = """\
 Feedrate advice along NURBS tool paths.
@@ -32,9 +32,10 @@ SHAPE is a shipped shape's name (see `fuzzyfeed shapes`) or a path to a shape fi
 
 
 #: Arguments that name output files (attribute, flag) and input files (attribute, name in messages).
-OUTPUT_ARGS = (("output", "-o"), ("plot", "--plot"), ("gcode", "--gcode"), ("gcode_g52", "--gcode-g52"))
+OUTPUT_ARGS = (("output", "-o"), ("plot", "--plot"), ("gcode", "--gcode"), ("gcode_g52", "--gcode-g52"),
+               ("report", "--report"), ("split_out", "--split-out"))
 INPUT_ARGS = (("shape", "SHAPE"), ("rules", "--rules"), ("table", "TABLE"), ("tables", "TABLE"),
-              ("tool_table", "--tool-table"))
+              ("machine", "--machine"), ("tool_table", "--tool-table"))
 
 
 class ArgumentParser(argparse.ArgumentParser):

@@ -136,14 +136,21 @@ def check_feed_mm_min(value: float) -> float:
     return value
 
 
-def table_from_args(args: argparse.Namespace):
+def table_from_args(args: argparse.Namespace, machine=None):
     """The rule table of ``--rules`` with ``--filter``, ``--window-mm`` and ``--filter-mm`` applied
-    (one place for every path of ``advise``: a shape, a drawing's contours, a program's cuts)."""
+    (one place for every path of ``advise``: a shape, a drawing's contours, a program's cuts).
+    Without ``--rules``: the machine table when a ``machine`` is given, else the paper's."""
     from dataclasses import replace
 
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.errors import MachineLimitsError
+    from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, load_rule_table
 
-    table = load_rule_table(getattr(args, "rules", None))
+    spec = getattr(args, "rules", None)
+    table = load_rule_table(DEFAULT_MACHINE_TABLE if spec is None and machine is not None else spec)
+    if table.inputs == MACHINE and machine is None:
+        raise MachineLimitsError(f"--rules {spec}: table {table.name!r} reads the machine's terms (inputs "
+                                 "= 'machine'); give a machine (--machine FILE, or a machine flag such as "
+                                 "--contour-tol-um)")
     changes = {key: getattr(args, key) for key in ("filter", "window_mm", "filter_mm")
                if getattr(args, key, None) is not None}
     return replace(table, **changes) if changes else table

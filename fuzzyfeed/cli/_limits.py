@@ -1,53 +1,44 @@
-"""The machine-limit flags, the same on every subcommand that takes limits."""
+"""The command feed and machine-limit flags of the subcommands that schedule (see :mod:`._machine`)."""
 
 from __future__ import annotations
 
 import argparse
 
 from fuzzyfeed.cli._common import positive_float
-from fuzzyfeed.machine.limits import (DEFAULT_AXIS_ACC_MM_S2, DEFAULT_AXIS_VEL_MM_S, DEFAULT_CHORD_TOL_MM,
-                              DEFAULT_FEED_MM_S, DEFAULT_JERK_MM_S3, DEFAULT_TS_S, MachineLimits)
-
-
-def axis_values(text: str) -> float | tuple[float, ...]:
-    """argparse type: one positive number for all axes, or three comma-separated (x,y,z)."""
-    parts = [p.strip() for p in text.split(",")]
-    if len(parts) not in (1, 3):
-        raise argparse.ArgumentTypeError(f"{text!r}: give one number for all axes or three as X,Y,Z")
-    values = tuple(positive_float(p) for p in parts)
-    return values[0] if len(values) == 1 else values
+from fuzzyfeed.cli._machine import add_machine_arguments, machine_from_args
+from fuzzyfeed.machine.limits import DEFAULT_CHORD_TOL_MM, DEFAULT_FEED_MM_S, MachineLimits
 
 
 def add_limit_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add --feed-mm-min, --axis-vel-mm-s, --axis-acc-mm-s2, --jerk-mm-s3, --chord-tol-mm, --ts-s."""
-    g = parser.add_argument_group("machine limits")
+    """Add --feed-mm-min and the machine flags (``--machine`` and one flag per field, servo too)."""
+    g = parser.add_argument_group("command feed")
     g.add_argument("--feed-mm-min", type=positive_float, default=DEFAULT_FEED_MM_S * 60.0, metavar="F",
                    help="command feed in mm/min (default: %(default)g)")
-    g.add_argument("--axis-vel-mm-s", type=axis_values, default=DEFAULT_AXIS_VEL_MM_S, metavar="V",
-                   help="axis velocity limit in mm/s, one value or X,Y,Z (default: %(default)g)")
-    g.add_argument("--axis-acc-mm-s2", type=axis_values, default=DEFAULT_AXIS_ACC_MM_S2, metavar="A",
-                   help="axis acceleration limit in mm/s^2, one value or X,Y,Z (default: %(default)g)")
-    g.add_argument("--jerk-mm-s3", type=positive_float, default=DEFAULT_JERK_MM_S3, metavar="J",
-                   help="tangential jerk limit in mm/s^3 (default: %(default)g)")
-    g.add_argument("--chord-tol-mm", type=positive_float, default=DEFAULT_CHORD_TOL_MM, metavar="D",
-                   help="chord error tolerance in mm (default: %(default)g)")
-    g.add_argument("--ts-s", type=positive_float, default=DEFAULT_TS_S, metavar="T",
-                   help="servo (interpolation) period in s (default: %(default)g)")
+    add_machine_arguments(parser)
 
 
 def add_approach_argument(parser: argparse.ArgumentParser) -> None:
-    """``--approach`` (the SLW scheduler's short-block profile), the same on schedule and compare."""
+    """``--approach`` (the SLW scheduler's short-block profile) and ``--transition`` (the shape of
+    its feed changes), the same on schedule and compare."""
     parser.add_argument("--approach", type=int, choices=(1, 2), default=2,
                         help="SLW short blocks (seed 000 Table 1, types 2-3): 2 rises to a peak "
                              "between the two transitions (faster); 1 cruises at the higher end feed "
                              "(the paper's choice, smoother) (default: %(default)s)")
+    parser.add_argument("--transition", choices=("cosine", "seven-phase"), default="cosine",
+                        help="SLW feed changes: cosine (seed 000's; with --approach 1 the paper's "
+                             "scheduler) or seven-phase (trapezoidal acceleration, jerk J all through "
+                             "its ramps; faster on most paths) (default: %(default)s)")
 
 
 def limits_from_args(args: argparse.Namespace) -> MachineLimits:
-    """The validated :class:`MachineLimits` of parsed limit flags (MachineLimitsError if invalid)."""
-    return MachineLimits(feed_mm_s=args.feed_mm_min / 60.0, axis_vel_mm_s=args.axis_vel_mm_s,
-                         axis_acc_mm_s2=args.axis_acc_mm_s2, jerk_mm_s3=args.jerk_mm_s3,
-                         chord_tol_mm=args.chord_tol_mm, ts_s=args.ts_s)
+    """The validated :class:`MachineLimits` of the parsed flags: the command feed, and the machine's
+    limits (its file and flags; without any, the defaults of MachineLimits)."""
+    machine = machine_from_args(args)
+    if machine is not None:
+        # without a machine file the SLW keeps its own chord error default (1 um)
+        own = getattr(args, "machine", None) or getattr(args, "chord_tol_mm", None)
+        return machine.limits(args.feed_mm_min / 60.0, None if own else DEFAULT_CHORD_TOL_MM)
+    return MachineLimits(feed_mm_s=args.feed_mm_min / 60.0)
 
 
 def program_feed_limits(shape, limits: MachineLimits):

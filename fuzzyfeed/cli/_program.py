@@ -72,7 +72,9 @@ def _combined_advice(pa):
                        feed_pct=cat["pct"], table=pa.table)
 
 
-def run_program(args: argparse.Namespace) -> int:
+def run_program(args: argparse.Namespace) -> dict:
+    """``advise PROGRAM``: writes the outputs, prints the summary and returns its figures (see
+    :func:`fuzzyfeed.cli.advise.advise_file`)."""
     from fuzzyfeed.cli._common import check_feed_mm_min, table_from_args
     from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
     from fuzzyfeed.base.atomic import atomic_write
@@ -103,7 +105,10 @@ def run_program(args: argparse.Namespace) -> int:
         raise ExportError(f"output files must differ: {', '.join(outputs)}")
     base, selector = split_selector(args.shape)
     path = resolve_shape_path(base)
-    table = table_from_args(args)
+    from fuzzyfeed.cli._machine import machine_from_args
+
+    machine = machine_from_args(args)
+    table = table_from_args(args, machine)
     tools = None
     if args.tool_table is not None:
         from fuzzyfeed.program.tools import read_tool_table
@@ -118,6 +123,12 @@ def run_program(args: argparse.Namespace) -> int:
                      for k in range(program.n_cuts)]
         cuts = [pick_by_index(program.path, selector, described)]
     step = args.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
+    if machine is not None:
+        return _run_on_machine(args, program, machine, table, cuts, cap, step)
+    if args.report is not None or args.no_reference:
+        flag = "--report" if args.report is not None else "--no-reference"
+        raise MachineLimitsError(f"{flag}: the value report needs a machine (--machine FILE, or a "
+                                 "machine flag such as --contour-tol-um)")
     pa = advise_program(program, table, cuts=cuts, step_mm=args.step_mm or DEFAULT_STEP_MM,
                         cap_mm_min=cap, feed_step_mm_min=step)
     text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min) if args.gcode else None
@@ -150,7 +161,8 @@ def run_program(args: argparse.Namespace) -> int:
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
     if text is not None:
         print(f"wrote {args.gcode}")
-    return 0
+    return {"cuts": program.n_cuts, "cuts_advised": len(pa.cuts), "time_written_s": t_prog,
+            "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean())}
 
 
 #: The CSV columns of a program's advice (fuzzyfeed.program.feeds.advice_columns), written as
@@ -160,8 +172,9 @@ ADVICE_COLUMNS = ("cut", "source_line", "u", "x_mm", "y_mm", "z_mm", "s_mm", "cu
                   "programmed_feed_mm_min", "feed_mm_min")
 
 
-def _pass_through(args: argparse.Namespace, path: Path, program) -> int:
-    """A program with no cut: --gcode gets its bytes unchanged, the CSV its header, one notice."""
+def _pass_through(args: argparse.Namespace, path: Path, program) -> dict:
+    """A program with no cut: --gcode gets its bytes unchanged, the CSV its header, one notice;
+    the figures of no cut advised."""
     import warnings
 
     from fuzzyfeed.base.atomic import atomic_write
@@ -181,9 +194,63 @@ def _pass_through(args: argparse.Namespace, path: Path, program) -> int:
         with atomic_write(args.gcode, "wb") as handle:
             handle.write(path.read_bytes())
     print(f"wrote {args.output}" + (f" and {args.gcode}" if args.gcode else ""))
-    return 0
+    return {"cuts": 0, "cuts_advised": 0, "time_written_s": 0.0, "time_advised_s": 0.0}
 
 
 def _default_points() -> int:
     from fuzzyfeed.geometry.sampling import DEFAULT_POINTS
     return DEFAULT_POINTS
+
+
+def _run_on_machine(args: argparse.Namespace, program, machine, table, cuts, cap, step) -> dict:
+    """``advise PROGRAM`` with a machine: the program run as written, the cuts that break the
+    tolerance advised, the value report printed (and written with --report); returns the figures
+    (times as the machine runs the program) with the value report's row."""
+    import sys
+
+    from fuzzyfeed.base.atomic import atomic_write
+    from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
+    from fuzzyfeed.fuzzy.provenance import provenance
+    from fuzzyfeed.io.csv import write_columns, write_metadata
+    from fuzzyfeed.report.value import evaluate_program
+
+    if program.n_cuts == 0:
+        from fuzzyfeed.errors import PathFormatError
+        raise PathFormatError(f"{program.path}: no feed move (G1, G2/G3 or G5.2) in G94 found; nothing to advise")
+    tty = sys.stderr.isatty()
+
+    def progress(stage: str) -> None:
+        if tty:
+            print(f"fuzzyfeed: {program.path.name}: {stage} ...", file=sys.stderr, flush=True)
+
+    ev = evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
+                          step_mm=args.step_mm or DEFAULT_STEP_MM, cuts=cuts,
+                          reference=not args.no_reference, progress=progress)
+    columns = ev.columns()
+    write_columns(args.output, columns)
+    record = provenance(table, cap or 0.0, str(program.path), len(columns["s_mm"]))
+    record["F_mm_min"] = "the program's own F" + (f", capped at {cap:g} mm/min" if cap else "")
+    record["machine"] = machine.describe()
+    write_metadata(args.output, list(columns), record)
+    if args.gcode:
+        with atomic_write(args.gcode, "w", newline="") as handle:
+            handle.write(ev.text)
+    if args.plot:
+        from fuzzyfeed.report.value_files import plot_value
+
+        plot_value(ev.report, args.plot)
+    if args.report:
+        from fuzzyfeed.report.value_files import write_value_report
+
+        write_value_report([ev.report], args.report)
+    left = program.n_cuts - len(ev.advised_cuts)
+    print(f"{program.path.name}: {len(program.lines)} lines, {program.n_cuts} cut(s); {machine.describe()}")
+    print(f"advised {len(ev.advised_cuts)} cut(s) that break the tolerance as written; {left} left as written")
+    print("\n".join(ev.report.lines()))
+    written = [p for p in (args.output, args.gcode, args.plot, args.report) if p]
+    print("wrote " + ", ".join(written))
+    r = ev.report
+    row = {k: v for k, v in r.csv_row().items() if k not in ("program", "written_time_s", "advised_time_s")}
+    return {"cuts": program.n_cuts, "cuts_advised": len(ev.advised_cuts), "time_written_s": r.written.time_s,
+            "time_advised_s": r.advised.time_s, "feed_pct_min": float(columns["feed_pct"].min()),
+            "feed_pct_mean": float(columns["feed_pct"].mean()), **row}

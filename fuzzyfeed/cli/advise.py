@@ -10,6 +10,7 @@ from fuzzyfeed.cli._common import (add_shape_argument, check_feed_mm_min, point_
                                    table_from_args)
 from fuzzyfeed.cli._program import add_program_arguments, refuse_program_arguments
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
+from fuzzyfeed.cli._machine import add_machine_arguments, machine_from_args
 from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
 from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.machine.limits import DEFAULT_FEED_MM_S
@@ -32,7 +33,12 @@ def register(sub) -> None:
                     "with --gcode, written back whole: every line kept, only F words changed or "
                     "inserted, moves split only where the feed changes; G93/G95 moves, drilling "
                     "cycles and moves from unknown positions keep their F. The CSV then has one "
-                    "row per sample with cut, source_line and programmed_feed_mm_min.")
+                    "row per sample with cut, source_line and programmed_feed_mm_min. "
+                    "With a machine (--machine FILE or any machine flag) the advice reads the "
+                    "machine's terms (rules/machine.toml: the feed that holds --contour-tol-um "
+                    "on this machine over the programmed F); a program is run as written through "
+                    "the machine's planner and servo, the cuts that break the tolerance are advised, "
+                    "the others keep their feeds, and the value report is printed (--report).")
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="CSV file to write (atomically)")
     p.add_argument("--rules", metavar="FILE", default=None,
@@ -48,11 +54,12 @@ def register(sub) -> None:
     p.add_argument("--points", type=point_count, default=DEFAULT_POINTS, metavar="N",
                    help="sample points, uniform in the parameter as in seed 002 (default: %(default)s; "
                         "point-sequence shapes use their own points)")
-    p.add_argument("--filter", choices=("corner-mean", "min-mean", "mean"), default=None,
-                   help="smoothing of the controller's feed: corner-mean (the shipped table's) "
+    p.add_argument("--filter", choices=("corner-mean", "min-mean", "mean", "none"), default=None,
+                   help="smoothing of the controller's feed: corner-mean (the paper table's) "
                         "averages but never lifts a curvature peak above the controller, min-mean "
                         "never exceeds the controller anywhere (slowest), mean is seed 002's "
-                        "average filter (default: the rule table's)")
+                        "average filter, none keeps the controller's output (the machine table's) "
+                        "(default: the rule table's)")
     p.add_argument("--window-mm", type=positive_float, default=None, metavar="L",
                    help="look-ahead WS as a length: Dk at a point is the largest curvature within "
                         "the next L mm of path, whatever the sampling (default: the table's "
@@ -66,8 +73,17 @@ def register(sub) -> None:
                    help="add one column per rule with its firing strength, named "
                         "w_<curvature term>_<curvature_variation term> (e.g. w_VS_M)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
-                   help="also draw feed and curvature against arc length and the path coloured by feed")
+                   help="also draw feed and curvature against arc length and the path coloured by feed "
+                        "(a program on a machine: where the feed drops along the path)")
+    p.add_argument("--report", metavar="FILE.html", default=None,
+                   help="G-code programs on a machine: write the value report, time and max/p99 contour "
+                        "error as written, advised, uniformly slowed down and the limit reference "
+                        "(.html with plots, or .csv: one row)")
+    p.add_argument("--no-reference", action="store_true",
+                   help="G-code programs on a machine: leave out the limit reference (the slowest "
+                        "part of the value report)")
     add_gcode_arguments(p)
+    add_machine_arguments(p)
     add_program_arguments(p)
     p.set_defaults(run=run, csv_sidecar=True)
 
@@ -79,11 +95,12 @@ def compute(args: argparse.Namespace, shape=None):
     from fuzzyfeed.io.shapes import load_shape, sample_shape
 
     feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
-    table = table_from_args(args)
+    machine = machine_from_args(args)
+    table = table_from_args(args, machine)
     shape = load_shape(args.shape) if shape is None else shape
     try:
         samples = sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM)
-        return shape, advise_details(samples, table, feed_mm_min / 60.0)
+        return shape, advise_details(samples, table, feed_mm_min / 60.0, machine=machine)
     except InputError as exc:  # the message names the user's file
         raise InputError(f"{args.shape}: {exc}") from None
 
@@ -92,8 +109,14 @@ def advice_columns(advice, rule_strengths: bool = False) -> dict[str, np.ndarray
     """The CSV columns of a fuzzy advice, units in the names (plus w_K_D per rule if asked)."""
     profile = advice.profile
     cols = dict(profile.samples.columns())
-    cols["curvature_window_max_1_mm"] = advice.features.window_max_1_mm
-    cols["curvature_variation"] = advice.features.curvature_variation
+    if advice.machine is not None:
+        ceiling = profile.max_feed_mm_s * 60.0
+        cols["safe_feed_mm_min"] = np.minimum(advice.machine.safe_feed_mm_s * 60.0, ceiling)
+        cols["safe_feed_ratio"] = advice.machine.safe_feed_ratio
+        cols["safe_feed_ratio_near"] = advice.machine.safe_feed_ratio_near
+    else:
+        cols["curvature_window_max_1_mm"] = advice.features.window_max_1_mm
+        cols["curvature_variation"] = advice.features.curvature_variation
     cols["feed_pct_controller"] = advice.controller_pct
     cols["feed_pct"] = profile.feed_pct
     cols["feed_mm_min"] = profile.feed_mm_min
@@ -157,9 +180,9 @@ def drawing_paths(args: argparse.Namespace) -> list | None:
     return None if selector is not None else load_shapes(args.shape)
 
 
-def run_paths(args: argparse.Namespace, shapes: list) -> int:
+def run_paths(args: argparse.Namespace, shapes: list) -> dict:
     """Advise every path of a file, as a program runs them: one CSV (column ``path``, 1-based, then
-    the one-path columns) and one summary line per path."""
+    the one-path columns) and one summary line per path; returns the figures (see :func:`advise_file`)."""
     from fuzzyfeed.errors import ExportError
     from fuzzyfeed.fuzzy.advisor import advise_details
     from fuzzyfeed.io.csv import write_columns
@@ -171,11 +194,12 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
             raise ExportError(f"{option}: {args.shape} holds {len(shapes)} paths; {option} writes "
                               f"one path, pick it with {args.shape}#path=N")
     feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
-    table = table_from_args(args)
-    parts, lines = [], []
+    machine = machine_from_args(args)
+    table = table_from_args(args, machine)
+    parts, lines, times = [], [], np.zeros((len(shapes), 2))
     for number, shape in enumerate(shapes, start=1):
         advice = advise_details(sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM), table,
-                                feed_mm_min / 60.0)
+                                feed_mm_min / 60.0, machine=machine)
         cols = advice_columns(advice, args.rule_strengths)
         parts.append({"path": np.full(len(advice.profile.samples), number), **cols})
         p = advice.profile
@@ -183,6 +207,7 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
                      f"{p.samples.length:.3f} mm, feed mm/min min {p.feed_mm_min.min():.1f} mean "
                      f"{p.feed_mm_min.mean():.1f} max {p.feed_mm_min.max():.1f}, time "
                      f"{p.travel_time_s():.4f} s")
+        times[number - 1] = p.samples.length / p.max_feed_mm_s, p.travel_time_s()
     columns = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
     write_columns(args.output, columns)
     from fuzzyfeed.fuzzy.provenance import provenance
@@ -193,10 +218,29 @@ def run_paths(args: argparse.Namespace, shapes: list) -> int:
     print(f"{args.shape}: {len(shapes)} paths, rules {table.name!r}, F = {feed_mm_min:g} mm/min")
     print("\n".join(lines))
     print(f"wrote {args.output}")
-    return 0
+    return _figures(len(shapes), times.sum(axis=0), columns["feed_pct"])
+
+
+def _figures(paths: int, times_s, feed_pct: np.ndarray) -> dict:
+    """The summary figures :func:`advise_file` returns for a shape or drawing (time as written:
+    every path at the constant F)."""
+    return {"cuts": paths, "cuts_advised": paths, "time_written_s": float(times_s[0]),
+            "time_advised_s": float(times_s[1]), "feed_pct_min": float(feed_pct.min()),
+            "feed_pct_mean": float(feed_pct.mean())}
 
 
 def run(args: argparse.Namespace) -> int:
+    advise_file(args)
+    return 0
+
+
+def advise_file(args: argparse.Namespace) -> dict:
+    """What ``fuzzyfeed advise`` does with parsed ``args`` (outputs written, summary printed),
+    returning its figures: ``cuts`` (paths of a drawing), ``cuts_advised``, ``time_written_s``
+    (a program at its own F, a shape at constant F), ``time_advised_s``, ``feed_pct_min``,
+    ``feed_pct_mean``; a program on a machine: the times as the machine runs it and the value
+    report's row (``written_max_um``, ``advised_max_um``, ...). ``fuzzyfeed batch`` calls it once
+    per file."""
     from fuzzyfeed.cli._program import is_program, run_program
     from fuzzyfeed.io.csv import write_columns, write_metadata
 
@@ -204,6 +248,10 @@ def run(args: argparse.Namespace) -> int:
         return run_program(args)
     if args.step_mm is not None:
         raise MachineLimitsError("--step-mm applies to G-code programs only; shapes take --points")
+    if args.report is not None or args.no_reference:
+        flag = "--report" if args.report is not None else "--no-reference"
+        raise MachineLimitsError(f"{flag}: the value report runs a G-code program on a machine; "
+                                 f"{args.shape} is not a program")
     refuse_program_arguments(args)
     shapes = drawing_paths(args)
     if shapes is not None and len(shapes) > 1:
@@ -224,4 +272,5 @@ def run(args: argparse.Namespace) -> int:
           + (f" and {args.plot}" if args.plot else ""))
     for path in gcode.write():
         print(f"wrote {path}")
-    return 0
+    p = advice.profile
+    return _figures(1, (p.samples.length / p.max_feed_mm_s, p.travel_time_s()), p.feed_pct)

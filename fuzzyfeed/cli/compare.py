@@ -8,7 +8,8 @@ import sys
 from fuzzyfeed.cli._common import add_shape_argument, point_count
 from fuzzyfeed.cli._limits import (add_approach_argument, add_limit_arguments, check_schedule_work,
                                     limits_from_args, program_feed_limits)
-from fuzzyfeed.cli._servo import add_servo_arguments, servo_from_args
+from fuzzyfeed.cli._machine import machine_from_args
+from fuzzyfeed.cli._servo import servo_from_args
 
 DESCRIPTION = """\
 Simulate every method on the same samples with the same interpolator at Ts and print one metric
@@ -31,7 +32,6 @@ def register(sub) -> None:
     p.add_argument("--points", type=point_count, default=2000,
                    help="sample points, uniform in u (default: %(default)s, as in seed 002)")
     add_limit_arguments(p)
-    add_servo_arguments(p)
     add_approach_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="REPORT.csv",
                    help="CSV with one row per method (column method) and one column per metric")
@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     from fuzzyfeed.io.shapes import load_shape, sample_shape
     from fuzzyfeed.geometry.sampling import POINT_STEP_MM
 
-    servo = servo_from_args(args)
+    servo = servo_from_args(args, machine_from_args(args))
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
     limits, cap, feed_note = program_feed_limits(shape, limits_from_args(args))
@@ -90,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
             bar.update(1)
 
         result = compare(samples, limits, table, name=shape.name, progress=progress, servo=servo,
-                         approach=args.approach, feed_cap=cap)
+                         approach=args.approach, feed_cap=cap,
+                         transition=args.transition)
     rows = result.rows()
     columns = {key: np.array([row[key] for row in rows]) for key in rows[0]}
     write_columns(args.output, columns, allow_nan=("ratio_to_bound",))

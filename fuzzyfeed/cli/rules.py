@@ -98,15 +98,22 @@ def _describe(table) -> str:
         lines.append(f"source: {table.source}")
     ws = f"{table.window_mm:g} mm" if table.window_mm else f"{table.window_points} points"
     m = f"{table.filter_mm:g} mm" if table.filter_mm else f"{table.filter_points} points"
-    lines.append(f"features: WS = {ws}, Dk clip = {table.dk_clip_1_mm:g} 1/mm, "
-                 f"{table.filter} filter M = {m}, feed floor = {table.feed_floor_pct:g} %")
-    for var, unit in ((table.curvature, "1/mm"), (table.curvature_variation, "normalised"),
-                      (table.feed, "% of max feed")):
+    if table.inputs == "machine":
+        lines.append(f"inputs: machine (the feed that holds the contour tolerance over the programmed "
+                     f"feed, here and within the settling distance); {table.filter} filter, feed floor = "
+                     f"{table.feed_floor_pct:g} %")
+        units = ("ratio of F", "ratio of F", "% of the programmed F, capped at 100")
+    else:
+        lines.append(f"features: WS = {ws}, Dk clip = {table.dk_clip_1_mm:g} 1/mm, "
+                     f"{table.filter} filter M = {m}, feed floor = {table.feed_floor_pct:g} %")
+        units = ("1/mm", "normalised", "% of max feed")
+    for var, unit in zip(table.variables, units):
         lo, hi = var.universe
         terms = "  ".join(f"{t.label}=[{', '.join(f'{x:g}' for x in t.points)}]" for t in var.terms)
         lines.append(f"{var.name} [{lo:g}, {hi:g}] ({unit}): {terms}")
     lines.append("")
-    lines.append("rules: IF curvature is ROW AND curvature_variation is COLUMN THEN feed is CELL")
+    lines.append(f"rules: IF {table.curvature.name} is ROW AND {table.curvature_variation.name} is COLUMN "
+                 "THEN feed is CELL")
     lines.append(grid_text(table).rstrip("\n"))
     return "\n".join(lines)
 

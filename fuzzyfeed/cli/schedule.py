@@ -17,9 +17,9 @@ from fuzzyfeed.errors import InputError
 def register(sub) -> None:
     p = sub.add_parser(
         "schedule", help="schedule a jerk-limited feed with the SLW look-ahead (seed 000)",
-        description="Preprocess SHAPE (feed limits, critical points, blocks), schedule the cosine "
-                    "jerk-limited feed with the sliding look-ahead window, interpolate at the servo "
-                    "period and write one CSV row per period: t_s, u, x_mm, y_mm, z_mm, s_mm, "
+        description="Preprocess SHAPE (feed limits, critical points, blocks), schedule the "
+                    "jerk-limited feed (seven-phase or seed 000's cosine transitions) with the "
+                    "sliding look-ahead window, interpolate at the servo period and write one CSV row per period: t_s, u, x_mm, y_mm, z_mm, s_mm, "
                     "feed_mm_s, feed_mm_min, acc_mm_s2, jerk_mm_s3. Prints the cycle time, the "
                     "critical points and blocks, the worst chord error, accelerations and jerk "
                     "(measured from the positions) and the ratio to the acceleration-limited "
@@ -46,7 +46,7 @@ def compute(args: argparse.Namespace):
     check_schedule_work(args.shape, shape.curve.length, limits)
     try:  # a progress bar on a terminal (tqdm.auto), none in a pipe or a log
         traj = schedule(shape.curve, limits, progress=True if sys.stderr.isatty() else None,
-                        approach=args.approach, feed_cap=cap)
+                        approach=args.approach, feed_cap=cap, transition=args.transition)
     except InputError as exc:  # the message names the user's file (and the slowest limit)
         raise InputError(schedule_error(args.shape, exc, shape.curve.length, limits)) from None
     bound = path_bound(traj.curve, limits, feed_cap=cap)  # of the path followed (a polyline: blended)

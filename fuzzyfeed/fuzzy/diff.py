@@ -46,7 +46,8 @@ def table_differences(a: RuleTable, b: RuleTable) -> list[str]:
             if row in kb and col in db:
                 ca, cb = a.grid[i][j], b.grid[kb.index(row)][db.index(col)]
                 if ca != cb:
-                    out.append(f"rule (curvature {row}, curvature_variation {col}): {ca} -> {cb}")
+                    out.append(f"rule ({a.curvature.name} {row}, {a.curvature_variation.name} {col}): "
+                               f"{ca} -> {cb}")
     return out
 
 

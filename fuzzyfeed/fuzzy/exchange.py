@@ -1,8 +1,9 @@
 """Rule tables in and out of other fuzzy tools: IEC 61131-7 FCL (and fuzzylite's FCL dialect),
 fuzzylite FLL and MATLAB ``.fis`` (Mamdani). One format per module (:mod:`~fuzzyfeed.fuzzy.fcl`,
 :mod:`~fuzzyfeed.fuzzy.fll`, :mod:`~fuzzyfeed.fuzzy.fis`); this module holds what they share: the
-neutral description a parser returns, its checks (two inputs ``curvature`` and
-``curvature_variation``, one output ``feed``; AND = min, implication = min, aggregation = max,
+neutral description a parser returns, its checks (two inputs — ``curvature`` and
+``curvature_variation``, or a machine table's ``safe_feed_ratio`` and ``safe_feed_ratio_near`` —
+one output ``feed``; AND = min, implication = min, aggregation = max,
 centroid — the only controller fuzzyfeed computes), the rule numbering and the settings comment.
 
 Rules are numbered as seed 002 numbers them, κ running fastest: rule (κ term i, Dκ term j) is
@@ -24,8 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fuzzyfeed.errors import RuleTableError
-from fuzzyfeed.fuzzy.rules import (DK, FEED, KAPPA, VARIABLES, RuleTable, Term, Variable,
-                                   load_rule_table)
+from fuzzyfeed.fuzzy.rules import (DEFAULT_MACHINE_TABLE, FEED, INPUT_NAMES, MACHINE, VARIABLES, RuleTable,
+                                   Term, Variable, kind_of_inputs, load_rule_table)
 
 #: Export formats of ``fuzzyfeed rules show --format``: name -> (suffix, description).
 EXPORT_FORMATS = {
@@ -146,7 +147,7 @@ class Spec:
     name: str = ""
     inputs: list[Variable] = field(default_factory=list)
     outputs: list[Variable] = field(default_factory=list)
-    rules: list[tuple[str, str, str]] = field(default_factory=list)   # (κ, Dκ, feed) labels
+    rules: list[tuple[dict, str]] = field(default_factory=list)       # ({input: label}, feed label)
     operators: dict[str, str] = field(default_factory=dict)           # role -> name as written
     default: float | None = None
     settings: dict = field(default_factory=dict)
@@ -166,26 +167,34 @@ def spec_to_table(spec: Spec, settings_from: RuleTable | None = None) -> RuleTab
                                  "implication = min, aggregation = max, centroid only")
     names_in = [v.name for v in spec.inputs]
     names_out = [v.name for v in spec.outputs]
-    if names_in != [KAPPA, DK] or names_out != [FEED]:
+    kind = kind_of_inputs(names_in)
+    if kind is None or names_out != [FEED]:
+        kinds = " or ".join(f"[{a!r}, {b!r}]" for a, b in INPUT_NAMES.values())
         raise RuleTableError(f"{where}: inputs {names_in} and outputs {names_out}; a fuzzyfeed table "
-                             f"has inputs [{KAPPA!r}, {DK!r}] and one output {FEED!r} (rename them)")
+                             f"has inputs {kinds} and one output {FEED!r} (rename them)")
     k, d, f = spec.inputs[0], spec.inputs[1], spec.outputs[0]
+    kn, dn = k.name, d.name
     cells: dict[tuple[str, str], str] = {}
-    for kl, dl, fl in spec.rules:
+    for pairs, fl in spec.rules:
+        if set(pairs) != {kn, dn}:
+            raise RuleTableError(f"{where}: rule on {sorted(pairs)}; a rule reads IF {kn} IS … AND {dn} "
+                                 f"IS … THEN {FEED} IS …")
+        kl, dl = pairs[kn], pairs[dn]
         for var, label in ((k, kl), (d, dl), (f, fl)):
             if label not in var.labels:
-                raise RuleTableError(f"{where}: rule IF {KAPPA} IS {kl} AND {DK} IS {dl} THEN {FEED} "
+                raise RuleTableError(f"{where}: rule IF {kn} IS {kl} AND {dn} IS {dl} THEN {FEED} "
                                      f"IS {fl}: unknown {var.name} term {label!r}")
         if (kl, dl) in cells:
-            raise RuleTableError(f"{where}: two rules for {KAPPA} IS {kl} AND {DK} IS {dl} "
+            raise RuleTableError(f"{where}: two rules for {kn} IS {kl} AND {dn} IS {dl} "
                                  f"({cells[(kl, dl)]} and {fl}); give each cell once")
         cells[(kl, dl)] = fl
     missing = [f"({a}, {b})" for a in k.labels for b in d.labels if (a, b) not in cells]
     if missing:
-        raise RuleTableError(f"{where}: no rule for ({KAPPA}, {DK}) = {', '.join(missing[:6])}"
+        raise RuleTableError(f"{where}: no rule for ({kn}, {dn}) = {', '.join(missing[:6])}"
                              + (" …" if len(missing) > 6 else "") + "; fuzzyfeed's grid needs "
                              "one rule per pair of input terms")
-    base = settings_from if settings_from is not None else load_rule_table()
+    base = settings_from if settings_from is not None else load_rule_table(
+        DEFAULT_MACHINE_TABLE if kind == MACHINE else None)
     s = dict(spec.settings)
     unknown = set(s) - set(SETTING_KEYS) - {"name", "source"}
     if unknown:
@@ -198,21 +207,22 @@ def spec_to_table(spec: Spec, settings_from: RuleTable | None = None) -> RuleTab
     grid = tuple(tuple(cells[(a, b)] for b in d.labels) for a in k.labels)
     try:
         return RuleTable(name=name, curvature=k, curvature_variation=d, feed=f, grid=grid,
-                         source=source, **values)
+                         source=source, inputs=kind, **values)
     except TypeError as exc:        # a settings value of the wrong type
         raise RuleTableError(f"{where}: {SETTINGS_TAG}: {exc}") from None
 
 
-def rule_cells(m, where: str, shown: str, weight_word: str, form: str) -> tuple[str, str, str]:
-    """(κ term, Dκ term, feed term) of a parsed rule, shared by the FCL and FLL readers: ``m`` is
+def rule_cells(m, where: str, shown: str, weight_word: str, form: str) -> tuple[dict, str]:
+    """({input: term}, feed term) of a parsed rule, shared by the FCL and FLL readers: ``m`` is
     their rule pattern's match (groups: variable/term pairs 1–4, output 5/6, weight 7); ``shown``,
-    ``weight_word`` and ``form`` word the one-line errors in the format's own keywords."""
+    ``weight_word`` and ``form`` word the one-line errors in the format's own keywords. Which
+    inputs a rule names is checked against the declared ones by :func:`spec_to_table`."""
     if m.group(7) is not None and float(m.group(7)) != 1.0:
         raise RuleTableError(f"{where}: {weight_word} {m.group(7)}; fuzzyfeed's rules all weigh 1")
     pairs = {m.group(1): m.group(2), m.group(3): m.group(4)}
-    if set(pairs) != {KAPPA, DK} or m.group(5) != FEED:
+    if len(pairs) != 2 or m.group(5) != FEED:
         raise RuleTableError(f"{where}: {shown}; {form}")
-    return pairs[KAPPA], pairs[DK], m.group(6)
+    return pairs, m.group(6)
 
 
 __all__ = ["EXPORT_FORMATS", "IMPORT_SUFFIXES", "Spec", "numbered_rules", "rule_number",

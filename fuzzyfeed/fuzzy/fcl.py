@@ -18,9 +18,11 @@ from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.exchange import (SETTINGS_TAG, Spec, num, numbered_rules, points_to_trapezoid,
                                       read_settings, rule_cells, settings_json, shape_params,
                                       trapezoid_points)
-from fuzzyfeed.fuzzy.rules import DK, FEED, KAPPA, RuleTable, Term, Variable
+from fuzzyfeed.fuzzy.rules import DK, FEED, KAPPA, SAFE, SAFE_NEAR, RuleTable, Term, Variable
 
 _UNITS = {KAPPA: "1/mm, clipped to the universe", DK: "normalised curvature variation",
+          SAFE: "feed that holds the contour tolerance / programmed feed",
+          SAFE_NEAR: "lowest such ratio within the servo's settling distance",
           FEED: "% of the maximum feed"}
 
 
@@ -48,7 +50,8 @@ def table_to_fcl(t: RuleTable, dialect: str = "iec") -> str:
     head = f"fuzzyfeed rule table {t.name!r}" + (f": {t.source}" if t.source else "")
     out = [comment(head), comment(f"{SETTINGS_TAG} {settings_json(t)}"), f"FUNCTION_BLOCK {name}", ""]
     out += ["VAR_INPUT"]
-    for var in (KAPPA, DK):
+    k_name, d_name = t.input_names
+    for var in (k_name, d_name):
         out.append(f"    {var} : REAL;" + (f" {comment(_UNITS[var])}" if iec else ""))
     out += ["END_VAR", "", "VAR_OUTPUT", f"    {FEED} : REAL;" + (f" {comment(_UNITS[FEED])}" if iec else ""),
             "END_VAR", ""]
@@ -63,7 +66,7 @@ def table_to_fcl(t: RuleTable, dialect: str = "iec") -> str:
     out += ["RULEBLOCK rules", "    AND : MIN;", "    ACT : MIN;"] + (["    ACCU : MAX;"] if iec else [])
     kw = ("IF", "IS", "AND", "THEN") if iec else ("if", "is", "and", "then")
     for n, k, d, f in numbered_rules(t):
-        out.append(f"    RULE {n} : {kw[0]} {KAPPA} {kw[1]} {k} {kw[2]} {DK} {kw[1]} {d} "
+        out.append(f"    RULE {n} : {kw[0]} {k_name} {kw[1]} {k} {kw[2]} {d_name} {kw[1]} {d} "
                    f"{kw[3]} {FEED} {kw[1]} {f};")
     out += ["END_RULEBLOCK", "", "END_FUNCTION_BLOCK"]
     return "\n".join(out) + "\n"
@@ -183,13 +186,13 @@ def parse_fcl(text: str, path: str = "<fcl>") -> Spec:
     return spec
 
 
-def _rule(stmt: str, where: str) -> tuple[str, str, str]:
+def _rule(stmt: str, where: str) -> tuple[dict, str]:
     m = _RULE.fullmatch(stmt.strip())
     if not m:
         raise RuleTableError(f"{where}: {stmt!r}; fuzzyfeed reads rules "
                              "RULE n : IF a IS x AND b IS y THEN c IS z (no OR, NOT or hedges)")
     return rule_cells(m, where, repr(stmt), "rule weight WITH",
-                      f"a rule reads IF {KAPPA} IS … AND {DK} IS … THEN {FEED} IS …")
+                      f"a rule reads IF <input> IS … AND <input> IS … THEN {FEED} IS …")
 
 
 def _variable(name: str, terms: list, rng: tuple[float, float] | None, path: str) -> Variable:

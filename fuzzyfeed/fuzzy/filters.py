@@ -10,6 +10,8 @@
   ``rise_pct`` (% of F) per further half window. So the average at a peak only takes values at most
   the controller's output there, and the cap, being continuous, adds no kink of its own.
   Far from peaks it is the average.
+- ``"none"``: the controller's output as it is (machine tables: their inputs already look ahead
+  over the servo's settling distance, and any average would raise a slow spot's feed).
 - ``"min-mean"``: a sliding minimum of the whole output over the window (a morphological erosion),
   then the average: never above the controller anywhere, the smoothest, and the slowest — every
   dip, ripple included, widens by M − 1 points.
@@ -33,7 +35,7 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.windows import cell_lengths, centred_bounds, range_min, window_mean
 
 #: The filters a rule table may name in ``[features] filter``.
-FILTER_KINDS = ("corner-mean", "min-mean", "mean")
+FILTER_KINDS = ("corner-mean", "min-mean", "mean", "none")
 DEFAULT_FILTER = "corner-mean"
 #: How fast corner-mean's cap rises beyond a peak's half window: % of F per half window (chosen by
 #: benchmarks/filter_choice.py).
@@ -63,6 +65,8 @@ def smooth_feed(values: np.ndarray, kind: str = DEFAULT_FILTER, points: int | No
     if kind not in FILTER_KINDS:
         raise InputError(f"filter = {kind!r}; must be one of {', '.join(FILTER_KINDS)}")
     n = v.size
+    if kind == "none":
+        return v.copy()
     if length_mm is None:
         if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 1:
             raise InputError(f"filter_points = {points!r}; must be an integer >= 1")

@@ -120,7 +120,7 @@ def _variable(section: str, n: int, keys: dict, lines: list, path: str) -> Varia
     return Variable(keys["Name"][1], (rng[0], rng[1]), tuple(terms))
 
 
-def _rule(line: str, where: str, inputs: list[Variable], outputs: list[Variable]) -> tuple[str, str, str]:
+def _rule(line: str, where: str, inputs: list[Variable], outputs: list[Variable]) -> tuple[dict, str]:
     m = _RULE.fullmatch(line.strip())
     if not m:
         raise RuleTableError(f"{where}: rule {line!r}; expected 'i j, o (w) : c'")
@@ -135,4 +135,4 @@ def _rule(line: str, where: str, inputs: list[Variable], outputs: list[Variable]
             raise RuleTableError(f"{where}: rule {line!r}: {var.name} index {idx:g}; must be 1 to "
                                  f"{len(var.terms)} (no 0 = any, no negative = NOT)")
         labels.append(var.terms[int(idx) - 1].label)
-    return labels[0], labels[1], labels[2]
+    return {inputs[0].name: labels[0], inputs[1].name: labels[1]}, labels[2]

@@ -12,7 +12,7 @@ import re
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.exchange import (FLL_RESOLUTION, SETTINGS_TAG, Spec, num, numbered_rules,
                                       read_settings, rule_cells, settings_json, shape_params)
-from fuzzyfeed.fuzzy.rules import DK, FEED, KAPPA, RuleTable, Term, Variable
+from fuzzyfeed.fuzzy.rules import FEED, RuleTable, Term, Variable
 
 
 def _term_line(term: Term) -> str:
@@ -38,7 +38,8 @@ def table_to_fll(t: RuleTable, resolution: int = FLL_RESOLUTION) -> str:
     out += [_term_line(term) for term in f.terms]
     out += ["RuleBlock: rules", "  enabled: true", "  conjunction: Minimum", "  disjunction: none",
             "  implication: Minimum", "  activation: General"]
-    out += [f"  rule: if {KAPPA} is {k} and {DK} is {d} then {FEED} is {fl}  # R{n}"
+    k_name, d_name = t.input_names
+    out += [f"  rule: if {k_name} is {k} and {d_name} is {d} then {FEED} is {fl}  # R{n}"
             for n, k, d, fl in numbered_rules(t)]
     return "\n".join(out) + "\n"
 
@@ -124,10 +125,10 @@ def _term(value: str, where: str) -> tuple[str, tuple[float, ...]]:
     return parts[0], params[:want]
 
 
-def _rule(value: str, where: str) -> tuple[str, str, str]:
+def _rule(value: str, where: str) -> tuple[dict, str]:
     m = _RULE.fullmatch(value.strip())
     if not m:
         raise RuleTableError(f"{where}: rule {value!r}; fuzzyfeed reads "
                              "'if a is x and b is y then c is z' (no or, not or hedges)")
     return rule_cells(m, where, f"rule {value!r}", "rule weight",
-                      f"a rule reads if {KAPPA} is … and {DK} is … then {FEED} is …")
+                      f"a rule reads if <input> is … and <input> is … then {FEED} is …")

@@ -18,28 +18,48 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from fuzzyfeed.base.files import read_text, resolve_file, shipped_dir, shipped_names
+from fuzzyfeed.base.toml_lines import HEADER as _HEADER
+from fuzzyfeed.base.toml_lines import KEY as _KEY
+from fuzzyfeed.base.toml_lines import KeyLines as _Lines
+from fuzzyfeed.base.toml_lines import Locator
+from fuzzyfeed.base.toml_lines import file_locator as _file_locator
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.filters import DEFAULT_FILTER, FILTER_KINDS
 
-#: Section names of the three fuzzy variables, in the order inputs, output.
+#: Section names of the three fuzzy variables of a paper table, in the order inputs, output.
 KAPPA, DK, FEED = "curvature", "curvature_variation", "feed"
 VARIABLES = (KAPPA, DK, FEED)
+#: The inputs a table says it uses (top-level key ``inputs``): seed 002's curvature and windowed
+#: variation, or the machine's terms (issue 32): the feed that holds the contour tolerance at a
+#: point over the programmed feed, and the lowest such ratio within the servo's settling distance.
+PAPER, MACHINE = "paper", "machine"
+SAFE, SAFE_NEAR = "safe_feed_ratio", "safe_feed_ratio_near"
+INPUT_NAMES = {PAPER: (KAPPA, DK), MACHINE: (SAFE, SAFE_NEAR)}
 #: Keys of a variable section that are not terms.
 RESERVED_KEYS = ("universe", "unit")
-UNITS = {KAPPA: "1/mm", DK: "", FEED: "%"}
+UNITS = {KAPPA: "1/mm", DK: "", FEED: "%", SAFE: "", SAFE_NEAR: ""}
 DEFAULT_TABLE = "paper"
-#: Settings of the [features] section.
+#: The table a machine makes the default (``--machine`` or any machine flag).
+DEFAULT_MACHINE_TABLE = "machine"
+#: Settings of the [features] section (a machine table needs only feed_floor_pct).
 FEATURE_KEYS = ("window_points", "dk_clip_1_mm", "filter_points", "feed_floor_pct")
+MACHINE_FEATURE_KEYS = ("feed_floor_pct",)
+
+
+def kind_of_inputs(names: Sequence[str]) -> str | None:
+    """The input kind whose two variable names are ``names`` (in order), or None."""
+    for kind, pair in INPUT_NAMES.items():
+        if tuple(names) == pair:
+            return kind
+    return None
 #: Optional settings of [features]: the filter kind, and WS / M as lengths along the path (mm).
 OPTIONAL_FEATURE_KEYS = ("filter", "window_mm", "filter_mm")
 
-# where(section, key) -> "file:line" (or a field path for an in-memory table)
-Locator = Callable[..., str]
 
 
 @dataclass(frozen=True)
@@ -99,6 +119,7 @@ class RuleTable:
     window_mm: float | None = None
     filter_mm: float | None = None
     path: Path | None = field(default=None, compare=False)
+    inputs: str = PAPER
 
     def __post_init__(self) -> None:
         _validate(self, _field_locator(self.name))
@@ -106,6 +127,20 @@ class RuleTable:
     @property
     def variables(self) -> tuple[Variable, Variable, Variable]:
         return (self.curvature, self.curvature_variation, self.feed)
+
+    @property
+    def row_input(self) -> Variable:
+        """The first input (the grid's rows): κ, or the safe-feed ratio here."""
+        return self.curvature
+
+    @property
+    def column_input(self) -> Variable:
+        """The second input (the grid's columns): Dκ, or the safe-feed ratio near."""
+        return self.curvature_variation
+
+    @property
+    def input_names(self) -> tuple[str, str]:
+        return INPUT_NAMES[self.inputs]
 
     @property
     def rules(self) -> list[tuple[str, str, str]]:
@@ -179,18 +214,25 @@ def _validate_optional_features(values: Mapping[str, object], where: Locator) ->
 
 
 def _validate(t: RuleTable, where: Locator) -> None:
+    if t.inputs not in INPUT_NAMES:
+        raise RuleTableError(f"{where('inputs')}: inputs = {t.inputs!r}; must be one of "
+                             f"{', '.join(repr(k) for k in INPUT_NAMES)}")
+    names = (t.curvature.name, t.curvature_variation.name, t.feed.name)
+    if names != (*INPUT_NAMES[t.inputs], FEED):
+        raise RuleTableError(f"{where('inputs')}: variables {list(names)} for inputs = {t.inputs!r}; "
+                             f"that kind has {', '.join(INPUT_NAMES[t.inputs])} and {FEED}")
     _validate_features({k: getattr(t, k) for k in FEATURE_KEYS}, where)
     _validate_optional_features({k: getattr(t, k) for k in OPTIONAL_FEATURE_KEYS}, where)
     for var in t.variables:
         _validate_variable(var, where, require_cover=var.name != FEED)
     k, d, f = t.curvature, t.curvature_variation, t.feed
     if len(t.grid) != len(k.terms):
-        raise RuleTableError(f"{where('rules')}: {len(t.grid)} rows; expected one per curvature term "
+        raise RuleTableError(f"{where('rules')}: {len(t.grid)} rows; expected one per {k.name} term "
                              f"({len(k.terms)}: {', '.join(k.labels)})")
     for i, row in enumerate(t.grid):
         if len(row) != len(d.terms):
             raise RuleTableError(f"{where('rules', k.labels[i])}: row {k.labels[i]} has {len(row)} cells; "
-                                 f"expected {len(d.terms)}, one per curvature_variation term "
+                                 f"expected {len(d.terms)}, one per {d.name} term "
                                  f"({', '.join(d.labels)})")
         for j, label in enumerate(row):
             if label not in f.labels:
@@ -296,45 +338,6 @@ def _read_text(path: Path) -> str:
     return read_text(path, "rule table", RuleTableError)
 
 
-_HEADER = re.compile(r"^\s*\[\s*([A-Za-z0-9_.\-\"' ]+?)\s*\]\s*(#.*)?$")
-_KEY = re.compile(r"^\s*([A-Za-z0-9_\-]+|\"[^\"]*\")\s*=")
-
-
-class _Lines:
-    """Where each (section, key) sits in the file text, for messages (first occurrence)."""
-
-    def __init__(self, text: str):
-        self.first: dict[tuple[str, str], int] = {}
-        self.sections: dict[str, int] = {}
-        self.duplicates: list[tuple[str, str, int, int]] = []
-        section = ""
-        for n, line in enumerate(text.splitlines(), start=1):
-            m = _HEADER.match(line)
-            if m:
-                section = m.group(1).strip().strip("\"'")
-                self.sections.setdefault(section, n)
-                continue
-            m = _KEY.match(line)
-            if m:
-                key = m.group(1).strip('"')
-                if (section, key) in self.first:
-                    self.duplicates.append((section, key, self.first[(section, key)], n))
-                else:
-                    self.first[(section, key)] = n
-
-    def line(self, section: str, key: str | None = None) -> int | None:
-        if key is not None and (section, key) in self.first:
-            return self.first[(section, key)]
-        return self.sections.get(section)
-
-
-def _file_locator(path: Path, lines: _Lines) -> Locator:
-    def where(section: str, key: str | None = None) -> str:
-        n = lines.line(section, key)
-        return f"{path}:{n}" if n else f"{path}: [{section}]"
-    return where
-
-
 def load_rule_table(spec: str | Path | None = None) -> RuleTable:
     """Load and validate a rule table (None = ``rules/paper.toml``, a shipped name, or a path)."""
     path = resolve_rules_path(spec)
@@ -349,7 +352,7 @@ def parse_rule_table(text: str, path: Path | str = "<rules>") -> RuleTable:
     lines = _Lines(text)
     for section, key, first, again in lines.duplicates:
         what = (f"row {key!r}" if section == "rules" else
-                f"term {key!r}" if section in VARIABLES else f"key {key!r}")
+                f"term {key!r}" if section in (*VARIABLES, SAFE, SAFE_NEAR) else f"key {key!r}")
         raise RuleTableError(f"{path}:{again}: duplicate {what} in [{section}] (first at line {first}); "
                              "give each once")
     try:
@@ -366,21 +369,36 @@ def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path |
     """Build a :class:`RuleTable` from parsed TOML; ``where`` turns (section, key) into a location."""
     where = where or _field_locator(str(data.get("name", "rules")))
     top = str(path) if path is not None else "rule table"
-    for section in ("features", *VARIABLES, "rules"):
+    kind = data.get("inputs", PAPER)
+    if kind not in INPUT_NAMES:
+        raise RuleTableError(f"{where('', 'inputs')}: inputs = {kind!r}; must be one of "
+                             f"{', '.join(repr(k) for k in INPUT_NAMES)} (which inputs the table uses)")
+    k_name, d_name = INPUT_NAMES[kind]
+    sections = ("features", k_name, d_name, FEED, "rules")
+    for section in sections:
         if not isinstance(data.get(section), Mapping):
-            raise RuleTableError(f"{top}: section [{section}] is missing; a rule table has [features], "
-                                 "[curvature], [curvature_variation], [feed] and [rules]")
+            raise RuleTableError(f"{top}: section [{section}] is missing; a rule table with inputs = "
+                                 f"{kind!r} has " + ", ".join(f"[{s}]" for s in sections[:-1])
+                                 + " and [rules]")
+    for other_kind, pair in INPUT_NAMES.items():
+        stray = [s for s in pair if s not in (k_name, d_name) and isinstance(data.get(s), Mapping)]
+        if stray:
+            raise RuleTableError(f"{where(stray[0])}: section [{stray[0]}] belongs to inputs = "
+                                 f"{other_kind!r}; this table says inputs = {kind!r}")
     feats = data["features"]
     known = set(FEATURE_KEYS) | set(OPTIONAL_FEATURE_KEYS)
     for key in feats:
         if key not in known:
             raise RuleTableError(f"{where('features', key)}: unknown setting {key!r}; "
                                  f"[features] takes {', '.join(sorted(known))}")
-    for key in FEATURE_KEYS:
+    required = FEATURE_KEYS if kind == PAPER else MACHINE_FEATURE_KEYS
+    for key in required:
         if key not in feats:
             raise RuleTableError(f"{where('features')}: setting {key!r} is missing from [features]")
+    defaults = {"window_points": 30, "dk_clip_1_mm": 3.0, "filter_points": 21}
+    feats = {**defaults, **feats} if kind == MACHINE else feats
     variables = {}
-    for name in VARIABLES:
+    for name in (k_name, d_name, FEED):
         sec = data[name]
         if "universe" not in sec:
             raise RuleTableError(f"{where(name)}: [{name}] has no universe = [lo, hi]")
@@ -398,11 +416,11 @@ def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path |
         variables[name] = Variable(name, tuple(uni), tuple(terms))
     for var in variables.values():
         _validate_variable(var, where, require_cover=var.name != FEED)
-    grid = _grid_from_mapping(data["rules"], variables[KAPPA], variables[DK], variables[FEED], where)
+    grid = _grid_from_mapping(data["rules"], variables[k_name], variables[d_name], variables[FEED], where)
     _validate_features(feats, where)
     _validate_optional_features(feats, where)
     return RuleTable(name=str(data.get("name", path.stem if path else "rules")),
-                     curvature=variables[KAPPA], curvature_variation=variables[DK],
+                     curvature=variables[k_name], curvature_variation=variables[d_name], inputs=kind,
                      feed=variables[FEED], grid=grid,
                      window_points=feats["window_points"], dk_clip_1_mm=feats["dk_clip_1_mm"],
                      filter_points=feats["filter_points"], feed_floor_pct=feats["feed_floor_pct"],
@@ -420,7 +438,7 @@ def _grid_from_mapping(rules: Mapping, k: Variable, d: Variable, f: Variable,
                        where: Locator) -> tuple[tuple[str, ...], ...]:
     if "columns" not in rules:
         raise RuleTableError(f"{where('rules')}: [rules] has no columns = [...] (the "
-                             f"curvature_variation labels: {', '.join(d.labels)})")
+                             f"{d.name} labels: {', '.join(d.labels)})")
     cols = rules["columns"]
     if not isinstance(cols, list) or not all(isinstance(c, str) for c in cols):
         raise RuleTableError(f"{where('rules', 'columns')}: columns = {cols!r}; must be a list of "
@@ -429,22 +447,22 @@ def _grid_from_mapping(rules: Mapping, k: Variable, d: Variable, f: Variable,
     for j, c in enumerate(cols):
         if c not in d.labels:
             raise RuleTableError(f"{where('rules', 'columns')}: column {j + 1} {c!r}: unknown "
-                                 f"curvature_variation label; terms are {', '.join(d.labels)}")
+                                 f"{d.name} label; terms are {', '.join(d.labels)}")
         if c in seen:
             raise RuleTableError(f"{where('rules', 'columns')}: column {c!r} given twice (columns "
                                  f"{seen[c] + 1} and {j + 1}); each cell must be given once")
         seen[c] = j
     missing = [c for c in d.labels if c not in seen]
     if missing:
-        raise RuleTableError(f"{where('rules', 'columns')}: no column for curvature_variation "
+        raise RuleTableError(f"{where('rules', 'columns')}: no column for {d.name} "
                              f"{', '.join(missing)}; missing cells for every row")
     rows: dict[str, list[str]] = {}
     for key, row in rules.items():
         if key == "columns":
             continue
         if key not in k.labels:
-            raise RuleTableError(f"{where('rules', key)}: row {key!r}: unknown curvature label; "
-                                 f"curvature terms are {', '.join(k.labels)}")
+            raise RuleTableError(f"{where('rules', key)}: row {key!r}: unknown {k.name} label; "
+                                 f"{k.name} terms are {', '.join(k.labels)}")
         if not isinstance(row, list):
             raise RuleTableError(f"{where('rules', key)}: row {key} = {row!r}; must be a list of "
                                  "feed labels, one per column")
@@ -464,7 +482,7 @@ def _grid_from_mapping(rules: Mapping, k: Variable, d: Variable, f: Variable,
         rows[key] = row
     missing_rows = [r for r in k.labels if r not in rows]
     if missing_rows:
-        raise RuleTableError(f"{where('rules')}: no row for curvature {', '.join(missing_rows)}; "
+        raise RuleTableError(f"{where('rules')}: no row for {k.name} {', '.join(missing_rows)}; "
                              "missing cells (every curvature term needs a row)")
     return tuple(tuple(rows[r][seen[c]] for c in d.labels) for r in k.labels)
 
@@ -480,6 +498,8 @@ def table_to_toml(t: RuleTable, with_name: bool = True) -> str:
     """TOML text of a table in the shipped layout (aligned grid, full float precision).
     ``with_name=False`` leaves the name out, so the file's own name becomes the table's."""
     out = [f"name = {_quote(t.name)}"] if with_name else []
+    if t.inputs != PAPER:
+        out.append(f"inputs = {_quote(t.inputs)}")
     if t.source:
         out.append(f"source = {_quote(t.source)}")
     out += ["", "[features]", f"window_points = {t.window_points}",

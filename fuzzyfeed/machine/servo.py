@@ -112,6 +112,14 @@ class ServoModel:
     def order(self) -> int:
         return 1 if self.natural_freq_hz is None else 2
 
+    @property
+    def time_constant_s(self) -> float:
+        """The slowest axis's decay time constant (s): 1/Kv for a first-order loop, 1/(ζωn) for a
+        second-order one (its envelope); after five of them a step's error is below 1 %."""
+        if self.order == 1:
+            return 1.0 / min(self.kv_1_s)
+        return max(1.0 / (z * 2.0 * math.pi * f) for f, z in zip(self.natural_freq_hz, self.damping))  # type: ignore[arg-type]
+
     def describe(self) -> str:
         kv = ",".join(f"{k:g}" for k in sorted(set(self.kv_1_s), key=self.kv_1_s.index))
         ff = ",".join(f"{a:g}" for a in sorted(set(self.feedforward), key=self.feedforward.index))

@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed.program.model import ARC, LINE, Program, arc_geometry, arc_points
+from fuzzyfeed.program.model import (ARC, HOME, LINE, RAPID, Program, arc_geometry, arc_points,
+                                     move_end_tangents)
 from fuzzyfeed.geometry.sampling import (POINT_STEP_MM, PathSamples, point_budget, segment_pieces,
                                          three_point_curvature)
 
@@ -25,6 +26,8 @@ from fuzzyfeed.geometry.sampling import (POINT_STEP_MM, PathSamples, point_budge
 DEFAULT_STEP_MM = POINT_STEP_MM
 #: Largest angle between samples on an arc (rad): 10°.
 ARC_STEP_RAD = np.pi / 18
+#: A junction of an arc or a G5.2 block with another move that turns more than this is a corner.
+CORNER_MIN_RAD = np.radians(1.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,6 +40,9 @@ class CutSamples:
     seg_f0: np.ndarray       # (N-1,) fraction of the move where the segment starts
     seg_f1: np.ndarray       # (N-1,) ... and ends
     sample_move: np.ndarray  # (N,) the move each sample lies on (a move end: the arriving move)
+    turn_angle: np.ndarray   # (N,) rad: the angle the path turns at a junction of two moves (0 elsewhere)
+    corner: np.ndarray       # (N,) bool: a true corner (not a chord of a curve, not tangent)
+    entry_direction: tuple = (float("nan"),) * 3   # unit direction of the rapid that leads into the cut (NaN: none)
 
 
 def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> CutSamples:
@@ -124,8 +130,16 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
         est = _ffill_nan(est)
         at = np.isnan(kappa[key_idx])
         kappa[key_idx[at]] = est[at]
-    _line_runs_curvature(kappa, pts, moves, kinds, seg_move, exact)
+    corner = np.zeros(pts.shape[0], bool)
+    _line_runs_curvature(kappa, pts, moves, kinds, seg_move, exact, corner)
     kappa = np.where(np.isnan(kappa), 0.0, kappa)
+    ends_at = np.concatenate([[0], np.flatnonzero(np.isnan(exact)) + 1])   # cut start + move ends
+    turn = _junction_angles(program, moves, ends_at, pts.shape[0])
+    # a junction where an arc or a G5.2 block meets another move at an angle is a corner too
+    if moves.size > 1:
+        beside = (kinds[:-1] != LINE) | (kinds[1:] != LINE)
+        inner = ends_at[1:-1]
+        corner[inner[beside & (turn[inner] > CORNER_MIN_RAD)]] = True
     ds = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(ds)])
     total = s[-1] if s[-1] > 0 else 1.0
@@ -140,11 +154,43 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
                           d1=nan, d2=nan, dim=3, curve=None)
     sample_move = np.concatenate([[seg_move[0]], seg_move])
     return CutSamples(cut=k, samples=samples, seg_move=seg_move, seg_f0=f0, seg_f1=f1,
-                      sample_move=sample_move)
+                      sample_move=sample_move, turn_angle=turn, corner=corner,
+                      entry_direction=_entry_direction(program, int(moves[0])))
+
+
+def _entry_direction(program: Program, first: int) -> tuple:
+    """The unit direction of the rapid that ends where move ``first`` starts (moves that do not
+    move, a repeated G0 Z or a G1 to where the tool is, are transparent), or NaNs when no rapid
+    leads into it."""
+    none = (float("nan"),) * 3
+    prev = first - 1
+    while prev >= 0 and int(program.kind[prev]) in (RAPID, HOME, LINE) and \
+            np.array_equal(program.end[prev], program.start[prev]):
+        prev -= 1
+    if prev < 0 or int(program.kind[prev]) not in (RAPID, HOME):
+        return none
+    if not np.array_equal(program.end[prev], program.start[first]):
+        return none
+    d = program.end[prev] - program.start[prev]
+    return tuple(float(x) for x in d / np.linalg.norm(d))
+
+
+def _junction_angles(program: Program, moves: np.ndarray, move_end_samples: np.ndarray, n: int) -> np.ndarray:
+    """Per sample: the angle (rad) between the arriving move's end tangent and the leaving move's
+    start tangent at every junction of two moves (exact tangents), 0 elsewhere."""
+    turn = np.zeros(n)
+    if moves.size < 2:
+        return turn
+    tangents = [move_end_tangents(program, int(m)) for m in moves]
+    t_end = np.array([t[1] for t in tangents[:-1]])
+    t_start = np.array([t[0] for t in tangents[1:]])
+    cos = np.clip(np.einsum("ij,ij->i", t_end, t_start), -1.0, 1.0)
+    turn[move_end_samples[1:-1]] = np.arccos(cos)
+    return turn
 
 
 def _line_runs_curvature(kappa: np.ndarray, pts: np.ndarray, moves: np.ndarray, kinds: np.ndarray,
-                         seg_move: np.ndarray, exact: np.ndarray) -> None:
+                         seg_move: np.ndarray, exact: np.ndarray, corner: np.ndarray) -> None:
     """Curvature along runs of consecutive G1 moves, in place: the path the vertices describe within
     their own rounding (:func:`fuzzyfeed.geometry.polyline.polyline_curvature`: straight runs κ = 0, a circle
     written as rounded G1 chords its one κ = 1/R, a corner the LinuxCNC G64 P blend), not the
@@ -176,6 +222,7 @@ def _line_runs_curvature(kappa: np.ndarray, pts: np.ndarray, moves: np.ndarray, 
             first = 0 if j == 0 else 1              # an arc/NURBS end keeps the junction estimate
             last = est.size if k == moves.size - 1 else est.size - 1
             kappa[at[first:last]] = est[first:last]
+            corner[at[1:-1]] |= fit.corner[1:-1]
             inside = np.isin(seg_move, moves[j:k + 1])
             idx = np.flatnonzero(inside)[:-1] + 1   # samples strictly inside a move (not its end)
             idx = idx[~np.isnan(exact[idx - 1])]

@@ -6,7 +6,8 @@ sample. The feed of a segment between two samples is min(φ_i, φ_i+1) × F, wit
 program has at that move (its ceiling, also for plunges and ramps), capped by ``cap_mm_min`` if
 given; it is rounded *down* to a multiple of ``feed_step_mm_min`` (one step is the floor, but
 never above F). A move is split only where that rounded feed changes inside it, into pieces of at
-least ``min_piece_mm`` (a shorter stretch joins its neighbour at the slower of the two feeds); a
+least ``min_piece_mm`` (a short slow stretch grows into its faster neighbours, a short fast one takes
+its slower neighbour's feed: no feed is ever raised); a
 move shorter than 2 × ``min_piece_mm``, a G5.2 block, a move whose line also stops the program
 (M0/M1/M2/M30/M60) and a multi-turn arc keep one feed, the slowest over the move. Moves outside cuts (rapids, cycles, moves from unknown positions,
 G93/G95 moves) keep their programmed feed.
@@ -22,7 +23,8 @@ from fuzzyfeed.program.cuts import DEFAULT_STEP_MM, CutSamples, sample_cut
 from fuzzyfeed.errors import InputError, PathFormatError
 from fuzzyfeed.fuzzy.advisor import FuzzyAdvice, advise_details
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.rules import RuleTable
+from fuzzyfeed.fuzzy.rules import MACHINE, RuleTable
+from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.program.model import NO_FEED_RULE, NURBS, Program
 
 #: Default feed quantisation for programs (mm/min).
@@ -62,8 +64,10 @@ def quantise_down(feed_mm_min: np.ndarray, step: float, ceiling: np.ndarray) -> 
 def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None = None,
                    step_mm: float = DEFAULT_STEP_MM, cap_mm_min: float | None = None,
                    feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
-                   min_piece_mm: float = DEFAULT_MIN_PIECE_MM) -> ProgramAdvice:
-    """Advise the cuts ``cuts`` (default: all) of ``program`` (see the module docstring)."""
+                   min_piece_mm: float = DEFAULT_MIN_PIECE_MM, machine: Machine | None = None) -> ProgramAdvice:
+    """Advise the cuts ``cuts`` (default: all) of ``program`` (see the module docstring). A machine
+    table reads the ``machine``'s inputs at every sample, with the program's F there as the feed
+    its ratios refer to and the cut's exact junction angles and corners."""
     if not (np.isfinite(step_mm) and step_mm > 0):
         raise InputError(f"step_mm = {step_mm!r}; the sampling step must be finite and > 0")
     if not (np.isfinite(feed_step_mm_min) and feed_step_mm_min > 0):
@@ -84,7 +88,15 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
     pm, pe, pf = [], [], []
     for k in chosen:
         cs = sample_cut(program, k, step_mm)
-        adv = advise_details(cs.samples, table, 100.0, engine=engine)
+        if table.inputs == MACHINE:
+            ceil_mm_min = feed[cs.sample_move]
+            if cap_mm_min is not None:
+                ceil_mm_min = np.minimum(ceil_mm_min, cap_mm_min)
+            adv = advise_details(cs.samples, table, 100.0, engine=engine, machine=machine,
+                                 ceiling_mm_s=ceil_mm_min / 60.0, turn_angle=cs.turn_angle,
+                                 corner=cs.corner, entry_direction=cs.entry_direction)
+        else:
+            adv = advise_details(cs.samples, table, 100.0, engine=engine)
         phi = adv.feed_pct / 100.0
         ceiling_seg = feed[cs.seg_move]
         if cap_mm_min is not None:
@@ -102,15 +114,13 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         whole = (program.no_split[cs.seg_move] | (program.kind[cs.seg_move] == NURBS)
                  | (move_len[grp] < 2 * min_piece_mm))
         q = np.where(whole, move_min[grp], q)
+        q = hold_min_length(q, seg_len, first, min_piece_mm)
         change = new_move.copy()
         change[1:] |= q[1:] != q[:-1]
         last = np.append(change[1:], True)          # last segment of each piece
         p_move = cs.seg_move[last]
         p_end = np.where(np.append(new_move[1:], True)[last], 1.0, cs.seg_f1[last])
         p_feed = q[last]
-        starts = np.flatnonzero(change)
-        p_len = np.add.reduceat(seg_len, starts)
-        p_move, p_end, p_feed = _merge_short(p_move, p_end, p_feed, p_len, min_piece_mm)
         pm.append(p_move)
         pe.append(p_end)
         pf.append(p_feed)
@@ -126,38 +136,41 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
                          feed_step_mm_min=feed_step_mm_min, cap_mm_min=cap_mm_min, table=table)
 
 
-def _merge_short(move, end, feed, length, min_len):
-    """Join pieces shorter than ``min_len`` to a neighbour of the same move (slower feed wins)."""
-    same_next = np.append(move[1:] == move[:-1], False)
-    multi = same_next | np.insert(same_next[:-1], 0, False)
-    if not (multi & (length < min_len)).any():
-        return move, end, feed
-    keep = ~multi
-    out_m, out_e, out_f = [move[keep]], [end[keep]], [feed[keep]]
-    idx = np.flatnonzero(multi)
-    starts = idx[np.insert(move[idx][1:] != move[idx][:-1], 0, True)]
-    for i in starts.tolist():
-        j = i
-        while j + 1 < move.size and move[j + 1] == move[i]:
-            j += 1
-        ends, feeds, lens = list(end[i:j + 1]), list(feed[i:j + 1]), list(length[i:j + 1])
-        k = 0
-        while len(lens) > 1 and k < len(lens):
-            if lens[k] < min_len:
-                other = k + 1 if k + 1 < len(lens) else k - 1
-                lo, hi = min(k, other), max(k, other)
-                ends[lo:hi + 1] = [ends[hi]]
-                feeds[lo:hi + 1] = [min(feeds[lo], feeds[hi])]
-                lens[lo:hi + 1] = [lens[lo] + lens[hi]]
-                k = lo
+def hold_min_length(q: np.ndarray, seg_len: np.ndarray, move_first: np.ndarray, min_len: float) -> np.ndarray:
+    """Per segment feeds ``q`` with every run of equal feed inside a move at least ``min_len`` long
+    (``move_first``: the first segment of each move), never raising a feed: a short run slower than
+    its neighbours grows into the faster one(s) segment by segment; a short run faster than a
+    neighbour drops to the nearest slower neighbour's feed."""
+    q = q.copy()
+    bounds = np.append(move_first, q.size)
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b - a < 2 or (q[a:b] == q[a]).all():
+            continue
+        seg = q[a:b]
+        lens = seg_len[a:b]
+        for _ in range(b - a):
+            starts = np.flatnonzero(np.concatenate([[True], seg[1:] != seg[:-1]]))
+            if starts.size < 2:
+                break
+            ends = np.append(starts[1:], seg.size)
+            run_len = np.add.reduceat(lens, starts)
+            short = np.flatnonzero(run_len < min_len - 1e-9)
+            if short.size == 0:
+                break
+            r = int(short[np.argmin(run_len[short])])
+            s0, s1 = starts[r], ends[r]
+            sides = [v for v in ((seg[s0 - 1], s0 - 1) if s0 > 0 else None,
+                                 (seg[s1], s1) if s1 < seg.size else None) if v is not None]
+            slower = [f for f, _ in sides if f < seg[s0]]
+            if slower:
+                # short and faster than a neighbour: it takes the nearest slower neighbour's feed
+                seg[s0:s1] = max(slower)
             else:
-                k += 1
-        out_m.append(np.full(len(ends), move[i], dtype=move.dtype))
-        out_e.append(np.array(ends))
-        out_f.append(np.array(feeds))
-    m, e, f = np.concatenate(out_m), np.concatenate(out_e), np.concatenate(out_f)
-    order = np.lexsort((e, m))
-    return m[order], e[order], f[order]
+                # short and slowest: it grows by one segment into its faster neighbour
+                _, at = max(sides)
+                seg[at] = seg[s0]
+        q[a:b] = seg
+    return q
 
 
 def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:
@@ -169,8 +182,13 @@ def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:
         part = {"cut": np.full(n, cs.cut + 1),
                 "source_line": pa.program.move_line[cs.sample_move] + 1}
         part.update(cs.samples.columns())
-        part["curvature_window_max_1_mm"] = adv.features.window_max_1_mm
-        part["curvature_variation"] = adv.features.curvature_variation
+        if adv.machine is not None:
+            part["safe_feed_mm_min"] = np.minimum(adv.machine.safe_feed_mm_s * 60.0, ceil)
+            part["safe_feed_ratio"] = adv.machine.safe_feed_ratio
+            part["safe_feed_ratio_near"] = adv.machine.safe_feed_ratio_near
+        else:
+            part["curvature_window_max_1_mm"] = adv.features.window_max_1_mm
+            part["curvature_variation"] = adv.features.curvature_variation
         part["feed_pct_controller"] = adv.controller_pct
         part["feed_pct"] = adv.feed_pct
         part["programmed_feed_mm_min"] = ceil

@@ -112,6 +112,7 @@ class Program:
     rows: Rows | None = None          # executed rows, when lines run more than once or out of order
     rotary: np.ndarray | None = None  # (M,) bool: the move turns a rotary axis (A/B/C; U/V/W)
     known: np.ndarray | None = None   # (M,) bool: the move starts from a known point
+    stops: np.ndarray | None = None   # (M,) bool: its line stops the program after it (M0/M1/M2/M30/M60)
 
     @property
     def n_cuts(self) -> int:
@@ -205,3 +206,33 @@ def arc_points(program: Program, m: int, fractions: np.ndarray) -> np.ndarray:
     out[f == 0] = program.start[m]
     out[f == 1] = program.end[m]
     return out
+
+
+def move_end_tangents(program: Program, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangents (3,) of move ``m`` at its start and its end: a line's direction, an arc's
+    exact tangent (d/df of :func:`arc_points`), a G5.2 block's C′ at its ends."""
+    kind = int(program.kind[m])
+    if kind == ARC:
+        g = arc_geometry(program, m)
+        a, b, n = g["axes"]
+        out = []
+        for f in (0.0, 1.0):
+            ang = g["a0"] + g["sweep"] * f
+            rad = g["r0"] + (g["r1"] - g["r0"]) * f
+            d = np.zeros(3)
+            d[a] = -rad * np.sin(ang) * g["sweep"] + (g["r1"] - g["r0"]) * np.cos(ang)
+            d[b] = rad * np.cos(ang) * g["sweep"] + (g["r1"] - g["r0"]) * np.sin(ang)
+            d[n] = g["rise"]
+            out.append(d)
+    elif kind == NURBS and int(m) in program.nurbs:
+        curve = program.nurbs[int(m)]
+        d1 = curve.evaluate(np.array(curve.domain, dtype=float), order=1)[1]
+        out = [np.pad(row, (0, 3 - row.size)) for row in d1]
+    else:
+        d = program.end[m] - program.start[m]
+        out = [d, d]
+    unit = []
+    for d in out:
+        norm = float(np.linalg.norm(d))
+        unit.append(d / norm if norm > 0 else np.zeros(3))
+    return unit[0], unit[1]

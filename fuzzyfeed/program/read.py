@@ -422,6 +422,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     kind[kept & (kind == ARC) & ~known[move_rows]] = KEPT
     feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * scale[move_rows])
     no_split = m_stop[move_rows].copy()
+    stops = m_stop[move_rows].copy()
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
                                                        endp, col, inch, scale, ij_absolute)
     no_split |= multi_turn
@@ -463,6 +464,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         turns = np.where(in_comp, comp.turns, turns[src])
         arc_plane = np.where(kind == ARC, np.where(in_comp, plane[move_rows], arc_plane[src]), 0)
         feed_mm, no_split = feed_mm[src], no_split[src] | in_comp
+        stops = stops[src] & (np.append(src[1:] != src[:-1], True))   # after the line's last move
         fmode = fmode[src]
 
     # --- cuts ---
@@ -516,7 +518,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
                    move_line=move_line, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
-                   rows=row_info, rotary=abc_has[move_rows], known=known[move_rows])
+                   rows=row_info, rotary=abc_has[move_rows], known=known[move_rows], stops=stops)
 
 
 def _notice(message: str) -> None:

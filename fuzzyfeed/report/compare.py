@@ -109,13 +109,14 @@ def _cross_check(samples: PathSamples, fuzzy: FeedProfile, slw: FeedProfile,
 
 def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None = None,
             name: str = "path", progress=None, servo: ServoModel | None = None,
-            approach: int = 2, feed_cap=None) -> Comparison:
+            approach: int = 2, feed_cap=None, transition: str = "cosine") -> Comparison:
     """Run every method of :data:`METHODS` on ``samples`` and simulate each (DESIGN §3).
 
     ``servo`` is the axis model every method's contour error is measured with (default
     ``ServoModel()``: first order, Kv = 30 1/s, no feed-forward).
     The fuzzy advisor's maximum feed is the command feed F of ``limits``; ``approach`` is the SLW
-    scheduler's (seed 000 Table 1) for ``slw`` and ``fuzzy-safe``. ``progress``, if given, is
+    scheduler's (seed 000 Table 1) for ``slw`` and ``fuzzy-safe``, ``transition`` the shape of its
+    feed changes (seed 000's ``"cosine"`` or ``"seven-phase"``). ``progress``, if given, is
     called with the name of each step as it starts (the CLI hooks a progress bar on it).
     ``feed_cap`` (optional, (s_mm, feed_mm_s) along the path, a repeated s a step) is the F a
     program has at each place: every method runs under it — the advice as a fraction of it,
@@ -129,7 +130,7 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     ceiling = np.full(len(samples), limits.feed_mm_s)
     if feed_cap is not None:
         ceiling = np.minimum(FeedCap(*feed_cap, samples.length)(samples.s), limits.feed_mm_s)
-    trajectory = schedule(curve, limits, approach=approach, feed_cap=feed_cap)
+    trajectory = schedule(curve, limits, approach=approach, feed_cap=feed_cap, transition=transition)
     slw_profile = trajectory.feed_at(samples)
     step("bound")
     # on the path the machine follows: a polyline blended within the path tolerance, as schedule
@@ -140,7 +141,7 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     if feed_cap is not None:   # the advised fraction of the F in force
         fuzzy = FeedProfile(samples, fuzzy.feed_mm_s / limits.feed_mm_s * ceiling, "fuzzy", limits.feed_mm_s)
     step("fuzzy-safe")
-    safe_trajectory = schedule(curve, limits, approach=approach, feed_cap=fuzzy)
+    safe_trajectory = schedule(curve, limits, approach=approach, feed_cap=fuzzy, transition=transition)
     safe_at = safe_trajectory.feed_at(samples)
     safe = FeedProfile(samples, safe_at.feed_mm_s, "fuzzy-safe", limits.feed_mm_s)
     constant = FeedProfile(samples, ceiling, "constant", limits.feed_mm_s)

@@ -119,7 +119,17 @@ def plot_fuzzy_advice(advice, title: str, output: str | os.PathLike) -> None:
     save_figure(fig, output)
 
 
+def _input_labels(table) -> tuple[str, str]:
+    """Axis labels of a table's two inputs (paper: κ on a symlog axis; machine: linear ratios)."""
+    if table.inputs == "machine":
+        return ("safe-feed ratio here (x programmed F)", "safe-feed ratio near (x programmed F)")
+    return ("curvature κ (1/mm, symlog)", "normalised curvature variation Dκ")
+
+
 def _kappa_axis(ax, table) -> None:
+    if table.inputs == "machine":
+        ax.set_xlim(*table.curvature.universe)
+        return
     lo, hi = table.curvature.universe
     positive = [p for t in table.curvature.terms for p in t.points if p > 0]
     ax.set_xscale("symlog", linthresh=min(positive) if positive else 0.01, linscale=0.5)
@@ -155,12 +165,12 @@ def plot_rule_surface(table, output: str | os.PathLike, points: int = 241) -> No
         ax_s.clabel(cs, fmt="%g %%", fontsize=7)
     _kappa_axis(ax_s, table)
     ax_s.set_ylim(d_lo, d_hi)
-    ax_s.set_xlabel("curvature κ (1/mm, symlog)")
-    ax_s.set_ylabel("normalised curvature variation Dκ")
+    x_label, y_label = _input_labels(table)
+    ax_s.set_xlabel(x_label)
+    ax_s.set_ylabel(y_label)
     ax_s.set_title(f"control surface: {table.name} rules, feed % (exact centroid)")
     fig.colorbar(mesh, ax=ax_s, label="feed (% of max)")
-    for row, (var, xlabel) in enumerate(((table.curvature, "curvature κ (1/mm, symlog)"),
-                                         (table.curvature_variation, "normalised Dκ"),
+    for row, (var, xlabel) in enumerate(((table.curvature, x_label), (table.curvature_variation, y_label),
                                          (table.feed, "feed (% of max)"))):
         ax = fig.add_subplot(grid[row, 1])
         lo, hi = var.universe
@@ -172,7 +182,7 @@ def plot_rule_surface(table, output: str | os.PathLike, points: int = 241) -> No
             line, = ax.plot(x, mu[:, j], lw=1.3, label=term.label)
             a, b, c, d = term.trapezoid
             peak = b if b == c else (b + c) / 2
-            if row == 0 and b != c:
+            if row == 0 and b != c and table.inputs != "machine":
                 peak = (b * c) ** 0.5 if b > 0 else c / 3
             ax.text(peak, 1.04, term.label, ha="center", va="bottom", fontsize=7, color=line.get_color())
         ax.set_ylim(-0.03, 1.18)

@@ -3,7 +3,7 @@
 Blocks from the preprocessor are pushed into a window. In the window the junction feeds are set by
 a backward scan (each junction no faster than what still stops — or reaches the next junction's
 feed — within its block) and a forward scan (no faster than what is reachable from the previous
-junction), both with bisection on the cosine transition's distance: the type-4 corrections of
+junction), both with bisection on the transition's distance (seed 000's cosine, or the seven-phase ramp): the type-4 corrections of
 seed 000 ("Feedrate correction for non-schedulable blocks", Heng & Erkorkmaz's bisection). The
 window assumes a stop at its far end; the first block is released only when its end feed is the
 same whether or not that stop is assumed, which needs at least a full stop from the command feed
@@ -11,7 +11,7 @@ of look-ahead (eq. (22)) — so the released profile equals the one the whole pa
 
 Every block's profile is checked against the path before release: the feed against the pointwise
 limit at the reference points, and the axial accelerations a_t·T_j + v²·κN_j against A_j. A feed
-above the limit inside a block adds a junction there (the limit curve rose slower than the cosine
+above the limit inside a block adds a junction there (the limit curve rose slower than the
 profile); an axial acceleration above its limit lowers the block's tangential acceleration, or the
 feed of the junction it approaches when the centripetal part alone nearly uses the axis up.
 """
@@ -27,10 +27,10 @@ import numpy as np
 from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
-from fuzzyfeed.slw.preprocess import Block, Reference, corner_plan, evaluate_reference
-from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, lowest_end_speed, max_start_speed,
-                                   transition_distance,
-                                   segment_state, stop_distance)
+from fuzzyfeed.slw.preprocess import Block, Reference, _evaluate, corner_plan, evaluate_reference, joins
+from fuzzyfeed.slw.profile import (COSINE, Segment, block_segments, check_shape, lowest_end_speed,
+                                   max_end_speed, max_start_speed, peak_acceleration, segment_state, stop_distance,
+                                   transition_distance)
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
 CHECK_RTOL = 1e-6
@@ -66,6 +66,11 @@ ACC_KEEP = 0.5
 #: is the tangential acceleration's); the preprocessor's corner caps use CORNER_MARGIN of it.
 CORNER_SHARE = 0.45
 CORNER_MARGIN = 0.9
+#: Samples of a block's profile within this share of a limit (axis acceleration or feed) are
+#: checked against the path evaluated at the samples themselves, not interpolated between points.
+EXACT_NEAR = 0.99
+#: A join whose unit tangent jumps by less than this (per axis) is no kink.
+KINK_MIN = 1e-9
 #: Blocks at the front of the window checked at the feeds of a continuing path before a release.
 FRONT_BLOCKS = 3
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
@@ -138,21 +143,30 @@ class SlidingWindow:
     """Schedules blocks progressively; iterate :meth:`run` to get :class:`ScheduledBlock` s."""
 
     def __init__(self, limits: MachineLimits, curve: Nurbs | None = None, approach: int = 2,
-                 cap: FeedCap | None = None):
+                 cap: FeedCap | None = None, transition: str = COSINE):
         if approach not in (1, 2):
             raise ValueError(f"approach = {approach!r}; seed 000 Table 1 has approaches 1 and 2")
         self.approach = approach
+        self.shape = check_shape(transition)
         self.cap = cap
         self.curve = curve
         self.limits = limits
         self.jerk = limits.jerk_mm_s3
         self.acc = limits.tangential_acc_mm_s2
         self.axis_acc = np.asarray(limits.axis_acc_mm_s2)
-        self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk)
+        self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk, self.shape)
         self.window_mm = WINDOW_STOPS * self.stop
         self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
         # the corners that are critical points (the junctions a merge may drop)
         self._corner_s = corner_plan(curve, limits)[0] if curve is not None else np.empty(0)
+        # every kink (tangent break) of the path: arc lengths, tangents, |κn|, |ΔT| (joins)
+        self._kinks = None
+        if curve is not None:
+            s_j, t_j, c2, jump = joins(curve)
+            sel = jump.max(axis=1, initial=0.0) > KINK_MIN if s_j.size else np.zeros(0, dtype=bool)
+            if sel.any():
+                self._kinks = (s_j[sel], np.vstack([t_j[:s_j.size][sel], t_j[s_j.size:][sel]]),
+                               c2[sel], jump[sel])
         self.blocks: list[_WBlock] = []
         self.stats = LookaheadStats()
         self._front_checks = 0
@@ -184,7 +198,7 @@ class SlidingWindow:
         if last.cap < prev.cap or last.cap < block.cap1:
             return False
         lo = min(prev.cap, block.cap1)
-        if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk):
+        if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk, self.shape):
             return False
         b = self.blocks[-1]
         head, acc = b.ref, min(b.acc, self._direction_acc(block.ref))
@@ -226,19 +240,19 @@ class SlidingWindow:
         v[n] = min(self.juncs[n].cap, end_feed)
         for i in range(n - 1, -1, -1):
             b = self.blocks[i]
-            v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc, self.jerk)
+            v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc, self.jerk, self.shape)
         return v
 
     def _plan(self, end_feed: float) -> None:
         v = self._backward(end_feed)
         v[0] = self.juncs[0].v  # committed
         for i, b in enumerate(self.blocks):
-            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc, self.jerk) > b.length:
+            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc, self.jerk, self.shape) > b.length:
                 # a committed junction may be faster than a junction found later allows: brake as
                 # hard as the block lets (the check then repairs the block before it is released)
-                v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+                v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk, self.shape)
             else:
-                v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk)
+                v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk, self.shape)
         for j, vj in zip(self.juncs, v):
             j.v = vj
 
@@ -246,7 +260,7 @@ class SlidingWindow:
     def _segments(self, i: int):
         b = self.blocks[i]
         return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
-                              self.approach)
+                              self.approach, self.shape)
 
     def _check(self, i: int) -> bool:
         """Check block i; repair it and return False if it broke a limit."""
@@ -276,14 +290,32 @@ class SlidingWindow:
         seg_id = np.concatenate([p[3] for p in parts])
         ref = b.ref
         vlim = np.interp(s, ref.s, ref.vlim)
-        over_v = v - vlim * (1.0 + CHECK_RTOL) - 1e-12
         tan = np.stack([np.interp(s, ref.s, ref.tangent[:, j]) for j in range(3)], axis=1)
         kn = np.stack([np.interp(s, ref.s, ref.kn[:, j]) for j in range(3)], axis=1)
-        cen = (v * v)[:, None] * kn
-        total = a[:, None] * tan + cen
-        ratio = np.abs(total) / self.axis_acc[None, :]
-        worst_axis = np.argmax(ratio, axis=1)
-        r = ratio[np.arange(ratio.shape[0]), worst_axis]
+        r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        near = np.flatnonzero((r > EXACT_NEAR) | ((v > EXACT_NEAR * vlim) & (vlim < self.limits.feed_mm_s)))
+        if near.size and self.curve is not None:
+            # within reach of a limit: the path read at the samples themselves, not interpolated
+            # between reference points (a product of interpolated T and κN missed a block's
+            # peak: wm on a slow Y axis, 100.4 % of A_y between two points 0.1 mm apart)
+            # (at u interpolated between the points: no arc-length inversion, second-order close)
+            exact = _evaluate(self.curve, self.limits, s[near], self.cap, np.interp(s[near], ref.s, ref.u))
+            vlim[near] = np.minimum(vlim[near], exact.vlim)
+            tan[near], kn[near] = exact.tangent, exact.kn
+            r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        kinks = self._kink_samples(s, v, a)
+        if kinks is not None:  # a kink's tick, as one more sample (no feed limit of its own)
+            s_k, v_k, a_k, tan_k, cen_k, at = kinks
+            s, v, a = np.concatenate([s, s_k]), np.concatenate([v, v_k]), np.concatenate([a, a_k])
+            vlim = np.concatenate([vlim, 2.0 * v_k + 1.0])
+            seg_id = np.concatenate([seg_id, seg_id[at]])
+            tan, cen = np.vstack([tan, tan_k]), np.vstack([cen, cen_k])
+            ratio = (np.abs(a[:, None] * tan) + np.abs(cen)) / self.axis_acc[None, :]
+            ratio[:-s_k.size] = np.abs(a[:-s_k.size, None] * tan[:-s_k.size] + cen[:-s_k.size]) \
+                / self.axis_acc[None, :]
+            worst_axis = np.argmax(ratio, axis=1)
+            r = ratio[np.arange(ratio.shape[0]), worst_axis]
+        over_v = v - vlim * (1.0 + CHECK_RTOL) - 1e-12
         # and at the reference points themselves: a corner's cap is one point, and samples either
         # side of it read the limit interpolated towards its neighbours, far above it
         inner = np.flatnonzero((ref.s > s[0]) & (ref.s < s[-1]))
@@ -322,7 +354,7 @@ class SlidingWindow:
             self._split(i, s[k], cap=room * float(v[k]))
             self.stats.caps_lowered += 1
             return False
-        peak = max(abs(seg.v1 - seg.v0) * math.pi / (2 * seg.duration_s), 1e-9) if seg.duration_s else b.acc
+        peak = max(peak_acceleration(seg), 1e-9) if seg.duration_s else b.acc
         need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
         acc = max(min(b.acc, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
         if acc < ACC_KEEP * self.acc:
@@ -335,6 +367,40 @@ class SlidingWindow:
         self.stats.acc_lowered += 1
         self._invalidate()
         return False
+
+    def _kink_samples(self, s: np.ndarray, v: np.ndarray, a: np.ndarray):
+        """The ticks that pass a kink of the path inside the sampled stretch (a tangent break too
+        small to be a corner the profile stops its acceleration for: a join of a blended
+        polyline, 0.2°): there the axis sees |a·T_j| + v·|ΔT_j|/Ts + v²·|κn_j| at once (a slow
+        Y axis at 109 % of A_y, the tangential part alone using it up). Returns (s, v, a, |T_j|
+        of the steeper side, v·|ΔT_j|/Ts + v²·|κn_j|, index of the sample before) or None."""
+        if self._kinks is None:
+            return None
+        s_j, t_j, c2, jump = self._kinks
+        lo, hi = np.searchsorted(s_j, [s[0], s[-1]], side="right")
+        if hi <= lo:
+            return None
+        s_k = s_j[lo:hi]
+        if s_k[-1] >= s[-1]:
+            s_k = s_k[s_k < s[-1]]
+            hi = lo + s_k.size
+            if not s_k.size:
+                return None
+        order = np.argsort(s, kind="stable")
+        v_k = np.interp(s_k, s[order], v[order])
+        a_k = np.interp(s_k, s[order], a[order])
+        n = s_j.size
+        tan_k = np.maximum(np.abs(t_j[lo:hi]), np.abs(t_j[n + lo:n + hi]))
+        cen_k = v_k[:, None] * jump[lo:hi] / self.limits.ts_s + (v_k * v_k)[:, None] * c2[lo:hi]
+        at = np.clip(np.searchsorted(s, s_k), 0, s.size - 1)
+        return s_k, v_k, a_k, tan_k, cen_k, at
+
+    def _axis_ratio(self, v: np.ndarray, a: np.ndarray, tan: np.ndarray, kn: np.ndarray):
+        """Worst |a·T_j + v²·κN_j|/A_j per sample, its axis, and the centripetal parts v²·κN."""
+        cen = (v * v)[:, None] * kn
+        ratio = np.abs(a[:, None] * tan + cen) / self.axis_acc[None, :]
+        worst_axis = np.argmax(ratio, axis=1)
+        return ratio[np.arange(ratio.shape[0]), worst_axis], worst_axis, cen
 
     def _invalidate(self) -> None:
         """Nothing to do: a block's check is keyed by everything its profile depends on (junction
@@ -360,7 +426,7 @@ class SlidingWindow:
         left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
         cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
         if i == 0 and cap < self.juncs[0].v:  # the first junction is committed: reachable from it
-            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc, self.jerk)
+            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc, self.jerk, self.shape)
         crawl = CRAWL * self.limits.feed_mm_s
         bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, max(float(left.vlim.max()), crawl)))
         br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, max(float(right.vlim.max()), crawl)))

@@ -147,8 +147,11 @@ def evaluate_reference(curve: Nurbs, limits: MachineLimits, s: np.ndarray,
     return ref
 
 
-def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: FeedCap | None = None) -> Reference:
-    u = np.asarray(curve.param_at_length(s), dtype=float)
+def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: FeedCap | None = None,
+              u: np.ndarray | None = None) -> Reference:
+    """Reference data at arc lengths ``s``; at parameters ``u`` instead of u(s) when given (the
+    caller's estimate of u(s): no arc-length inversion)."""
+    u = np.asarray(curve.param_at_length(s) if u is None else u, dtype=float)
     smp = samples_at(curve, u, s=np.asarray(s, dtype=float))
     tangent = np.nan_to_num(np.asarray(smp.tangent), nan=0.0)
     kn = np.nan_to_num(curvature_vectors(smp), nan=np.inf)
@@ -177,6 +180,41 @@ def _refine(curve: Nurbs, limits: MachineLimits, lo: np.ndarray, hi: np.ndarray,
     return extras, best
 
 
+def joins(curve: Nurbs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The interior span joins of ``curve``: arc lengths (n,), unit tangents just before and just
+    after each ((2n, 3): the n before, then the n after), the larger |κn_j| of the two sides
+    (n, 3) and the kink |ΔT_j| (n, 3): the tangents' difference less what the curve turns over
+    the 2h between the sides (2h|κn| with a factor 2 of margin; on a long path h is microns and
+    a smooth join turns that). Cached per curve; arrays read-only."""
+    return per_curve(curve, "joins", lambda: _joins(curve))
+
+
+def _joins(curve: Nurbs):
+    breaks = curve.span_breaks[1:-1]
+    total = curve.length
+    s_b = np.atleast_1d(curve.arc_length(breaks)) if breaks.size else np.empty(0)
+    h = 1e-7 * total
+    s_b = s_b[(s_b > h) & (s_b < total - h)]
+    if s_b.size == 0:
+        out = (np.empty(0), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)))
+    else:
+        side = np.concatenate([s_b - h, s_b + h])
+        smp = samples_at(curve, np.atleast_1d(curve.param_at_length(side)), s=side)
+        t = np.asarray(smp.tangent)
+        if t.shape[1] == 2:
+            t = np.hstack([t, np.zeros((t.shape[0], 1))])
+        # the curve's own κn on each side (a stationary side is a stop: its cap is 0 in corners)
+        kn = np.nan_to_num(np.abs(curvature_vectors(smp)), nan=0.0, posinf=0.0)
+        if kn.shape[1] == 2:
+            kn = np.hstack([kn, np.zeros((kn.shape[0], 1))])
+        c2 = np.maximum(kn[: s_b.size], kn[s_b.size:])
+        jump = np.maximum(np.nan_to_num(np.abs(t[s_b.size:] - t[: s_b.size]), nan=0.0) - 4.0 * h * c2, 0.0)
+        out = (s_b, t, c2, jump)
+    for arr in out:
+        arr.flags.writeable = False
+    return out
+
+
 def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:
     """Tangent breaks at span joins (C0 knots, zero-length spans) and the feed allowed through them.
 
@@ -187,30 +225,15 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     rounded coordinates: the arc alone may already use the whole budget), so
     v²·|κn_j| + v·|ΔT_j|/Ts ≤ A_j, v ≤ 2A_j / (c₁ + √(c₁² + 4c₂A_j)) with c₁ = |ΔT_j|/Ts,
     c₂ = max |κn_j|; and the corner lies
-    (v·Ts/2)·sin(θ/2) from the chord (≤ δ). The cap is the smaller of the two, with 10 % margin; a
+    (v·Ts/2)·sin(θ/2) from the chord (≤ δ). The cap is the smaller of the two, with 10 % margin,
+    less J·Ts²/2 (what the feed rises within a tick of a junction); a
     reversal or a stationary point gives 0 (a stop). Smooth joins give caps far above the feed.
     Returns arc lengths and caps of the joins whose cap is below the command feed.
     """
-    breaks = curve.span_breaks[1:-1]
-    if breaks.size == 0:
-        return np.empty(0), np.empty(0)
-    total = curve.length
-    s_b = np.atleast_1d(curve.arc_length(breaks))
-    h = 1e-7 * total
-    keep = (s_b > h) & (s_b < total - h)
-    s_b = s_b[keep]
+    s_b, t, c2, jump = joins(curve)
     if s_b.size == 0:
         return np.empty(0), np.empty(0)
-    side = np.concatenate([s_b - h, s_b + h])
-    smp = samples_at(curve, np.atleast_1d(curve.param_at_length(side)), s=side)
-    t = np.asarray(smp.tangent)
-    # the curve's own κn on each side (a stationary side is a stop: its cap is 0 below)
-    kn = np.nan_to_num(np.abs(curvature_vectors(smp)), nan=0.0, posinf=0.0)
     t_in, t_out = t[: s_b.size], t[s_b.size:]
-    c2 = np.maximum(kn[: s_b.size], kn[s_b.size:])
-    # the kink: the tangents' difference less what the curve turns over the 2h between the sides
-    # (2h|κn| with a factor 2 of margin; on a long path h is microns and a smooth join turns that)
-    jump = np.maximum(np.nan_to_num(np.abs(t_out - t_in), nan=0.0) - 4.0 * h * c2, 0.0)
     zero = np.zeros((1, 3))
     cum = np.vstack([zero, np.cumsum(jump, axis=0)])
     cum_s = np.vstack([zero, np.cumsum(jump * s_b[:, None], axis=0)])
@@ -250,7 +273,10 @@ def corners(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray
     half = np.linalg.norm(t_out - t_in, axis=1) / 2.0  # sin(θ/2)
     with np.errstate(divide="ignore", invalid="ignore"):
         cap_chord = np.where(half > 0, 2.0 * limits.chord_tol_mm / (limits.ts_s * half), np.inf)
-    cap = 0.9 * np.minimum(cap_acc, cap_chord)
+    # a junction has zero acceleration, but the ticks either side of it are up to Ts away, where
+    # the feed is up to J·Ts²/2 higher; the ticks' chords turn at that feed (a corner capped at
+    # 0.156 mm/s under J·Ts²/2 = 0.099 was crossed at 0.2 mm/s: 107 % of A_y)
+    cap = np.maximum(0.9 * np.minimum(cap_acc, cap_chord) - 0.5 * limits.jerk_mm_s3 * limits.ts_s ** 2, 0.0)
     cap = np.where(np.isfinite(t).all(axis=1)[: s_b.size] & np.isfinite(t).all(axis=1)[s_b.size:],
                    cap, 0.0)
     sel = cap < limits.feed_mm_s

@@ -1,0 +1,235 @@
+"""A program run the way a controller runs it, then through the axis servo (DESIGN §3, "Advice on
+a machine: is it worth having?").
+
+:func:`program_path` turns a :class:`~fuzzyfeed.program.model.Program` into *chains*: runs of
+moves the controller plans in one look-ahead, from rest to rest — rapids and feed moves (lines;
+arcs and G5.2 blocks as chords within the machine's chord tolerance) whose positions follow on.
+A chain ends where the tool stops or the position is not known: a move of unknown position, a
+canned cycle, a move in G93/G95 or with rotary axes, a stop code (M0/M1/M2/M6/M30/M60), a frame
+change. Those moves are left out of the time. :func:`run_program` plans every chain
+(:func:`fuzzyfeed.machine.planner.plan_motion`), samples it every Ts, runs the set-points through
+the servo (:func:`fuzzyfeed.machine.servo.following_errors`) and measures the contour error of the
+ticks commanded on feed moves of cuts against the programmed path
+(:func:`fuzzyfeed.machine.trace.trace_motion`); rapids are excluded.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzyfeed.errors import InputError
+from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine.planner import Motion, Plan
+from fuzzyfeed.machine.trace import trace_motion
+from fuzzyfeed.program.model import ARC, HOME, LINE, NURBS, RAPID, Program, arc_geometry, arc_points
+
+@dataclass(frozen=True, eq=False)
+class Chain:
+    """One look-ahead chain: the polyline the controller runs, and per segment the program move it
+    belongs to and whether it is a feed move of a cut (its ticks count for the contour error)."""
+
+    motion: Motion
+    seg_move: np.ndarray
+    seg_measured: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramPath:
+    program: Program
+    chains: tuple[Chain, ...]
+    chord_tol_mm: float
+
+    @property
+    def n_segments(self) -> int:
+        return sum(c.motion.n_segments for c in self.chains)
+
+
+def _arc_chords(program: Program, m: int, chord_tol_mm: float) -> tuple[np.ndarray, float]:
+    """Points (k, 3) after the start of arc move ``m``, chords within ``chord_tol_mm``, and the radius."""
+    g = arc_geometry(program, m)
+    r = g["radius"]
+    if r > chord_tol_mm:
+        step = 2.0 * np.arccos(1.0 - chord_tol_mm / r)
+    else:
+        step = np.pi / 2
+    k = max(1, int(np.ceil(abs(g["sweep"]) / step)))
+    return arc_points(program, m, np.arange(1, k + 1) / k), r
+
+
+def _nurbs_chords(program: Program, m: int, chord_tol_mm: float) -> np.ndarray:
+    curve = program.nurbs[int(m)]
+    lo, hi = curve.domain
+    probe = np.linspace(lo, hi, max(64, 16 * (curve.span_breaks.size - 1)))
+    kmax = float(np.max(curve.curvature(probe)))
+    step = np.sqrt(8.0 * chord_tol_mm / kmax) if kmax > 0 else curve.length
+    k = max(1, int(np.ceil(curve.length / max(step, 1e-6))))
+    u = curve.param_at_length(np.linspace(0.0, curve.length, k + 1)[1:])
+    pts = curve(u)
+    out = np.column_stack([pts[:, 0], pts[:, 1], np.full(k, program.start[m, 2])]) if pts.shape[1] == 2 else pts
+    out[-1] = program.end[m]
+    return out
+
+
+def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
+    """The chains of ``program`` (see the module docstring), arcs as chords within ``chord_tol_mm``."""
+    kinds = program.kind
+    feed_mode = program.feed_mode[program.move_line] if program.move_line.size else np.zeros(0)
+    runnable = np.isin(kinds, [RAPID, HOME, LINE, ARC, NURBS])
+    feed_move = np.isin(kinds, [LINE, ARC, NURBS])
+    runnable &= ~feed_move | ((feed_mode == 94) & (program.feed_mm_min > 0))
+    # a line with a stop code stops the tool after its motion
+    stops = program.stops if program.stops is not None else program.no_split & ~(kinds == ARC)
+    chains: list[Chain] = []
+    pts: list[np.ndarray] = []
+    feed: list[float] = []
+    rapid: list[bool] = []
+    radius: list[float] = []
+    seg_move: list[int] = []
+    measured: list[bool] = []
+    last_end: np.ndarray | None = None
+
+    def close() -> None:
+        nonlocal pts, feed, rapid, radius, seg_move, measured, last_end
+        if feed:
+            p = np.vstack(pts)
+            r = np.array(radius)
+            chains.append(Chain(Motion(p, np.array(feed), np.array(rapid), r),
+                                np.array(seg_move), np.array(measured)))
+        pts, feed, rapid, radius, seg_move, measured, last_end = [], [], [], [], [], [], None
+
+    for m in range(kinds.size):
+        if not runnable[m]:
+            close()
+            continue
+        start, end = program.start[m], program.end[m]
+        if last_end is not None and not np.array_equal(start, last_end):
+            close()
+        kind = int(kinds[m])
+        if kind == ARC:
+            new, r = _arc_chords(program, m, chord_tol_mm)
+            rads = [r] * (new.shape[0] - 1) + [np.nan]
+        elif kind == NURBS:
+            new = _nurbs_chords(program, m, chord_tol_mm)
+            rads = [np.nan] * new.shape[0]
+        else:
+            new = end[None, :]
+            rads = [np.nan]
+        if not pts:
+            pts.append(start[None, :])
+            radius.append(np.nan)
+        prev = pts[-1][-1]
+        steps = np.linalg.norm(np.diff(np.vstack([prev[None, :], new]), axis=0), axis=1)
+        keep = steps > 1e-9
+        if keep.any():
+            new = new[keep]
+            rads = [r for r, k in zip(rads, keep) if k]
+            rads[-1] = np.nan
+            is_rapid = kind in (RAPID, HOME)
+            pts.append(new)
+            radius.extend(rads)
+            f = np.nan if is_rapid else float(program.feed_mm_min[m]) / 60.0
+            feed.extend([f] * new.shape[0])
+            rapid.extend([is_rapid] * new.shape[0])
+            seg_move.extend([m] * new.shape[0])
+            measured.extend([(not is_rapid) and program.cut[m] >= 0] * new.shape[0])
+        last_end = end
+        if stops[m]:
+            close()
+    close()
+    return ProgramPath(program=program, chains=tuple(chains), chord_tol_mm=chord_tol_mm)
+
+
+@dataclass(frozen=True, eq=False)
+class ChainRun:
+    """One chain planned and run: its plan, and per measured tick the time, the contour error
+    (mm), the move commanded and the nearest segment of the actual tool."""
+
+    plan: Plan
+    tick_time_s: np.ndarray
+    contour_mm: np.ndarray
+    tick_move: np.ndarray
+    tick_segment: np.ndarray
+    nearest_segment: np.ndarray
+    nearest_xyz: np.ndarray
+    speed_mm_s: np.ndarray
+    lookback_segment: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramRun:
+    path: ProgramPath
+    machine: Machine
+    runs: tuple[ChainRun, ...]
+
+    @property
+    def time_s(self) -> float:
+        """Time of every chain (rapids and feed moves), as the planner runs them."""
+        return float(sum(r.plan.time_s for r in self.runs))
+
+    @property
+    def contour_um(self) -> np.ndarray:
+        parts = [r.contour_mm for r in self.runs]
+        return np.concatenate(parts) * 1e3 if parts else np.zeros(0)
+
+    @property
+    def max_um(self) -> float:
+        e = self.contour_um
+        return float(e.max()) if e.size else 0.0
+
+    @property
+    def p99_um(self) -> float:
+        e = self.contour_um
+        return float(np.percentile(e, 99)) if e.size else 0.0
+
+    def worst(self) -> tuple[int, np.ndarray] | None:
+        """(program line, 0-based, of the move commanded then) and the point of the path nearest to
+        the tool (mm) at the largest contour error, or None."""
+        best = None
+        for r in self.runs:
+            if r.contour_mm.size == 0:
+                continue
+            k = int(np.argmax(r.contour_mm))
+            if best is None or r.contour_mm[k] > best[0]:
+                best = (float(r.contour_mm[k]), int(r.tick_move[k]), r.nearest_xyz[k])
+        if best is None:
+            return None
+        return int(self.path.program.move_line[best[1]]), best[2]
+
+    def cut_max_um(self) -> np.ndarray:
+        """Largest contour error (µm) of every cut of the program (0 for a cut never measured)."""
+        out = np.zeros(self.path.program.n_cuts)
+        cut = self.path.program.cut
+        for r in self.runs:
+            if r.contour_mm.size:
+                c = cut[r.tick_move]
+                ok = c >= 0
+                np.maximum.at(out, c[ok], r.contour_mm[ok] * 1e3)
+        return out
+
+
+def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = None) -> ChainRun:
+    """Plan ``chain`` (with ``feed_mm_s`` per segment instead of its own, if given), sample it every
+    Ts, run the servo and measure the contour error of its measured ticks."""
+    motion = chain.motion
+    if feed_mm_s is not None:
+        motion = Motion(motion.points, feed_mm_s, motion.rapid, motion.arc_radius_mm)
+    tr = trace_motion(motion, machine, chain.seg_measured)
+    return ChainRun(plan=tr.plan, tick_time_s=tr.tick_time_s, contour_mm=tr.contour_mm,
+                    tick_move=chain.seg_move[tr.tick_segment], tick_segment=tr.tick_segment,
+                    nearest_segment=tr.nearest_segment, nearest_xyz=tr.nearest_xyz, speed_mm_s=tr.speed_mm_s,
+                    lookback_segment=tr.lookback_segment)
+
+
+def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | None = None,
+                feed_scale: float = 1.0) -> ProgramRun:
+    """Run every chain of ``path`` on ``machine``: its own feeds times ``feed_scale``, or ``feeds``
+    (one array per chain, mm/s per segment)."""
+    if not (np.isfinite(feed_scale) and feed_scale > 0):
+        raise InputError(f"feed_scale = {feed_scale!r}; must be finite and > 0")
+    runs = []
+    for i, chain in enumerate(path.chains):
+        f = feeds[i] if feeds is not None else (chain.motion.feed_mm_s * feed_scale if feed_scale != 1.0 else None)
+        runs.append(run_chain(chain, machine, f))
+    return ProgramRun(path=path, machine=machine, runs=tuple(runs))

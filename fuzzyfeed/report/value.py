@@ -1,0 +1,262 @@
+"""What advice buys on a machine (issue 32, "Say what it bought"): one program run four ways on the
+same controller and servo model (:mod:`fuzzyfeed.program.run`) —
+
+- **as written**: the program's own F words;
+- **advised**: the program fuzzyfeed writes (its text read back and run), the cuts that break the
+  tolerance as written advised with the table (a machine table by default), the others left alone;
+- **uniform**: every F times the one factor that just holds the tolerance
+  (:func:`~fuzzyfeed.program.reference.uniform_slowdown`);
+- **limit reference**: feeds lowered piece by piece only where the run breaks the tolerance
+  (:func:`~fuzzyfeed.program.reference.limit_reference`).
+
+Each row: cycle time (rapids included) and the largest and 99th-percentile contour error of the
+feed moves. When the program as written holds the tolerance its feeds are left alone and the
+report says so; where even the limit reference cannot hold it, the report says where.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fuzzyfeed.fuzzy.rules import RuleTable
+from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.program.feeds import ProgramAdvice, advice_columns, advise_program
+from fuzzyfeed.program.model import Program
+from fuzzyfeed.program.read import parse_program
+from fuzzyfeed.program.reference import limit_reference, uniform_slowdown
+from fuzzyfeed.program.rewrite import rewrite_program
+from fuzzyfeed.program.run import ProgramPath, ProgramRun, program_path, run_program
+
+
+@dataclass(frozen=True)
+class ValueRow:
+    label: str
+    time_s: float
+    max_um: float
+    p99_um: float
+
+    @classmethod
+    def of(cls, label: str, run: ProgramRun) -> ValueRow:
+        return cls(label, run.time_s, run.max_um, run.p99_um)
+
+
+@dataclass(frozen=True, eq=False)
+class FeedTrace:
+    """The F in force along the feed moves of the cuts, end to end (for the value plot): per run
+    label the arc length where each segment starts and ends (mm) and its F (mm/min); the advised
+    program's segments (start, end points) with their F as a fraction of the written F there; and
+    where the tool passed beyond the tolerance as written (arc length along the feed moves and
+    position, at most one point per 0.1 mm)."""
+
+    s_mm: dict[str, tuple[np.ndarray, np.ndarray]]
+    feed_mm_min: dict[str, np.ndarray]
+    segments: np.ndarray            # (n, 2, 3) the advised program's measured segments
+    advised_fraction: np.ndarray    # (n,)
+    over_s_mm: np.ndarray
+    over_xyz: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ValueReport:
+    name: str
+    machine: Machine
+    table: str
+    written: ValueRow
+    advised: ValueRow
+    uniform: ValueRow
+    uniform_factor: float
+    reference: ValueRow | None
+    reference_converged: bool
+    holds_as_written: bool
+    advised_cuts: tuple[int, ...]
+    worst_advised: tuple[int, tuple[float, float, float]] | None
+    trace: FeedTrace | None = None
+
+    @property
+    def tol_um(self) -> float:
+        return self.machine.contour_tol_um
+
+    @property
+    def rows(self) -> list[ValueRow]:
+        rows = [self.written, self.advised, self.uniform]
+        return rows + ([self.reference] if self.reference is not None else [])
+
+    def lines(self) -> list[str]:
+        """The report as text: one row per run, then the verdict."""
+        tol = self.tol_um
+        out = [f"{self.name}: value on machine {self.machine.name!r} (contour tolerance {tol:g} um), "
+               f"rules {self.table!r}",
+               f"  {'':24s} {'time (s)':>10s} {'max (um)':>10s} {'p99 (um)':>10s}"]
+        for r in self.rows:
+            flag = "  over" if r.max_um > tol * (1 + 1e-9) else ""
+            out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {r.p99_um:10.1f}{flag}")
+        out.append("  " + self.verdict())
+        return out
+
+    def verdict(self) -> str:
+        tol = self.tol_um
+        w, a, u = self.written, self.advised, self.uniform
+        if self.holds_as_written:
+            return (f"as written the program holds the tolerance (max {w.max_um:.1f} um <= {tol:g} um): "
+                    "its feeds are left alone")
+        at_most = "at most " if u.label.endswith("(at least)") else ""
+        parts = [f"advised: {a.time_s / w.time_s:.2f} x the time as written, "
+                 f"{at_most}{a.time_s / u.time_s:.2f} x the uniform slowdown"]
+        if self.reference is not None:
+            parts.append(f"{a.time_s / self.reference.time_s:.2f} x the limit reference")
+        text = ", ".join(parts)
+        if a.max_um <= tol * (1 + 1e-9):
+            text += "; holds the tolerance"
+        elif self.worst_advised is not None:
+            line, xyz = self.worst_advised
+            text += (f"; {a.max_um:.1f} um at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)}) is "
+                     "over the tolerance")
+        if self.reference is not None and not self.reference_converged:
+            text += (f"; even the limit reference ends at {self.reference.max_um:.1f} um: no feed holds "
+                     "the tolerance there")
+        return text
+
+    def csv_row(self) -> dict[str, object]:
+        row: dict[str, object] = {"program": self.name, "machine": self.machine.name,
+                                  "contour_tol_um": self.tol_um, "rules": self.table,
+                                  "holds_as_written": self.holds_as_written,
+                                  "uniform_factor": self.uniform_factor}
+        row["uniform_is_bound"] = self.uniform.label.endswith("(at least)")
+        for key, r in (("written", self.written), ("advised", self.advised), ("uniform", self.uniform),
+                       ("reference", self.reference)):
+            row[f"{key}_time_s"] = r.time_s if r is not None else float("nan")
+            row[f"{key}_max_um"] = r.max_um if r is not None else float("nan")
+            row[f"{key}_p99_um"] = r.p99_um if r is not None else float("nan")
+        return row
+
+
+def cuts_over(run: ProgramRun, tol_um: float) -> list[int]:
+    """The cuts whose largest contour error as run is over the tolerance."""
+    return [int(k) for k in np.flatnonzero(run.cut_max_um() > tol_um)]
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """A program advised for a machine: the advice of every cut, which cuts it is applied to (those
+    that break the tolerance as written), the program text to write and the report."""
+
+    advice: ProgramAdvice
+    advised_cuts: tuple[int, ...]
+    text: str
+    report: ValueReport
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The CSV columns (:func:`~fuzzyfeed.program.feeds.advice_columns`) plus ``advised``: 1 on
+        the cuts the advice is applied to; on the others feed_pct is 100 and feed_mm_min the F."""
+        cols = advice_columns(self.advice)
+        applied = np.isin(cols["cut"] - 1, list(self.advised_cuts))
+        cols["feed_pct"] = np.where(applied, cols["feed_pct"], 100.0)
+        cols["feed_mm_min"] = np.where(applied, cols["feed_mm_min"], cols["programmed_feed_mm_min"])
+        cols["advised"] = applied.astype(np.int64)
+        return cols
+
+
+def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, cap_mm_min: float | None = None,
+                     feed_step_mm_min: float = 10.0, step_mm: float = 0.25, min_piece_mm: float = 1.0,
+                     cuts: list[int] | None = None, reference: bool = True, progress=None,
+                     max_ticks: float | None = None) -> Evaluation:
+    """Advise ``program`` for ``machine`` and measure what it bought (module docstring): the cuts
+    (of ``cuts``, default all) that break the tolerance as written get the advice, the others keep
+    their feeds. ``progress(step)`` is called with a short name before each stage. ``max_ticks``
+    bounds the servo periods of one run of the uniform search (its row is then a lower bound)."""
+    step = progress or (lambda _name: None)
+    tol = machine.contour_tol_um
+    step("as written")
+    path = program_path(program, machine.chord_tol_mm)
+    written = run_program(path, machine)
+    chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
+    over = [k for k in cuts_over(written, tol) if k in chosen]
+    step("advice")
+    pa = advise_program(program, table, cuts=chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
+                        feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm, machine=machine)
+    keep = np.isin(program.cut[pa.piece_move], over) if pa.piece_move.size else np.zeros(0, bool)
+    text = rewrite_program(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
+    if not over:
+        advised_run = written
+        uniform_factor, uniform_row = 1.0, ValueRow.of("uniform x1.000", written)
+        ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
+        advised_path = path
+    else:
+        step("advised run")
+        advised_path = program_path(parse_program(text, program.path), machine.chord_tol_mm)
+        advised_run = run_program(advised_path, machine)
+        step("uniform slowdown")
+        u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
+        uniform_factor = u.factor
+        uniform_row = (ValueRow(f"uniform x<{u.factor:.3f} (at least)", u.time_s, float("nan"), float("nan"))
+                       if u.bounded else ValueRow.of(f"uniform x{u.factor:.3f}", u.run))
+        ref_row, converged = None, True
+        if reference:
+            step("limit reference")
+            ref = limit_reference(path, machine)
+            ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
+    worst = advised_run.worst()
+    report = ValueReport(
+        name=program.path.name, machine=machine, table=table.name,
+        written=ValueRow.of("as written", written),
+        advised=ValueRow.of("advised", advised_run),
+        uniform=uniform_row,
+        uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
+        holds_as_written=not over, advised_cuts=tuple(over),
+        worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
+        trace=feed_trace(path, written, advised_path, tol))
+    return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report)
+
+
+def _along(path: ProgramPath):
+    """Per measured segment of ``path``, end to end over its chains: start and end arc length,
+    F (mm/min), start and end points, and per chain the offset of its first measured segment."""
+    s0, s1, feed, a, b, offsets = [], [], [], [], [], []
+    offset = 0.0
+    for chain in path.chains:
+        m = chain.motion
+        keep = chain.seg_measured
+        lk = np.linalg.norm(np.diff(m.points, axis=0), axis=1)[keep]
+        start = offset + np.concatenate([[0.0], np.cumsum(lk)[:-1]])
+        offsets.append(offset)
+        s0.append(start)
+        s1.append(start + lk)
+        feed.append(m.feed_mm_s[keep] * 60.0)
+        a.append(m.points[:-1][keep])
+        b.append(m.points[1:][keep])
+        offset += float(lk.sum())
+    cat = (lambda parts, shape: np.concatenate(parts) if parts else np.zeros(shape))
+    return (cat(s0, 0), cat(s1, 0), cat(feed, 0), cat(a, (0, 3)), cat(b, (0, 3)), offsets)
+
+
+def feed_trace(written_path: ProgramPath, written: ProgramRun, advised_path: ProgramPath,
+               tol_um: float) -> FeedTrace:
+    """The F in force along the measured segments of both programs (for the value plot)."""
+    ws0, ws1, wf, _, _, offsets = _along(written_path)
+    as0, as1, af, pa, pb, _ = _along(advised_path)
+    mid = 0.5 * (as0 + as1)
+    idx = np.clip(np.searchsorted(ws0, mid, side="right") - 1, 0, max(wf.size - 1, 0))
+    frac = af / wf[idx] if wf.size else np.ones_like(af)
+    over_s, over_xyz = [], []
+    for chain, r, off in zip(written_path.chains, written.runs, offsets):
+        bad = r.contour_mm * 1e3 > tol_um
+        if not bad.any():
+            continue
+        seg = r.nearest_segment[bad]
+        pts = chain.motion.points
+        lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1) * chain.seg_measured
+        start = np.concatenate([[0.0], np.cumsum(lengths)])     # measured length before each segment
+        into = np.linalg.norm(r.nearest_xyz[bad] - pts[seg], axis=1) * chain.seg_measured[seg]
+        over_s.append(off + start[seg] + into)
+        over_xyz.append(r.nearest_xyz[bad])
+    os_ = np.concatenate(over_s) if over_s else np.zeros(0)
+    ox = np.concatenate(over_xyz) if over_xyz else np.zeros((0, 3))
+    if os_.size:
+        _, first = np.unique(np.round(os_ / 0.1), return_index=True)
+        os_, ox = os_[first], ox[first]
+    return FeedTrace(s_mm={"as written": (ws0, ws1), "advised": (as0, as1)},
+                     feed_mm_min={"as written": wf, "advised": af},
+                     segments=np.stack([pa, pb], axis=1) if pa.size else np.zeros((0, 2, 3)),
+                     advised_fraction=np.clip(frac, 0.0, 1.0), over_s_mm=os_, over_xyz=ox)

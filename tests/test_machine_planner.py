@@ -1,0 +1,157 @@
+"""The controller model and the servo on it, against closed forms derived by hand (issue 32, item 2):
+a single move's trapezoid, GRBL's junction speed at a 90° corner, the steady-state error on a
+circle, the error of a corner taken at constant speed; and the planner's vectorised passes
+against the textbook sequential loop."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine.planner import Motion, plan_motion, reachable_squared_speed
+from fuzzyfeed.machine.servo import ServoModel
+from fuzzyfeed.machine.trace import trace_motion
+from fuzzyfeed.program.read import parse_program
+from fuzzyfeed.program.run import program_path, run_program
+
+
+def motion(points, feed_mm_s, rapid=None):
+    pts = np.asarray(points, dtype=float)
+    n = pts.shape[0] - 1
+    return Motion(pts, np.full(n, float(feed_mm_s)), np.zeros(n, bool) if rapid is None else np.asarray(rapid),
+                  np.full(n + 1, np.nan))
+
+
+def test_single_move_is_a_trapezoid():
+    # L = 100 mm at F = 50 mm/s, a = 1000 mm/s^2: accelerate 25 ms, cruise, brake 25 ms:
+    # t = L/F + F/a = 2.05 s
+    m = Machine(acceleration="path", path_acc_mm_s2=1000.0)
+    plan = plan_motion(motion([[0, 0, 0], [100, 0, 0]], 50.0), m)
+    assert plan.time_s == pytest.approx(2.05, rel=1e-12)
+    assert plan.v_peak[0] == pytest.approx(50.0)
+
+
+def test_short_move_is_a_triangle():
+    # L = 1 mm, F far above what 1 mm allows: t = 2 sqrt(L/a), peak sqrt(a L)
+    m = Machine()
+    plan = plan_motion(motion([[0, 0, 0], [0, 1, 0]], 100.0), m)
+    assert plan.time_s == pytest.approx(2 * math.sqrt(1 / 1000), rel=1e-12)
+    assert plan.v_peak[0] == pytest.approx(math.sqrt(1000 * 1), rel=1e-12)
+
+
+def test_grbl_junction_speed_at_a_right_angle():
+    # GRBL: v^2 = a_j delta sin(theta/2) / (1 - sin(theta/2)), theta = 90 deg; the acceleration
+    # along the junction direction (-1, 1)/sqrt 2 with 1000 mm/s^2 per axis and no path limit is
+    # 1000 / cos 45 deg
+    m = Machine(acceleration="axes", corner_mm=0.01)
+    plan = plan_motion(motion([[0, 0, 0], [50, 0, 0], [50, 50, 0]], 100.0), m)
+    a_j = 1000.0 / math.cos(math.radians(45))
+    s = math.sin(math.radians(45))
+    assert plan.v_exit[0] == pytest.approx(math.sqrt(a_j * 0.01 * s / (1 - s)), rel=1e-9)
+    assert plan.v_entry[1] == plan.v_exit[0]
+    # along a diagonal an axis-limited machine accelerates sqrt 2 times faster than along an axis
+    diag = plan_motion(motion([[0, 0, 0], [1, 1, 0]], 1000.0), m)
+    assert diag.acc[0] == pytest.approx(1000 * math.sqrt(2))
+
+
+def test_a_reversal_stops_and_a_straight_junction_does_not_slow():
+    m = Machine()
+    back = plan_motion(motion([[0, 0, 0], [10, 0, 0], [0, 0, 0]], 50.0), m)
+    assert back.v_exit[0] == 0.0
+    straight = plan_motion(motion([[0, 0, 0], [10, 0, 0], [20, 0, 0]], 50.0), m)
+    assert straight.v_exit[0] == pytest.approx(50.0)
+
+
+def _sequential(cap, reach):
+    """The textbook planner: a backward then a forward pass, one junction at a time."""
+    w = cap.copy()
+    for k in range(w.size - 2, -1, -1):
+        w[k] = min(w[k], w[k + 1] + reach[k])
+    for k in range(1, w.size):
+        w[k] = min(w[k], w[k - 1] + reach[k - 1])
+    return w
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.floats(0, 1e4), st.floats(0, 1e4)), min_size=1, max_size=40))
+def test_running_minimum_passes_equal_the_sequential_planner(pairs):
+    cap = np.array([0.0] + [c for c, _ in pairs] + [0.0])
+    reach = np.array([r for _, r in pairs] + [5.0])
+    got = reachable_squared_speed(cap, reach)
+    want = _sequential(cap, reach)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-6)
+
+
+def test_finite_look_ahead_limits_speed_on_short_segments():
+    # 400 segments of 0.1 mm at F = 100 mm/s, a = 1000 mm/s^2, a buffer of N = 16 moves: a segment
+    # ends at the speed that stops within the N - 1 segments queued behind it, v^2 = 2 a (N-1) 0.1 mm,
+    # and inside it rises by a 0.1 mm more (half the segment to accelerate, half to brake)
+    pts = np.column_stack([np.arange(401) * 0.1, np.zeros(401), np.zeros(401)])
+    free = plan_motion(motion(pts, 100.0), Machine())
+    buffered = plan_motion(motion(pts, 100.0), Machine(lookahead_moves=16))
+    assert free.v_peak.max() == pytest.approx(100.0)
+    assert buffered.v_exit[200] == pytest.approx(math.sqrt(2 * 1000 * 15 * 0.1), rel=1e-9)
+    assert buffered.v_peak.max() == pytest.approx(math.sqrt(2 * 1000 * 15 * 0.1 + 1000 * 0.1), rel=1e-9)
+
+
+def test_steady_state_error_on_a_circle_matches_the_closed_form():
+    # a full circle of radius 10 mm at F = 3000 mm/min (50 mm/s), first-order axes Kv = 30 1/s:
+    # the servo settles on a circle of radius r / sqrt(1 + (v/(r Kv))^2)
+    r, v, kv = 10.0, 50.0, 30.0
+    expected = r * (1 - 1 / math.sqrt(1 + (v / (r * kv)) ** 2))
+    text = "G21 G90 G94 G17\nG0 X10 Y0 Z0\nG1 X10 Y0 F3000\nG3 X10 Y0 I-10 J0 P3\nG0 Z5\nM2\n"
+    program = parse_program(text, "circle.ngc")
+    machine = Machine(servo=ServoModel(kv_1_s=kv), chord_tol_mm=0.0005)
+    run = run_program(program_path(program, machine.chord_tol_mm), machine)
+    chain = run.runs[0]
+    # the middle turn (steady state): the chords sag at most 0.5 um inside the circle
+    t = chain.tick_time_s
+    mid = (t > 0.35 * t.max()) & (t < 0.65 * t.max())
+    assert np.median(chain.contour_mm[mid]) == pytest.approx(expected, abs=0.6e-3)
+    assert expected > 0.1      # the case is not trivial: 136 um
+
+
+def test_corner_at_constant_speed_matches_the_closed_form():
+    # A 90 deg corner taken at a constant v below the junction limit: the lagging axis decays as
+    # e^(-Kv t) while the other builds up its lag; the tool is nearest to the path's other leg until
+    # Kv t = 1, then to the first, so the largest error is v / (e Kv).
+    v, kv = 3.0, 30.0
+    machine = Machine(servo=ServoModel(kv_1_s=kv), corner_mm=0.01)
+    m = motion([[-20, 0, 0], [0, 0, 0], [0, 20, 0]], v)
+    tr = trace_motion(m, machine)
+    assert tr.max_mm == pytest.approx(v / (math.e * kv), rel=0.02)
+
+
+def test_rapids_are_not_measured():
+    text = "G21 G90 G94\nG0 X0 Y0 Z0\nG0 X50 Y0\nG0 X50 Y50\nG1 X0 Y50 F600\nM2\n"
+    program = parse_program(text, "rapid.ngc")
+    machine = Machine()
+    run = run_program(program_path(program, machine.chord_tol_mm), machine)
+    moves = np.concatenate([r.tick_move for r in run.runs])
+    assert set(np.unique(program.kind[moves])) == {1}      # LINE only
+
+
+def test_contour_kernel_forms_agree_bit_for_bit():
+    from fuzzyfeed.machine.contour import windowed_distance
+
+    rng = np.random.default_rng(7)
+    pts = np.cumsum(rng.normal(size=(801, 3)) * 0.1, axis=0)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    q = pts[rng.integers(0, 800, 5000)] + rng.normal(size=(5000, 3)) * 0.05
+    lo = rng.uniform(-1, s[-1], 5000)
+    hi = lo + rng.uniform(0, 5, 5000)
+    slow = windowed_distance(pts, s, q, lo, hi, compiled=False)
+    fast = windowed_distance(pts, s, q, lo, hi, compiled=True)
+    for a, b in zip(slow, fast):
+        assert np.array_equal(a, b)
+    # and the distance is the true distance to the nearest segment of the window (brute force)
+    k = 17
+    seg = np.flatnonzero((s[1:] > lo[k]) & (s[:-1] < hi[k]))
+    a, d = pts[seg], np.diff(pts, axis=0)[seg]
+    t = np.clip(np.einsum("ij,ij->i", q[k] - a, d) / np.einsum("ij,ij->i", d, d), 0, 1)
+    assert slow[0][k] == pytest.approx(np.linalg.norm(q[k] - (a + d * t[:, None]), axis=1).min(), rel=1e-12)
