@@ -561,3 +561,24 @@ def test_degenerate_entities_are_counted_in_one_notice(tmp_path):
     assert len(shapes) == 1 and shapes[0].curve.length == pytest.approx(20.0)
     assert len(said) == 1 and "5 degenerate entities skipped" in said[0], said
     assert "3 LINE of zero length" in said[0] and "1 ARC of radius 0" in said[0] and "1 LWPOLYLINE of one point" in said[0]
+
+
+def test_spline_with_a_wrong_degree_is_read_with_the_degree_its_knots_make(tmp_path):
+    """dxf-parser's arcs-as-splines.dxf states degree 3 for circles written as rational quadratic
+    B-splines (9 control points, 12 knots): read as degree 2, with a notice, they are the circles."""
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 4
+    w = math.sqrt(0.5)
+    r = 5.0
+    pts = [(r, 0), (r, r), (0, r), (-r, r), (-r, 0), (-r, -r), (0, -r), (r, -r), (r, 0)]
+    spline = doc.modelspace().add_spline()
+    spline.dxf.degree = 3
+    spline.control_points = [(x, y, 0) for x, y in pts]
+    spline.knots = [0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 4]
+    spline.weights = [1, w, 1, w, 1, w, 1, w, 1]
+    doc.saveas(tmp_path / "circle.dxf")
+    with pytest.warns(FuzzyfeedNotice, match=r"degree 3 stated, but its 12 knots and 9 control points "
+                                             r"make a clamped curve of degree 2"):
+        shape = load_shape(str(tmp_path / "circle.dxf"))
+    assert shape.curve.degree == 2
+    assert shape.curve.length == pytest.approx(2 * math.pi * r, rel=1e-9)
