@@ -66,7 +66,9 @@ SHAPE_FIELD_VALUES = {
                    "[0, 0, 0, 2e-300, 4e-300, 4e-300, 4e-300]", "[0, 0, 0, 1, 1e300, 1e300, 1e300]",
                    "[0, 0, 0, 0, 1, 1, 1]", "3", '"0 0 0 1 1 1"', "[]",
                    "[1e20, 1e20, 1e20, 1.00000000000001e20, 1.00000000000002e20, 1.00000000000002e20, "
-                   "1.00000000000002e20]"],
+                   "1.00000000000002e20]",
+                   "[0, 0, 0, 1e300, 1.7e308, 1.7e308, 1.7e308]",         # issue 28: three lines before
+                   "[-1e308, -1e308, -1e308, 0, 1e308, 1e308, 1e308]"],
     "control_points": ["[[0, 0], [10, 5], [20, -5]]", "[[0], [10], [20], [30]]",
                        "[[0, 0, 0, 0], [1, 1, 1, 1], [2, 2, 2, 2], [3, 3, 3, 3]]",
                        "[[0, 0], [10, nan], [20, -5], [30, 0]]", "[[0, 0], [10, inf], [20, -5], [30, 0]]",
@@ -239,6 +241,10 @@ def flag_cases() -> list:
         ("flag-linenumbers-no-gcode", [*adv, *FAST, "--line-numbers"], {"s.toml": SHAPE}),
         ("flag-g52whole-no-g52", [*adv, *FAST, "--gcode", "o.ngc", "--g52-whole"], {"s.toml": SHAPE}),
         ("flag-g52-polyline", ["advise", "p.ngc", "-o", "o.csv", "--gcode-g52", "o2.ngc"], {"p.ngc": PROGRAM}),
+        ("flag-g52-csv-polyline", ["advise", "p.csv", "-o", "o.csv", "--gcode-g52", "o2.ngc"], {"p.csv": POINTS}),
+        ("flag-jerk-tiny", [*sched, "--jerk-mm-s3", "1e-12"], {"s.toml": SHAPE}),
+        ("flag-jerk-tiny-compare", ["compare", "s.toml", "-o", "o.csv", "--jerk-mm-s3", "1e-12"], {"s.toml": SHAPE}),
+        ("flag-acc-tiny", [*sched, "--axis-acc-mm-s2", "1e-12"], {"s.toml": SHAPE}),
         ("flag-g52-degree1", [*adv, *FAST, "--gcode-g52", "o.ngc"],
          {"s.toml": _line(_line(SHAPE, "degree", "1"), "knotvector", "[0, 0, 0.3, 0.6, 1, 1]")}),
     ]
@@ -247,8 +253,8 @@ def flag_cases() -> list:
 
 # -------------------------------------------------------------------------------- G-code, DXF, CSV
 GCODE_PROGRAMS = {
-    "empty": "", "no-moves": "G21 G90\nM2\n", "only-rapids": "G21 G90\nG0 X0 Y0\nG0 X10 Y0\nM2\n",
-    "unknown-g": "G21 G90\nG0 X0 Y0\nG99 X1\nM2\n", "nan": "G21 G90\nG0 X0 Y0\nG1 Xnan Y0 F100\nM2\n",
+    "empty": "", "comments-only": "(nothing)\n; at all\n%\n",
+    "unknown-g": "G21 G90\nG0 X0 Y0\nG12 X1\nM2\n", "nan": "G21 G90\nG0 X0 Y0\nG1 Xnan Y0 F100\nM2\n",
     "overflow": "G21 G90\nG0 X0 Y0\nG1 X1e400 Y0 F100\nM2\n", "garbage": "G21\n@@@@\n",
     "letter-only": "G21 G90\nG0 X0 Y0\nG1 X Y1 F100\nM2\n", "double-word": "G21 G90\nG0 X0 Y0\nG1 X1 X2 F100\nM2\n",
     "unclosed-comment": "G21 G90\nG0 X0 Y0 (oops\nG1 X1 F100\nM2\n",
@@ -262,16 +268,69 @@ GCODE_PROGRAMS = {
     "g52-bad-weight": "G21 G90\nG0 X0 Y0\nG5.2 X1 Y1 P0 L3 F100\nX2 Y0 P1\nG5.3\nM2\n",
     "g52-unterminated": "G21 G90\nG0 X0 Y0\nG5.2 X1 Y1 P1 L3 F100\nX2 Y0 P1\nM2\n",
     "binary": b"\x00G1 X1\x00",
-    "one-point": "G21 G90\nG0 X0 Y0\nG1 X0 Y0 F100\nM2\n",
     "inch-units": "G20 G90\nG0 X0 Y0\nG1 X1e6 Y0 F10\nG1 X1e6 Y1 F10\nM2\n",
     "huge-coordinates": "G21 G90\nG0 X0 Y0\nG1 X1e300 Y0 F100\nG1 X1e300 Y1e300\nM2\n",
+    # issue 28's tail: a traceback with exit 1 before
+    "million-digit-number": "G21 G90\nG0 X0 Y0\nG1 X1" + "1" * 1_000_000 + " Y0 F100\nM2\n",
+    "coordinate-1e300-digits": "G21 G90\nG0 X0 Y0\nG1 X1" + "0" * 300 + " Y0 F100\nM2\n",
+    "incremental-past-1km": "G21 G91\nG0 X0 Y0\nG1 X900000 F100\nG1 X900000\nM2\n",
+    "cut-past-sample-budget": "G21 G90\nG0 X0 Y0\nG1 X900000 F100\nG1 Y900000\nM2\n",
+    # expressions, parameters, O-words
+    "divide-by-zero": "G21\nG0 X0 Y0\n#1 = [1 / 0]\nM2\n",
+    "undefined-name": "G21\nG0 X[#<nope>] Y0\nM2\n",
+    "unclosed-bracket": "G21\nG0 X[1 + [2 * 3] Y0\nM2\n",
+    "deep-brackets": "G21\nG0 X" + "[" * 200 + "1" + "]" * 200 + "\nM2\n",
+    "long-sum": "G21\nG0 X[" + "+".join(["#1"] * 100000) + "]\nM2\n",
+    "param-out-of-range": "G21\n#99999 = 1\nG0 X0\nM2\n",
+    "system-param": "G21\nG0 X#5420 Y0\nM2\n",
+    "if-not-closed": "G21\nG0 X0 Y0\no1 if [1]\nG1 X1 F100\nM2\n",
+    "endwhile-alone": "G21\nG0 X0 Y0\no2 endwhile\nM2\n",
+    "unknown-sub": "G21\nG0 X0 Y0\no<nowhere> call\nM2\n",
+    "recursion": "G21\no1 sub\no1 call\no1 endsub\nG0 X0\no1 call\nM2\n",
+    "sub-twice": "G21\no1 sub\no1 endsub\no1 sub\no1 endsub\nM2\n",
+    "m98-no-sub": "G21\nM98 P7\nM2\n",
+    "m99-main": "G21\nG0 X0\nM99\n",
+    "polar-beside-x": "G21\nG0 X1 @10 ^30\nM2\n",
+    # cutter compensation
+    "comp-entry-short": "G21 F100\nG0 X0 Y0\nG41.1 D4\nG1 X1 Y0\nM2\n",
+    "comp-no-d": "G21 F100\nG0 X0 Y0\nG42.1\nG1 X10\nM2\n",
+    "comp-gouge": "G21 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X10 Y0\nG1 X10 Y2\nG1 X20 Y2\nM2\n",
+    "comp-twice": "G21 F100\nG0 X0 Y0\nG41.1 D1\nG1 X10\nG42.1 D1\nG1 Y10\nM2\n",
+    "comp-cycle": "G21 F100\nG0 X-10 Y-10\nG41.1 D2\nG1 X0 Y0\nG81 X5 Y5 Z-1 R1\nM2\n",
+    "comp-yz": "G21 F100 G19\nG0 Y0 Z0\nG41.1 D1\nG1 Y10\nM2\n",
+    # modal rules
+    "two-motion-codes": "G21\nG0 G1 X1 F100\nM2\n",
+    "g80-axis-words": "G21\nG80 X1\nM2\n",
+    "motion-with-g28": "G21\nG0 G28 X0\nM2\n",
+    "g53-incremental": "G21 G91\nG0 G53 X0\nM2\n",
 }
 
 
 def program_cases() -> list:
     cases = [(f"gcode-{n}", ["advise", "p.ngc", "-o", "o.csv"], {"p.ngc": t}) for n, t in GCODE_PROGRAMS.items()]
     two = "G21 G90\nG0 X0 Y0\nG1 X10 Y0 F600\nG1 X10 Y10\nG0 X50 Y50\nG1 X60 Y50\nG1 X60 Y60\nM2\n"
+    infinite = "G21\nG0 X0 Y0\no1 while [1]\n#1 = [#1 + 1]\no1 endwhile\nM2\n"
+    table = "T1 P1 D6 Z0\n"
     cases += [
+        ("gcode-endless-loop", ["advise", "p.ngc", "-o", "o.csv"], {"p.ngc": infinite}),
+        ("gcode-tool-table-missing", ["advise", "p.ngc", "-o", "o.csv", "--tool-table", "nope.tbl"],
+         {"p.ngc": two}),
+        ("gcode-tool-table-garbage", ["advise", "p.ngc", "-o", "o.csv", "--tool-table", "t.tbl"],
+         {"p.ngc": two, "t.tbl": "T1 P1 D6\nwhat is this\n"}),
+        ("gcode-tool-table-binary", ["advise", "p.ngc", "-o", "o.csv", "--tool-table", "t.tbl"],
+         {"p.ngc": two, "t.tbl": b"\x00\x01T1"}),
+        ("gcode-tool-table-twice", ["advise", "p.ngc", "-o", "o.csv", "--tool-table", "t.tbl"],
+         {"p.ngc": two, "t.tbl": "T1 D6\nT1 D5\n"}),
+        ("gcode-tool-table-nan", ["advise", "p.ngc", "-o", "o.csv", "--tool-table", "t.tbl"],
+         {"p.ngc": two, "t.tbl": "T1 D1e999\n"}),
+        ("gcode-tool-not-in-table", ["advise", "p.ngc", "-o", "o.csv", "--tool-table", "t.tbl"],
+         {"p.ngc": "G21 F100\nG0 X-10 Y-10\nG41 D5\nG1 X0 Y0\nG1 X10\nM2\n", "t.tbl": table}),
+        ("gcode-tool-table-is-output", ["advise", "p.ngc", "-o", "t.tbl", "--tool-table", "t.tbl"],
+         {"p.ngc": two, "t.tbl": table}),
+        ("gcode-tool-units-bad", ["advise", "p.ngc", "-o", "o.csv", "--tool-table", "t.tbl",
+                                  "--tool-units", "furlong"], {"p.ngc": two, "t.tbl": table}),
+        ("shape-tool-table", ["advise", "s.toml", "-o", "o.csv", "--tool-table", "t.tbl"],
+         {"s.toml": SHAPE, "t.tbl": table}),
         ("gcode-selector-range", ["advise", "p.ngc#9", "-o", "o.csv"], {"p.ngc": two}),
         ("gcode-selector-word", ["advise", "p.ngc#abc", "-o", "o.csv"], {"p.ngc": two}),
         ("gcode-selector-zero", ["advise", "p.ngc#0", "-o", "o.csv"], {"p.ngc": two}),
@@ -289,6 +348,14 @@ def _dxf_polyline(points_bulges: list[tuple[float, float, float]]) -> str:
     return "\n".join(body) + "\n"
 
 
+def _dxf_lines(segments: list[tuple[float, float, float, float]]) -> str:
+    """An R12-style DXF of LINE entities (x1, y1, x2, y2)."""
+    body = ["0", "SECTION", "2", "ENTITIES"]
+    for x1, y1, x2, y2 in segments:
+        body += ["0", "LINE", "8", "0", "10", repr(x1), "20", repr(y1), "11", repr(x2), "21", repr(y2)]
+    return "\n".join(body + ["0", "ENDSEC", "0", "EOF"]) + "\n"
+
+
 def dxf_cases() -> list:
     texts = {
         "empty": "", "garbage": "this is not a drawing\n", "binary": b"\x00\x01" * 50,
@@ -300,6 +367,7 @@ def dxf_cases() -> list:
         "coord-inf": _dxf_polyline([(0, 0, 0), (float("inf"), 0, 0), (10, 10, 0)]),
         "coord-huge": _dxf_polyline([(0, 0, 0), (1e300, 0, 0), (10, 10, 0)]),
         "truncated": _dxf_polyline([(0, 0, 0), (10, 0, 0), (10, 10, 0)])[:60],
+        "only-degenerate": _dxf_lines([(1, 1, 1, 1), (5, 5, 5, 5)]),
     }
     cases = [(f"dxf-{n}", ["advise", "d.dxf", "-o", "o.csv"], {"d.dxf": t}) for n, t in texts.items()]
     good = _dxf_polyline([(0, 0, 0), (10, 0, 0), (10, 10, 0)])
@@ -322,6 +390,8 @@ def csv_cases() -> list:
         "no-header": "0,0\n1,1\n2,0\n", "one-column": "x_mm\n1\n2\n3\n", "four-columns": "a,b,c,d\n1,2,3,4\n5,6,7,8\n9,1,2,3\n",
         "semicolon": "x_mm;y_mm\n0;0\n1;1\n2;0\n", "latin1": "x_mm,y_mm\n0,0\n1,1\n2,0\n\xe9\n".encode("latin-1"),
         "unknown-header": "lon,lat\n0,0\n1,1\n2,0\n", "1e400": "x_mm,y_mm\n0,0\n1e400,1\n2,0\n",
+        "near-equal-1e-300": "x_mm,y_mm\n0,0\n1e-300,0\n2e-300,0\n",     # issue 28: 3 lines, no file
+        "near-equal-1e-9": "x_mm,y_mm\n0,0\n1e-9,0\n0,1e-9\n",
     }
     cases = [(f"csv-{n}", ["advise", "p.csv", "-o", "o.csv"], {"p.csv": t}) for n, t in texts.items()]
     cases.append(("csv-selector", ["advise", "p.csv#2", "-o", "o.csv"], {"p.csv": POINTS}))
@@ -381,6 +451,53 @@ def output_cases() -> list:
              {"s.toml": SHAPE, "r.toml": _rules_text()}),
         ]
     return cases
+
+
+#: Words the one error line of these cases must hold (the flag, the limit or the rule it names).
+MESSAGES = {
+    "flag-g52-csv-polyline": "--gcode-g52", "flag-jerk-tiny": "--jerk-mm-s3",
+    "flag-jerk-tiny-compare": "--jerk-mm-s3", "flag-acc-tiny": "--axis-acc-mm-s2",
+    "csv-near-equal-1e-300": "p.csv", "gcode-million-digit-number": "p.ngc:3",
+    "gcode-coordinate-1e300-digits": "1 km", "gcode-incremental-past-1km": "1 km",
+    "gcode-cut-past-sample-budget": "--step-mm", "gcode-endless-loop": "250,000 times",
+    "toml-knotvector-16": "knots must lie within", "toml-knotvector-17": "knots must lie within",
+    "gcode-divide-by-zero": "divide by zero", "gcode-long-sum": "characters", "gcode-comp-gouge": "gouging",
+    "gcode-tool-not-in-table": "not in the tool table", "gcode-tool-table-garbage": "t.tbl:2",
+    "dxf-only-degenerate": "no curve to follow",
+}
+
+
+def correct_cases() -> list:
+    """Hostile-looking inputs that have a correct result (issue 28): ``(id, argv, files, made)``;
+    the command exits 0 with no traceback or warning (at most notices) and writes ``made``."""
+    huge_weights = _line(SHAPE, "weights", "[1e305, 1e305, 1e305, 1e305]")
+    cusp = _line(SHAPE, "control_points", "[[0, 0], [10, 0], [10, 0], [20, 5]]")
+    long_name = "a" * 246 + ".csv"
+    return [
+        ("equal-huge-weights", ["advise", "s.toml", "-o", "o.csv", *FAST], {"s.toml": huge_weights}, ["o.csv"]),
+        ("equal-huge-weights-schedule", ["schedule", "s.toml", "-o", "o.csv"], {"s.toml": huge_weights}, ["o.csv"]),
+        ("cusp-plot", ["plot", "s.toml", "-o", "o.png", "--points", "200"], {"s.toml": cusp}, ["o.png"]),
+        ("name-of-250-characters", ["advise", "s.toml", "-o", long_name, *FAST], {"s.toml": SHAPE}, [long_name]),
+        ("schedule-name-of-250", ["schedule", "s.toml", "-o", long_name], {"s.toml": SHAPE}, [long_name]),
+        ("csv-near-duplicate", ["advise", "p.csv", "-o", "o.csv"],
+         {"p.csv": "x_mm,y_mm\n0,0\n10,0\n10,1e-300\n10,10\n"}, ["o.csv"]),
+        ("gcode-only-rapids", ["advise", "p.ngc", "-o", "o.csv", "--gcode", "o.ngc"],
+         {"p.ngc": "G21 G90\nG0 X0 Y0\nG0 X10 Y0\nM2\n"}, ["o.csv", "o.ngc"]),
+        ("gcode-no-moves", ["advise", "p.ngc", "-o", "o.csv", "--gcode", "o.ngc"],
+         {"p.ngc": "G21 G90\nM2\n"}, ["o.csv", "o.ngc"]),
+        ("gcode-one-point", ["advise", "p.ngc", "-o", "o.csv", "--gcode", "o.ngc"],
+         {"p.ngc": "G21 G90\nG0 X0 Y0\nG1 X0 Y0 F100\nM2\n"}, ["o.csv", "o.ngc"]),
+        ("gcode-safety-line", ["advise", "p.ngc", "-o", "o.csv", "--gcode", "o.ngc"],
+         {"p.ngc": "N1 G00 G17 G21 G40 G49 G80 G90\n" + PROGRAM}, ["o.csv", "o.ngc"]),
+        ("gcode-expressions", ["advise", "p.ngc", "-o", "o.csv", "--gcode", "o.ngc"],
+         {"p.ngc": "G21 G90\n#1 = 5\nG0 X0 Y0\nG1 X[#1 * 2] Y[sin[30]] F600\nG1 X[360 / 17] Y10\nM2\n"},
+         ["o.csv", "o.ngc"]),
+        ("gcode-comp-without-table", ["advise", "p.ngc", "-o", "o.csv"],
+         {"p.ngc": "G21 F300\nT1 M6\nG0 X-10 Y-10\nG41\nG1 X0 Y0\nG1 X10\nG1 Y10\nG40 G0 X0 Y0\nM2\n"},
+         ["o.csv"]),
+        ("dxf-degenerate-and-gap", ["advise", "d.dxf", "-o", "o.csv"], {"d.dxf": _dxf_lines(
+            [(0, 0, 10, 0), (10, 0, 10, 10), (10.05, 10, 20, 10), (3, 3, 3, 3)])}, ["o.csv"]),
+    ]
 
 
 def cli_cases() -> list:

@@ -77,8 +77,8 @@ def library(tmp_path_factory) -> Path:
     write_dxf(lib / "jobD" / "plate.dxf", 2)
     write_dxf(lib / "jobD" / "ring.dxf", 1)
     (lib / "refused").mkdir()
-    (lib / "refused" / "sub.ngc").write_text("G21\no100 sub\nG1 X1 F100\no100 endsub\nM2\n")
-    (lib / "refused" / "comp.ngc").write_text("G21\nG0 X0 Y0\nG41 D1\nG1 X10 F100\nM2\n")
+    (lib / "refused" / "sub.ngc").write_text("G21\no100 call\nG1 X1 F100\nM2\n")
+    (lib / "refused" / "comp.ngc").write_text("G21\nG0 X0 Y0\nG41.1\nG1 X10 F100\nM2\n")
     (lib / "corrupt").mkdir()
     (lib / "corrupt" / "garbage.nc").write_bytes(bytes(range(256)) * 8)
     (lib / "corrupt" / "empty.ngc").write_text("")
@@ -221,7 +221,7 @@ def test_the_console_command(library, cluster, tmp_path):
                                       lc.scheduler_address], cwd=cwd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 1, run.stderr
     assert "dashboard: http" in run.stdout
-    assert "refused: refused/sub.ngc: library/refused/sub.ngc:2: 'O100SUB'" in run.stdout
+    assert "refused: refused/sub.ngc: library/refused/sub.ngc:2: subroutine O100 is not defined" in run.stdout
     assert "Traceback" not in run.stderr
     # the relative path is the one the sidecar records, as `fuzzyfeed advise library/jobA/part.ngc` would
     ref = tmp_path / "ref"
@@ -269,7 +269,7 @@ def test_rerun_keeps_what_is_unchanged(library, cluster, tmp_path):
     # --force redoes everything
     assert not fuzzyfeed.batch([lib], out, force=True, **args)["earlier_run"].any()
     # a file that now fails loses its old results (they would not match it)
-    (lib / "jobA" / "part.ngc").write_text("G21\nG41 D1\nG1 X1 F100\n")
+    (lib / "jobA" / "part.ngc").write_text("G21\nG41.1\nG1 X1 F100\n")
     last = fuzzyfeed.batch([lib], out, **args).set_index("file")
     assert last.loc["jobA/part.ngc", "status"] == "refused"
     assert not (out / "jobA" / "part.ngc").exists() and not (out / "jobA" / "part.ngc.csv").exists()

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from fuzzyfeed.cli import main
-from hostile_cases import SHAPE, _line, api_cases, cli_cases
+from hostile_cases import MESSAGES, SHAPE, _line, api_cases, cli_cases, correct_cases
 
 CLI_CASES = cli_cases()
 API_CASES = api_cases()
@@ -39,7 +39,7 @@ def test_catalogue_size():
 
 
 @pytest.mark.parametrize("argv, files", [pytest.param(a, f, id=i) for i, a, f in CLI_CASES])
-def test_hostile_cli(tmp_path, monkeypatch, capsys, argv, files):
+def test_hostile_cli(tmp_path, monkeypatch, capsys, request, argv, files):
     work = tmp_path / "w"
     work.mkdir()
     monkeypatch.chdir(work)
@@ -67,6 +67,30 @@ def test_hostile_cli(tmp_path, monkeypatch, capsys, argv, files):
     assert len(lines[0]) > len("fuzzyfeed: error: ") + 10
     assert not [str(w.message) for w in caught], [str(w.message) for w in caught]
     assert snapshot(tmp_path) == before
+    expected = MESSAGES.get(request.node.callspec.id)
+    assert expected is None or expected in lines[0], f"{expected!r} not in {lines[0]!r}"
+
+
+def test_messages_name_existing_cases():
+    assert set(MESSAGES) <= {c[0] for c in CLI_CASES}
+
+
+@pytest.mark.parametrize("argv, files, made", [pytest.param(a, f, m, id=i) for i, a, f, m in correct_cases()])
+def test_hostile_looking_inputs_with_a_correct_result(tmp_path, monkeypatch, capsys, argv, files, made):
+    """Issue 28: these gave a warning, a traceback or a refusal; each has a correct result: exit
+    0, the outputs written, at most notices on stderr, no Python warning."""
+    monkeypatch.chdir(tmp_path)
+    for name, content in files.items():
+        (tmp_path / name).write_text(content, encoding="utf-8")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        code = main(argv)
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert all(ln.startswith("fuzzyfeed: notice: ") for ln in err.splitlines()), err
+    assert not [str(w.message) for w in caught], [str(w.message) for w in caught]
+    for name in made:
+        assert (tmp_path / name).exists(), name
 
 
 @pytest.mark.parametrize("call", [pytest.param(c, id=i) for i, c in API_CASES])
@@ -99,6 +123,26 @@ BOMBS = {
     "deep-toml": {"s.toml": "a = " + "[" * 100000 + "]" * 100000 + "\n"},
     "deep-json": {"s.json": "[" * 100000 + "]" * 100000},
 }
+
+
+def _big_csv(megabytes: int) -> str:
+    """A point list of about ``megabytes`` MB: a 1000-row block of distinct points, repeated."""
+    block = "".join(f"{k * 0.01:.4f},{(k * 7919) % 1000 / 100:.4f}\n" for k in range(1000))
+    return "x_mm,y_mm\n" + block * (megabytes * 1_000_000 // len(block) + 1)
+
+
+def test_big_point_file_refused_fast_naming_the_limit(tmp_path):
+    """Issue 28: a 50 MB point file ran past 60 s; it is refused after counting 1e6 rows."""
+    proc = _run_bomb(tmp_path, {"p.csv": _big_csv(50)}, ["advise", "p.csv", "-o", "o.csv"])
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.splitlines()) == 1 and "1,000,000" in proc.stderr and "p.csv" in proc.stderr
+
+
+def test_endless_loop_refused_fast_naming_the_limit(tmp_path):
+    text = "G21\nG0 X0 Y0\no1 while [1]\nG0 X[#1 mod 10]\n#1 = [#1 + 1]\no1 endwhile\nM2\n"
+    proc = _run_bomb(tmp_path, {"p.ngc": text}, ["advise", "p.ngc", "-o", "o.csv"])
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.splitlines()) == 1 and "250,000" in proc.stderr and "p.ngc:" in proc.stderr
 
 
 def _run_bomb(tmp_path, files, argv):

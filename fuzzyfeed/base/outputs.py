@@ -212,7 +212,8 @@ class OutputSet:
         if dest.kind == "file":
             assert dest.target is not None
             try:
-                fd, tmp = tempfile.mkstemp(prefix=f".{dest.target.name}.", suffix=".part",
+                # the name is cut so that a name near the file system's limit still has room
+                fd, tmp = tempfile.mkstemp(prefix=f".{dest.target.name[:64]}.", suffix=".part",
                                            dir=dest.target.parent)
             except OSError as exc:
                 raise OutputPathError(f"{dest.name}: cannot write ({exc.strerror})") from None

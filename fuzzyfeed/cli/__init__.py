@@ -48,7 +48,7 @@ SHAPE is a shipped shape's name (see `fuzzyfeed shapes`) or a path to a shape fi
 OUTPUT_ARGS = (("output", "-o"), ("plot", "--plot"), ("gcode", "--gcode"), ("gcode_g52", "--gcode-g52"),
                ("report", "--report"), ("split_out", "--split-out"))
 INPUT_ARGS = (("shape", "SHAPE"), ("rules", "--rules"), ("table", "TABLE"), ("tables", "TABLE"),
-              ("machine", "--machine"))
+              ("machine", "--machine"), ("tool_table", "--tool-table"))
 
 
 class ArgumentParser(argparse.ArgumentParser):

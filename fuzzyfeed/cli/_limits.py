@@ -66,3 +66,46 @@ def program_feed_limits(shape, limits: MachineLimits):
     if f_mm_min.max() > limits.feed_mm_min:
         note += f" (F words above --feed-mm-min {limits.feed_mm_min:g} capped to it)"
     return replace(limits, feed_mm_s=high / 60.0), (s, capped / 60.0), note
+
+
+def slowest_limit(length_mm: float, limits: MachineLimits) -> tuple[str, float]:
+    """The flag whose limit alone makes a rest-to-rest run over ``length_mm`` longest, and that
+    time (s): L / min(F, |V|) at the feed or the axes' velocities, 2·√(L / |A|) at the axes'
+    accelerations together, (32·L / J)^(1/3) at the tangential jerk J (the bang-bang jerk
+    profile). Each is a lower bound on any schedule's time."""
+    import numpy as np
+
+    vel = min(limits.feed_mm_s, float(np.linalg.norm(limits.axis_vel_mm_s)))
+    bounds = {
+        "--feed-mm-min" if limits.feed_mm_s <= vel else "--axis-vel-mm-s": length_mm / vel,
+        "--axis-acc-mm-s2": 2.0 * float(np.sqrt(length_mm / np.linalg.norm(limits.axis_acc_mm_s2))),
+        "--jerk-mm-s3": float(np.cbrt(32.0 * length_mm / limits.jerk_mm_s3)),
+    }
+    flag = max(bounds, key=bounds.get)
+    return flag, bounds[flag]
+
+
+def check_schedule_work(where: str, length_mm: float, limits: MachineLimits) -> None:
+    """Refuse, before any work, limits under which the path needs more servo periods than the
+    scheduler's budget whatever it does (see :func:`slowest_limit`), naming the flag."""
+    from fuzzyfeed.errors import MachineLimitsError
+    from fuzzyfeed.slw.trajectory import MAX_TICKS
+
+    flag, time_s = slowest_limit(length_mm, limits)
+    if time_s / limits.ts_s > MAX_TICKS:
+        value = {"--feed-mm-min": f"{limits.feed_mm_min:g} mm/min", "--jerk-mm-s3": f"{limits.jerk_mm_s3:g} mm/s^3",
+                 "--axis-vel-mm-s": f"{limits.axis_vel_mm_s} mm/s",
+                 "--axis-acc-mm-s2": f"{limits.axis_acc_mm_s2} mm/s^2"}[flag]
+        raise MachineLimitsError(f"{flag} {value}: the path of {length_mm:.6g} mm needs at least "
+                                 f"{time_s:.4g} s = {time_s / limits.ts_s:.4g} servo periods at this "
+                                 f"limit (more than {MAX_TICKS:.0e}); raise {flag}")
+
+
+def schedule_error(where: str, exc: Exception, length_mm: float, limits: MachineLimits) -> str:
+    """The scheduler's one-line refusal prefixed with the file and, when it ran out of servo
+    periods, the flag whose limit is slowest on this path."""
+    text = f"{where}: {exc}"
+    if "servo periods" in str(exc):
+        flag, time_s = slowest_limit(length_mm, limits)
+        text += f" (the slowest limit here is {flag}: at least {time_s:.4g} s alone)"
+    return text

@@ -13,6 +13,23 @@ import numpy as np
 from fuzzyfeed.errors import ExportError, MachineLimitsError
 
 
+def add_program_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--tool-table`` and ``--tool-units``: the tool diameters cutter compensation needs."""
+    parser.add_argument("--tool-table", metavar="FILE", default=None,
+                        help="G-code programs: a LinuxCNC tool table (T1 P1 D6.0 Z0.5 ...); with it "
+                             "moves under G41/G42 are advised on the tool centre's path, LinuxCNC's "
+                             "way (without it, the programmed contour, with a notice)")
+    parser.add_argument("--tool-units", choices=("mm", "inch"), default="mm",
+                        help="length units of the tool table's diameters, the machine's units "
+                             "(default: %(default)s; LinuxCNC's stand-alone rs274 reads inch)")
+
+
+def refuse_program_arguments(args: argparse.Namespace) -> None:
+    """Refuse the program-only flags for a shape."""
+    if args.tool_table is not None:
+        raise ExportError("--tool-table applies to G-code programs only (cutter compensation)")
+
+
 def is_program(spec: str) -> bool:
     """True when SHAPE names a G-code file (with or without #N)."""
     from fuzzyfeed.program.model import GCODE_SUFFIXES
@@ -92,7 +109,14 @@ def run_program(args: argparse.Namespace) -> dict:
 
     machine = machine_from_args(args)
     table = table_from_args(args, machine)
-    program = read_program(path)
+    tools = None
+    if args.tool_table is not None:
+        from fuzzyfeed.program.tools import read_tool_table
+
+        tools = read_tool_table(args.tool_table, args.tool_units)
+    program = read_program(path, tools=tools)
+    if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
+        return _pass_through(args, path, program)
     cuts = None
     if selector is not None and program.n_cuts:
         described = [f"{k + 1} (line {int(program.move_line[program.cut_moves(k)[0]]) + 1})"
@@ -139,6 +163,38 @@ def run_program(args: argparse.Namespace) -> dict:
         print(f"wrote {args.gcode}")
     return {"cuts": program.n_cuts, "cuts_advised": len(pa.cuts), "time_written_s": t_prog,
             "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean())}
+
+
+#: The CSV columns of a program's advice (fuzzyfeed.program.feeds.advice_columns), written as
+#: a header alone when a program has nothing to advise.
+ADVICE_COLUMNS = ("cut", "source_line", "u", "x_mm", "y_mm", "z_mm", "s_mm", "curvature_1_mm",
+                  "curvature_window_max_1_mm", "curvature_variation", "feed_pct_controller", "feed_pct",
+                  "programmed_feed_mm_min", "feed_mm_min")
+
+
+def _pass_through(args: argparse.Namespace, path: Path, program) -> dict:
+    """A program with no cut: --gcode gets its bytes unchanged, the CSV its header, one notice;
+    the figures of no cut advised."""
+    import warnings
+
+    from fuzzyfeed.base.atomic import atomic_write
+    from fuzzyfeed.errors import FuzzyfeedNotice
+    from fuzzyfeed.io.csv import write_columns
+    from fuzzyfeed.program.model import why_nothing_to_advise
+
+    warnings.warn(f"{path}: nothing to advise ({why_nothing_to_advise(program)}); the program is "
+                  "written back unchanged", FuzzyfeedNotice, stacklevel=2)
+    from fuzzyfeed.io.csv import write_metadata
+
+    reason = why_nothing_to_advise(program)
+    write_columns(args.output, {name: np.zeros(0) for name in ADVICE_COLUMNS})
+    write_metadata(args.output, list(ADVICE_COLUMNS), {"source": str(path), "generator": "fuzzyfeed",
+                                                       "advice": f"nothing to advise: {reason}"})
+    if args.gcode:
+        with atomic_write(args.gcode, "wb") as handle:
+            handle.write(path.read_bytes())
+    print(f"wrote {args.output}" + (f" and {args.gcode}" if args.gcode else ""))
+    return {"cuts": 0, "cuts_advised": 0, "time_written_s": 0.0, "time_advised_s": 0.0}
 
 
 def _default_points() -> int:

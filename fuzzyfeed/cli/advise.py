@@ -9,6 +9,7 @@ import numpy as np
 from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import (add_shape_argument, check_feed_mm_min, point_count, positive_float,
                                    table_from_args)
+from fuzzyfeed.cli._program import add_program_arguments, refuse_program_arguments
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
 from fuzzyfeed.cli._machine import add_machine_arguments, machine_from_args
 from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
@@ -84,6 +85,7 @@ def register(sub) -> None:
                         "part of the value report)")
     add_gcode_arguments(p)
     add_machine_arguments(p)
+    add_program_arguments(p)
     p.set_defaults(run=run, csv_sidecar=True)
 
 
@@ -251,6 +253,7 @@ def advise_file(args: argparse.Namespace) -> dict:
         flag = "--report" if args.report is not None else "--no-reference"
         raise MachineLimitsError(f"{flag}: the value report runs a G-code program on a machine; "
                                  f"{args.shape} is not a program")
+    refuse_program_arguments(args)
     shapes = drawing_paths(args)
     if shapes is not None and len(shapes) > 1:
         return run_paths(args, shapes)

@@ -7,7 +7,8 @@ import sys
 
 from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import add_shape_argument, point_count
-from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, program_feed_limits
+from fuzzyfeed.cli._limits import (add_approach_argument, add_limit_arguments, check_schedule_work,
+                                    limits_from_args, program_feed_limits)
 from fuzzyfeed.cli._machine import machine_from_args
 from fuzzyfeed.cli._servo import servo_from_args
 
@@ -78,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
     table = load_rule_table(args.rules)
     shape = load_shape(args.shape)
     limits, cap, feed_note = program_feed_limits(shape, limits_from_args(args))
+    check_schedule_work(args.shape, shape.curve.length, limits)
     # a point sequence is sampled inside its long segments too: the fuzzy and bound rows execute a
     # feed given per sample, which must see a long line between two corners, not only its ends
     samples = sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM)

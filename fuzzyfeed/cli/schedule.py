@@ -10,7 +10,8 @@ import numpy as np
 from fuzzyfeed.cli import COMMANDS
 from fuzzyfeed.cli._common import add_shape_argument
 from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
-from fuzzyfeed.cli._limits import add_approach_argument, add_limit_arguments, limits_from_args, program_feed_limits
+from fuzzyfeed.cli._limits import (add_approach_argument, add_limit_arguments, check_schedule_work,
+                                    limits_from_args, program_feed_limits, schedule_error)
 from fuzzyfeed.errors import InputError
 
 
@@ -43,11 +44,12 @@ def compute(args: argparse.Namespace):
 
     shape = load_shape(args.shape)
     limits, cap, note = program_feed_limits(shape, limits_from_args(args))
+    check_schedule_work(args.shape, shape.curve.length, limits)
     try:  # a progress bar on a terminal (tqdm.auto), none in a pipe or a log
         traj = schedule(shape.curve, limits, progress=True if sys.stderr.isatty() else None,
                         approach=args.approach, feed_cap=cap, transition=args.transition)
-    except InputError as exc:  # the message names the user's file
-        raise InputError(f"{args.shape}: {exc}") from None
+    except InputError as exc:  # the message names the user's file (and the slowest limit)
+        raise InputError(schedule_error(args.shape, exc, shape.curve.length, limits)) from None
     bound = path_bound(traj.curve, limits, feed_cap=cap)  # of the path followed (a polyline: blended)
     return shape, traj, measure(traj), bound, note, cap
 

@@ -43,6 +43,9 @@ MIN_EXTENT_MM = 1e-6
 MAX_WEIGHT_RATIO = 1e6
 #: Smallest parameter range relative to max(1, |knot|): derivatives scale with 1/range.
 MIN_KNOT_RANGE = 1e-9
+#: Largest knot magnitude: a parameter is a relative measure along the curve, and beyond 10¹² the
+#: sums of the quadrature (and of two knots) leave float64's exponent range.
+MAX_KNOT = 1e12
 #: Most arc-length intervals the adaptive quadrature may create (a work budget, ~30 MB).
 MAX_ARC_INTERVALS = 1_000_000
 
@@ -228,7 +231,7 @@ def _check_weights(weights: object, n: int) -> np.ndarray:
     if bad.any():
         i = int(np.argmax(bad))
         raise NurbsError(f"weights[{i}] = {arr[i]}; weights must be finite and > 0")
-    if arr.size and arr.max() > MAX_WEIGHT_RATIO * arr.min():
+    if arr.size and np.log(arr.max()) - np.log(arr.min()) > np.log(MAX_WEIGHT_RATIO):
         i, j = int(np.argmax(arr)), int(np.argmin(arr))
         raise NurbsError(f"weights[{i}] / weights[{j}] = {arr[i]:g} / {arr[j]:g} > {MAX_WEIGHT_RATIO:g}; "
                          f"the largest weight may be at most {MAX_WEIGHT_RATIO:g} times the smallest")
@@ -251,6 +254,10 @@ def _check_knots(knots: object, n: int, p: int) -> np.ndarray:
     if bad.any():
         i = int(np.argmax(bad))
         raise NurbsError(f"knots[{i}] = {arr[i]}; knots must be finite")
+    big = np.abs(arr) > MAX_KNOT
+    if big.any():
+        i = int(np.argmax(big))
+        raise NurbsError(f"knots[{i}] = {_fmt(arr[i])}; knots must lie within ±{MAX_KNOT:g}")
     dec = np.diff(arr) < 0
     if dec.any():
         i = int(np.argmax(dec)) + 1
@@ -330,6 +337,14 @@ def _power_basis(p: int, knots: np.ndarray, points: np.ndarray, weights: np.ndar
     """
     homogeneous = np.hstack([points * weights[:, None], weights[:, None]])
     n = points.shape[0]
+    if p == 1:   # N = (1 - t, t) on every span: the same as the recursion, without the loop
+        i = np.arange(1, n)
+        i = i[knots[i + 1] > knots[i]]
+        spans = np.concatenate([[knots[1]], knots[i + 1]])
+        out = np.stack([homogeneous[i - 1], -homogeneous[i - 1] + homogeneous[i]], axis=1)
+        spans.flags.writeable = False
+        out.flags.writeable = False
+        return spans, out
     breaks, coeffs = [knots[p]], []
     for i in range(p, n):
         if knots[i + 1] > knots[i]:
@@ -457,7 +472,8 @@ class ArcLengthTable:
             m1 = seg / (self.end_speeds[k, 1] * width)
         monotone = np.isfinite(m0) & np.isfinite(m1) & (m0 * m0 + m1 * m1 <= 9.0)
         f2 = frac * frac
-        hermite = (f2 * frac - 2.0 * f2 + frac) * m0 + (3.0 * f2 - 2.0 * f2 * frac) + (f2 * frac - f2) * m1
+        with np.errstate(invalid="ignore", over="ignore"):   # inf slopes at a cusp: not used
+            hermite = (f2 * frac - 2.0 * f2 + frac) * m0 + (3.0 * f2 - 2.0 * f2 * frac) + (f2 * frac - f2) * m1
         u = a + width * np.where(monotone, np.clip(hermite, 0.0, 1.0), frac)
         base = self.cumulative[k]
         left = self.breaks[k]

@@ -221,7 +221,7 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
 def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
                         tolerance_mm: float | None = None,
                         path_tolerance_mm: float | None = None,
-                        max_step_mm: float | None = None) -> PathSamples:
+                        max_step_mm: float | None = None, where: str = "a path") -> PathSamples:
     """A :class:`PathSamples` for a point sequence: chord-length s, and the curvature of the path
     the points describe within their rounding, corners blended as a controller blends them within
     the path tolerance P (:func:`fuzzyfeed.geometry.polyline.polyline_curvature`; ``tolerance_mm`` None
@@ -234,6 +234,9 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
     Inside a segment κ is the smaller of its two ends' that are not corners (a chord of a circle
     written as G1 moves keeps the circle's κ), 0 between two corners; the tangent is the chord's.
 
+    A path so long that these samples would pass the budget (:data:`MAX_POINTS`) is sampled
+    more coarsely inside its segments, with a notice naming ``where``.
+
     ``curve``, if given, is the degree-1 NURBS through the points with chord-length knots on
     [0, 1] (so u = s / L is its parameter at every point, the added ones too); planners and the
     simulator move along it.
@@ -243,6 +246,23 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
     pts = float_array(points, "points")
     if pts.ndim != 2 or pts.shape[0] < 2 or pts.shape[1] not in (2, 3):
         raise InputError(f"points: shape {pts.shape}; need at least 2 points of 2 or 3 coordinates")
+    if max_step_mm is not None and np.isfinite(max_step_mm) and max_step_mm > 0:
+        point_budget(pts.shape[0], "points of the path")
+        lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        if float(segment_pieces(lengths, float(max_step_mm)).sum()) + 1 > MAX_POINTS:
+            # a path this long is sampled inside its segments more coarsely: within the budget
+            room = MAX_POINTS - lengths.size - 2         # ceil adds at most one piece a segment
+            wider = float(lengths.sum()) / room if room > 0 else np.inf
+            if not wider > max_step_mm:
+                point_budget(np.inf, f"{pts.shape[0]} points sampled inside long segments")
+            import warnings
+
+            from fuzzyfeed.errors import FuzzyfeedNotice
+
+            warnings.warn(f"{where}: {float(lengths.sum()):.6g} mm long, sampled every {wider:.3g} mm "
+                          f"inside its segments (not {max_step_mm:g} mm: at most {MAX_POINTS:,} samples)",
+                          FuzzyfeedNotice, stacklevel=2)
+            max_step_mm = wider
     result = polyline_curvature(pts, tolerance_mm, path_tolerance_mm)
     dim = pts.shape[1]
     xyz = _pad3(pts)

@@ -176,11 +176,19 @@ def _write_rows(handle, arrays: list[np.ndarray]) -> None:
 def metadata_path(csv_path: str | os.PathLike) -> str | None:
     """The CSVW sidecar of a CSV file: ``OUT.csv`` -> ``OUT.csv-metadata.json`` (W3C "CSV on the
     Web" naming), so the CSV itself stays plain for spreadsheets and pandas. None when the CSV goes
-    to standard output (``-``), a device or a FIFO: a stream has no place beside it."""
+    to standard output (``-``), a device or a FIFO (a stream has no place beside it), or when its
+    name leaves no room for the suffix within the file system's name limit."""
     text = os.fspath(csv_path)
     if text == "-" or (os.path.exists(text) and not os.path.isfile(text)):
         return None
-    return text + "-metadata.json"
+    sidecar = text + "-metadata.json"
+    try:
+        name_max = os.pathconf(os.path.dirname(os.path.abspath(text)), "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    if len(os.fsencode(os.path.basename(sidecar))) > name_max:
+        return None
+    return sidecar
 
 
 def write_metadata(csv_path: str | os.PathLike, columns: list[str], record: Mapping[str, str]) -> str | None:

@@ -47,7 +47,7 @@ from fuzzyfeed.io.contours import FLATTEN_ANGLE_RAD, Contour, Piece, chain
 from fuzzyfeed.io.dxf_splines import spline_curves
 from fuzzyfeed.io.points import pick_by_index, polyline_shape
 from fuzzyfeed.io.shape import Shape
-from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.nurbs import MIN_EXTENT_MM, Nurbs
 
 #: A bulge whose sagitta is below this (mm) is a straight segment (a bulge of 1e-300 has no arc).
 STRAIGHT_SAGITTA_MM = 1e-9
@@ -249,6 +249,32 @@ def _describe(e, parent: str = "") -> str:
     return f"{parent}{own} (layer {e.dxf.get('layer', '0')})"
 
 
+def _degenerate(e, scale: float) -> str | None:
+    """Why entity ``e`` has no length to follow (a point drawn as a curve), or None."""
+    kind = e.dxftype()
+    d = e.dxf
+    if kind == "LINE":
+        a, b = np.asarray(tuple(d.start), dtype=float), np.asarray(tuple(d.end), dtype=float)
+        if np.isfinite(a).all() and np.isfinite(b).all() and np.linalg.norm(b - a) * scale < MIN_EXTENT_MM:
+            return "LINE of zero length"
+    elif kind in ("ARC", "CIRCLE"):
+        radius = float(d.get("radius", 0) or 0)
+        if not radius * scale >= MIN_EXTENT_MM and not np.isnan(radius):
+            return f"{kind} of radius {radius:g}"
+        if kind == "ARC" and float(d.start_angle) % 360.0 == float(d.end_angle) % 360.0:
+            return "ARC of zero sweep"
+    elif kind == "ELLIPSE":
+        major = np.asarray(tuple(d.major_axis), dtype=float)
+        if np.linalg.norm(major) * scale < MIN_EXTENT_MM or not float(d.get("ratio", 1) or 0) > 0:
+            return "ELLIPSE of zero size"
+    elif kind == "SPLINE":
+        pts = [tuple(p) for p in (e.control_points if len(e.control_points) else e.fit_points)]
+        arr = np.asarray(pts, dtype=float).reshape(-1, 3)
+        if arr.shape[0] and np.isfinite(arr).all() and float(np.ptp(arr, axis=0).max()) * scale < MIN_EXTENT_MM:
+            return "SPLINE of no length"
+    return None
+
+
 def _pieces_of(e, scale: float, path: Path, where: str, handle: str, layer: str) -> list[Piece]:
 
     kind = e.dxftype()
@@ -258,8 +284,6 @@ def _pieces_of(e, scale: float, path: Path, where: str, handle: str, layer: str)
         b = np.asarray(tuple(e.dxf.end), dtype=float) * scale
         if not (np.isfinite(a).all() and np.isfinite(b).all()):
             raise PathFormatError(f"{full}: end points {a.tolist()}, {b.tolist()}; must be finite")
-        if np.array_equal(a, b):
-            return []
         return [Piece(where, layer, handle, curve=Nurbs(1, [0, 0, 1, 1], np.vstack([a, b])))]
     if kind in ("ARC", "CIRCLE", "ELLIPSE"):
         return [Piece(where, layer, handle, curve=_conic_curve(e, scale, full))]
@@ -269,7 +293,7 @@ def _pieces_of(e, scale: float, path: Path, where: str, handle: str, layer: str)
                       Nurbs(c.degree, c.knots, np.column_stack([c.control_points, np.zeros(c.n_control_points)]),
                             c.weights)) for c in curves]
     pts = _polyline_points(e, scale, full)
-    if len(pts) < 2:
+    if len(pts) < 2 or float(np.ptp(pts, axis=0).max()) < MIN_EXTENT_MM:
         return []
     return [Piece(where, layer, handle, points=pts)]
 
@@ -304,17 +328,29 @@ def _collect(doc, path: Path, scale: float) -> tuple[list[Piece], dict[str, int]
         if kind not in CURVE_TYPES:
             other[kind] = other.get(kind, 0) + 1
             return
-        if kind in ("ARC", "CIRCLE") and not float(e.dxf.get("radius", 0) or 0) > 0:
-            label = f"{kind} (radius <= 0)"
-            other[label] = other.get(label, 0) + 1
-            _notice(f"{path}: {_describe(e, parent)}: radius = {float(e.dxf.get('radius', 0) or 0):g} "
-                    "is a point, not a path (skipped)")
+        why = _degenerate(e, scale)
+        if why is not None:
+            skipped[why] = skipped.get(why, 0) + 1
+            first.setdefault(why, _describe(e, parent))
             return
         own = handle or e.dxf.get("handle", None) or "?"
-        pieces.extend(_pieces_of(e, scale, path, _describe(e, parent), own, e.dxf.get("layer", "0")))
+        found = _pieces_of(e, scale, path, _describe(e, parent), own, e.dxf.get("layer", "0"))
+        if not found:
+            why = f"{kind} of one point"
+            skipped[why] = skipped.get(why, 0) + 1
+            first.setdefault(why, _describe(e, parent))
+        pieces.extend(found)
 
+    skipped: dict[str, int] = {}
+    first: dict[str, str] = {}
     for entity in doc.modelspace():
         visit(entity, "", None, 0)
+    if skipped:
+        total = sum(skipped.values())
+        _notice(f"{path}: {total} degenerate entit{'y' if total == 1 else 'ies'} skipped (no length to "
+                f"follow): " + shorten([f"{n} {why} (first: {first[why]})" for why, n in skipped.items()]))
+        for why, n in skipped.items():
+            other[why] = other.get(why, 0) + n
     return pieces, other
 
 
@@ -323,7 +359,10 @@ def _contours(path: Path) -> tuple[list[Contour], str]:
     scale, units = _units_factor(doc, path)
     try:
         pieces, other = _collect(doc, path, scale)
-    except PathFormatError:
+    except PathFormatError as exc:
+        if "must lie within" in str(exc) and "--units" not in units:   # the stated units may be wrong
+            raise PathFormatError(f"{exc} (the drawing's units: {units}; --units mm|inch reads its "
+                                  "numbers in other units)") from None
         raise
     except Exception as exc:  # noqa: BLE001 — any ezdxf failure on a strange file is one line
         raise PathFormatError(f"{path}: ezdxf could not read the drawing's entities "
@@ -373,20 +412,21 @@ def _names(path: Path, contours: list[Contour]) -> list[str]:
     return names
 
 
-def _whole(contour: Contour) -> Contour:
-    """``contour``, or PathFormatError naming its gap."""
+def _gap_notice(contour: Contour) -> Contour:
+    """``contour``, with a notice naming its gap (an end that nearly meets another free end: the
+    path stops there and a new contour starts), if it has one."""
     if contour.problem is not None:
-        raise PathFormatError(contour.problem)
+        _notice(contour.problem + "; a new contour starts there")
     return contour
 
 
 def load_dxf_shapes(path: str | os.PathLike) -> list:
-    """Every contour of a drawing as a :class:`Shape`, in file order of their first pieces
-    (refused if any has a gap)."""
+    """Every contour of a drawing as a :class:`Shape`, in file order of their first pieces (a gap
+    beyond the chain tolerance ends a contour, with a notice naming it)."""
     path = Path(path)
     contours, units = _contours(path)
     for c in contours:
-        _whole(c)
+        _gap_notice(c)
     return [_contour_shape(c, path, units, name) for c, name in zip(contours, _names(path, contours))]
 
 
@@ -425,9 +465,11 @@ def load_dxf(path: str | os.PathLike, selector: str | None = None):
     """One contour of a drawing: the only one, or the one ``selector`` names."""
     path = Path(path)
     contours, units = _contours(path)
-    if selector is None and len(contours) > 1:   # a gap first: it may be what splits the contour
-        for c in contours:
-            _whole(c)
-    # a gap elsewhere in the drawing does not stop the contour picked (LibreCAD's tux.dxf has one)
-    index = select_contour(path, contours, selector)
-    return _contour_shape(_whole(contours[index]), path, units, _names(path, contours)[index])
+    try:
+        index = select_contour(path, contours, selector)
+    except PathFormatError as exc:                # a gap may be what splits the contour: say so
+        gaps = [c.problem for c in contours if c.problem is not None]
+        if gaps:
+            raise PathFormatError(f"{exc}; {gaps[0]}") from None
+        raise
+    return _contour_shape(_gap_notice(contours[index]), path, units, _names(path, contours)[index])

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.errors import NurbsError, PathFormatError
-from fuzzyfeed.geometry.nurbs import Nurbs, insert_knot
+from fuzzyfeed.geometry.nurbs import MIN_EXTENT_MM, Nurbs, insert_knot
 
 
 def _clamp_start(p: int, knots: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -60,6 +60,36 @@ def split_bezier_joints(p: int, knots: np.ndarray, points: np.ndarray, weights: 
         pts, w = pts[right_start:], w[right_start:]
 
 
+def split_at_corners(curve: Nurbs) -> list[Nurbs]:
+    """``curve`` cut at every interior knot where its tangent turns (a corner: knot multiplicity
+    = degree with the control polygon bending there): each knot raised to multiplicity p + 1 by
+    knot insertion (the curve unchanged), then cut, so every piece is smooth inside."""
+    from fuzzyfeed.geometry.sampling import tangent_breaks
+
+    corners, _ = tangent_breaks(curve)
+    if corners.size == 0:
+        return [curve]
+    p = curve.degree
+    k = np.asarray(curve.knots, dtype=float)
+    w = np.asarray(curve.weights, dtype=float)
+    pw = np.column_stack([curve.control_points * w[:, None], w])
+    for u in corners:
+        while np.count_nonzero(k == u) < p + 1:
+            k, pw = insert_knot(p, k, pw, float(u))
+    pieces = []
+    for u in corners:
+        j = int(np.argmax(k == u))
+        pieces.append((np.concatenate([k[:j], [u] * (p + 1)]), pw[:j]))
+        k, pw = np.concatenate([[u] * (p + 1), k[j + p + 1:]]), pw[j:]
+    pieces.append((k, pw))
+    out = []
+    for kk, q in pieces:
+        pts = q[:, :-1] / q[:, -1:]
+        if float(np.ptp(pts, axis=0).max()) >= MIN_EXTENT_MM:      # a piece of no length is no path
+            out.append(Nurbs(p, kk, pts, q[:, -1]))
+    return out
+
+
 def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
 
     if len(entity.control_points) > 0:
@@ -86,6 +116,20 @@ def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
         raise PathFormatError(f"{where}: control point {i} = {points[i].tolist()}; must be finite")
     points = points * scale
     weights = np.ones(len(points)) if weights is None or weights.size == 0 else weights
+    implied = knots.size - len(points) - 1
+    if knots.size != len(points) + degree + 1 and 1 <= implied < degree and \
+            np.ptp(knots[:implied + 1]) == 0 and np.ptp(knots[-implied - 1:]) == 0:
+        # a writer that states the wrong degree: the knots and control points make a clamped
+        # curve of degree `implied` (arcs written as rational quadratics flagged degree 3)
+        import warnings
+
+        from fuzzyfeed.errors import FuzzyfeedNotice
+
+        warnings.warn(f"{where}: degree {degree} stated, but its {knots.size} knots and {len(points)} "
+                      f"control points make a clamped curve of degree {implied}: read as degree "
+                      f"{implied}", FuzzyfeedNotice, stacklevel=2)
+        how += f", degree {implied} (the file says {degree})"
+        degree = implied
     valid = (degree >= 1 and knots.size == len(points) + degree + 1 and np.all(np.diff(knots) >= 0)
              and np.isfinite(knots).all() and np.all(weights > 0))
     if valid and (np.ptp(knots[:degree + 1]) > 0 or np.ptp(knots[-degree - 1:]) > 0):
@@ -98,8 +142,12 @@ def spline_curves(entity, scale: float, where: str) -> tuple[list, str]:
             how += f", cut into {len(parts)} pieces at discontinuous Bézier joints"
     curves = []
     for k, pts, w in parts:
+        if float(np.ptp(pts, axis=0).max()) < MIN_EXTENT_MM:       # a piece of no length is no path
+            continue
         try:
-            curves.append(Nurbs(degree, k, pts, w))
+            curves.extend(split_at_corners(Nurbs(degree, k, pts, w)))
         except NurbsError as exc:
             raise PathFormatError(f"{where}: {exc}") from None
+    if len(curves) > len(parts):
+        how += f", cut into {len(curves)} smooth pieces at {len(curves) - len(parts)} corner knot(s)"
     return curves, how

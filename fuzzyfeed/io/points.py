@@ -24,11 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.base.files import read_text as read_file_text
-from fuzzyfeed.errors import PathFormatError
+from fuzzyfeed.errors import NurbsError, PathFormatError
 from fuzzyfeed.io.shape import Shape
 from fuzzyfeed.geometry.nurbs import Nurbs
 
 _COLUMN_SETS = (("x_mm", "y_mm", "z_mm"), ("x", "y", "z"))
+#: Two consecutive points closer than this (mm) are one point (a repeat is dropped with a note).
+REPEAT_MM = 1e-9
 
 
 def read_text(path: str | os.PathLike, kind: str) -> str:
@@ -61,21 +63,34 @@ def polyline_shape(points: np.ndarray, *, name: str, source: str = "", path: Pat
     if not np.isfinite(pts).all():
         i = int(np.argwhere(~np.isfinite(pts))[0, 0])
         raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must be finite")
-    from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
+    from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM, MIN_EXTENT_MM
 
     big = np.abs(pts) > MAX_COORDINATE_MM
     if big.any():
         i = int(np.argwhere(big)[0, 0])
         raise PathFormatError(f"{where}: point {i} = {pts[i].tolist()}; coordinates must lie within "
                               f"±{MAX_COORDINATE_MM:g} mm (1 km)")
-    same = np.all(pts[1:] == pts[:-1], axis=1)
-    if same.any():   # a repeated point is no move: dropped, and said so
-        pts = pts[np.concatenate([[True], ~same])]
+    extent = float(np.ptp(pts, axis=0).max())
+    if extent == 0:
+        raise PathFormatError(f"{where}: every point repeats the first; a path needs at least 2 "
+                              "distinct points")
+    if extent < MIN_EXTENT_MM:
+        raise PathFormatError(f"{where}: all points within {extent:g} mm of each other; a path needs "
+                              f"points more than {MIN_EXTENT_MM:g} mm apart")
+    # a point within REPEAT_MM (or 1e-12 of the extent) of the previous one is no move: dropped
+    gap = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    same = gap <= max(REPEAT_MM, 1e-12 * extent)
+    if same.any():
+        keep = np.concatenate([[True], ~same])
+        pts = pts[keep]
         notes = (notes + "; " if notes else "") + f"{int(same.sum())} repeated point(s) dropped"
         if pts.shape[0] < 2:
             raise PathFormatError(f"{where}: every point repeats the first; a path needs at least 2 "
                                   "distinct points")
-    curve = Nurbs(1, chord_knots(pts), pts)
+    try:
+        curve = Nurbs(1, chord_knots(pts), pts)
+    except NurbsError as exc:
+        raise PathFormatError(f"{where}: {exc}") from None
     polyline = pts.copy() if pts.shape[0] >= 3 else None
     if polyline is not None:
         polyline.flags.writeable = False
@@ -104,9 +119,60 @@ def pick_by_index(path: Path, selector: str | None, described: list[str]) -> int
     return number - 1
 
 
+#: Most point rows a CSV may hold: the sampling budget (MAX_POINTS); a longer file is refused
+#: after reading only as far as that many rows.
+MAX_CSV_POINTS = 1_000_000
+
+
+def _check_row_count(path: Path) -> None:
+    """Refuse a CSV with more than MAX_CSV_POINTS rows, reading no further than that."""
+    rows = 0
+    try:
+        with open(path, "rb") as handle:
+            while True:
+                chunk = handle.read(1 << 23)
+                if not chunk:
+                    return
+                rows += chunk.count(b"\n")
+                if rows > MAX_CSV_POINTS + 1:
+                    raise PathFormatError(f"{path}: more than {MAX_CSV_POINTS:,} point rows; at most "
+                                          f"{MAX_CSV_POINTS:,} points (the sampling budget): thin the "
+                                          "list or split the path")
+    except OSError:
+        return           # read_text gives the one-line reason
+
+
+def _fast_points(text: str, names: list[str], columns: list[int]) -> np.ndarray | None:
+    """The points parsed by Arrow's CSV reader (exact float parsing), or None when any cell is
+    not a finite number (the row-by-row reader then names it)."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    try:
+        table = pacsv.read_csv(pa.py_buffer(text.encode()),
+                               read_options=pacsv.ReadOptions(column_names=[f"c{k}" for k in range(len(names))],
+                                                              skip_rows=1),
+                               convert_options=pacsv.ConvertOptions(
+                                   include_columns=[f"c{k}" for k in columns],
+                                   column_types={f"c{k}": pa.float64() for k in columns}))
+    except (pa.ArrowInvalid, pa.ArrowTypeError, ValueError):
+        return None
+    cols = []
+    for k in columns:
+        col = table.column(f"c{k}")
+        if col.null_count:
+            return None
+        cols.append(col.to_numpy())
+    pts = np.column_stack(cols) if cols else np.zeros((0, len(columns)))
+    if not np.isfinite(pts).all():
+        return None
+    return pts
+
+
 def read_points_csv(path: str | os.PathLike) -> np.ndarray:
     """The (N, 2|3) points of a point-list CSV (see the module docstring), float64 exact."""
     path = Path(path)
+    _check_row_count(path)
     text = read_text(path, "CSV")
     rows = csv.reader(io.StringIO(text))
     try:
@@ -123,6 +189,10 @@ def read_points_csv(path: str | os.PathLike) -> np.ndarray:
             break
     if columns is None:
         raise PathFormatError(f"{path}:1: header {header!r} has no x_mm,y_mm or x,y columns")
+    if text.count("\n") > 1000 and "\"" not in text:      # long plain lists: Arrow's parser
+        fast = _fast_points(text, names, columns)
+        if fast is not None and fast.shape[0] >= 2:
+            return fast
     points = []
     for line_no, row in enumerate(rows, start=2):
         if not row or all(not cell.strip() for cell in row):

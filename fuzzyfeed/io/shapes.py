@@ -47,7 +47,8 @@ def sample_shape(shape: Shape, points: int = DEFAULT_POINTS, max_step_mm: float 
     if not isinstance(shape, Shape):
         raise ShapeFileError(f"shape: {type(shape).__name__} {shape!r:.40}; expected a Shape (load_shape)")
     if shape.polyline is not None:
-        return samples_from_points(shape.polyline, shape.curve, max_step_mm=max_step_mm)
+        return samples_from_points(shape.polyline, shape.curve, max_step_mm=max_step_mm,
+                                   where=shape.name if shape.path is None else f"{shape.path} ({shape.name})")
     return sample_uniform_u(shape.curve, points)
 
 

@@ -19,7 +19,8 @@ import numpy as np
 
 from fuzzyfeed.program.model import (ARC, HOME, LINE, RAPID, Program, arc_geometry, arc_points,
                                      move_end_tangents)
-from fuzzyfeed.geometry.sampling import POINT_STEP_MM, PathSamples, segment_pieces, three_point_curvature
+from fuzzyfeed.geometry.sampling import (POINT_STEP_MM, PathSamples, point_budget, segment_pieces,
+                                         three_point_curvature)
 
 #: Default largest distance between samples along a cut (mm).
 DEFAULT_STEP_MM = POINT_STEP_MM
@@ -52,9 +53,10 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
     chord = np.linalg.norm(end[moves] - start[moves], axis=1)
     keep = (chord > 0) | (kinds != LINE)
     moves, kinds, chord = moves[keep], kinds[keep], chord[keep]
+    budget = f"{program.path}: cut {k + 1}: samples every {step_mm:g} mm (--step-mm)"
     if np.all(kinds == LINE):
         counts = segment_pieces(chord, step_mm)
-        total = int(counts.sum())
+        total = point_budget(float(counts.sum()) + 1, budget) - 1
         seg_move = np.repeat(moves, counts)
         first = np.repeat(np.cumsum(counts) - counts, counts)
         idx = np.arange(total) - first + 1
@@ -69,6 +71,10 @@ def sample_cut(program: Program, k: int, step_mm: float = DEFAULT_STEP_MM) -> Cu
         key = np.concatenate([[True], idx == cnt])
     else:
         parts, f0s, f1s, segm, exacts, keys = [start[moves[0]][None, :]], [], [], [], [], [True]
+        lengths = np.array([arc_geometry(program, m)["length"] if kd == ARC else
+                            (program.nurbs[int(m)].length if kd != LINE else c)
+                            for m, kd, c in zip(moves, kinds, chord)])
+        point_budget(float(segment_pieces(lengths, step_mm).sum()) + 1, budget)
         for m, kind, c in zip(moves, kinds, chord):
             if kind == LINE:
                 n = int(segment_pieces(np.array([c]), step_mm)[0])

@@ -43,8 +43,9 @@ def linuxcnc_knots(n_control_points: int, order: int) -> np.ndarray:
 def check_g52_curve(curve: Nurbs, rtol: float = 1e-9) -> None:
     """Raise :class:`ExportError` unless LinuxCNC's G5.2 can carry ``curve`` exactly."""
     if curve.degree < 2:
-        raise ExportError(f"NURBS degree {curve.degree}: G5.2 needs order L = degree + 1 >= 3; "
-                          "write a degree-1 path as G1 moves")
+        raise ExportError(f"--gcode-g52: the path is a NURBS of degree {curve.degree} (a point sequence "
+                          "or polyline); G5.2 needs order L = degree + 1 >= 3; write it as G1 moves "
+                          "with --gcode")
     lo, hi = curve.domain
     expected = lo + (hi - lo) * linuxcnc_knots(curve.n_control_points, curve.degree + 1)
     bad = np.abs(np.asarray(curve.knots) - expected) > rtol * (hi - lo)

@@ -27,8 +27,11 @@ NO_FEED_RULE = ("feed move with no F in force (F = 0); the program must give an 
                 "first feed move")
 
 # move kinds
-RAPID, LINE, ARC, NURBS, CYCLE, KEPT, HOME = range(7)
-KIND_NAMES = ("rapid", "line", "arc", "nurbs", "cycle", "kept", "home")
+RAPID, LINE, ARC, NURBS, CYCLE, KEPT, HOME, SYNCED = range(8)
+KIND_NAMES = ("rapid", "line", "arc", "nurbs", "cycle", "kept", "home", "synced")
+#: Kinds whose feed is not an F word (rapids, homing, spindle-synchronised G33/G33.1): no F is
+#: ever written on their lines.
+NO_F_KINDS = (RAPID, HOME, SYNCED)
 #: Kinds the advisor changes (their feed is advised per cut).
 ADVISED_KINDS = (LINE, ARC, NURBS)
 #: Plane codes: G17 (XY), G18 (XZ), G19 (YZ) -> (first axis, second axis, normal axis) indices,
@@ -36,6 +39,39 @@ ADVISED_KINDS = (LINE, ARC, NURBS)
 PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
 #: Centre words of each axis (X: I, Y: J, Z: K).
 CENTRE_LETTERS = "IJK"
+
+
+@dataclass(frozen=True, eq=False)
+class Rows:
+    """The executed rows of a program whose lines run more than once or out of order (loops,
+    subroutine calls): per row its line (0-based; −1 for a line of another file) and the feed
+    state after it, and per move its row. The program's per-line arrays then hold the state
+    after each line's last run."""
+
+    line: np.ndarray            # (R,) source line of every row
+    feed_mode: np.ndarray       # (R,) 93, 94, 95
+    has_f: np.ndarray           # (R,) the row has an F word
+    feed_value: np.ndarray      # (R,) F in force after the row (program units)
+    feed_reset: np.ndarray      # (R,) F set to 0 on the row (G94/G95 given, or a change of mode)
+    move_row: np.ndarray        # (M,) the row of every move
+
+
+def lines_of_rows(values: np.ndarray, row_line: np.ndarray, n_lines: int, before=None) -> np.ndarray:
+    """Per line, the value at the line's last row; a line that never runs takes the value of
+    the line before it (``before``, or the first row's value, at the top of the file)."""
+    values = np.asarray(values)
+    last = np.full(n_lines, -1, dtype=np.int64)
+    ok = row_line >= 0
+    np.maximum.at(last, row_line[ok], np.flatnonzero(ok))
+    ran = last >= 0
+    idx = np.where(ran, np.arange(n_lines), -1)
+    np.maximum.accumulate(idx, out=idx)
+    src = np.where(idx >= 0, last[np.maximum(idx, 0)], -1)
+    fill = values[0] if before is None else before
+    out = np.where(src >= 0, values[np.maximum(src, 0)], fill)
+    if before is not None:
+        out = np.where(ran, out, before)
+    return out.astype(values.dtype)
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,8 +94,9 @@ class Program:
     work_offset: np.ndarray           # 54.0 … 59.3: the coordinate system in force
     length_offset: np.ndarray         # 43.0, 43.1, 43.2 or 49.0: tool length offset mode
     has_f: np.ndarray                 # bool: the line has an F word
+    feed_reset: np.ndarray            # bool: F is set to 0 on the line (G94/G95, change of mode)
     # per move (M)
-    move_line: np.ndarray             # 0-based line index
+    move_line: np.ndarray             # 0-based line index (−1: a line of another file)
     kind: np.ndarray                  # RAPID, LINE, ...
     start: np.ndarray                 # (M, 3) mm
     end: np.ndarray                   # (M, 3) mm
@@ -72,6 +109,10 @@ class Program:
     has_z_words: bool = False         # the program names Z somewhere (its paths are 3-D)
     nurbs: dict = field(default_factory=dict)   # move index -> Nurbs (G5.2 block, in mm)
     nurbs_lines: dict = field(default_factory=dict)  # move index -> (first, last) line of the block
+    rows: Rows | None = None          # executed rows, when lines run more than once or out of order
+    rotary: np.ndarray | None = None  # (M,) bool: the move turns a rotary axis (A/B/C; U/V/W)
+    known: np.ndarray | None = None   # (M,) bool: the move starts from a known point
+    stops: np.ndarray | None = None   # (M,) bool: its line stops the program after it (M0/M1/M2/M30/M60)
 
     @property
     def n_cuts(self) -> int:
@@ -96,6 +137,28 @@ class Program:
         for m, curve in self.nurbs.items():
             out[m] = curve.length
         return out
+
+
+def why_nothing_to_advise(program: Program) -> str:
+    """Why ``program`` has no cut: its moves counted by what keeps them from being advised (rapids,
+    drilling cycles, rotary moves, feed moves in G93/G95, from unknown positions, or no move)."""
+    kind = program.kind
+    if kind.size == 0:
+        return "no moves"
+    feed_line = program.move_line
+    mode = program.feed_mode[np.maximum(feed_line, 0)]
+    rotary = program.rotary if program.rotary is not None else np.zeros(kind.size, bool)
+    known = program.known if program.known is not None else np.ones(kind.size, bool)
+    cut = np.isin(kind, ADVISED_KINDS)
+    parts = [(np.isin(kind, (RAPID, HOME)), "rapid move(s)"),
+             (kind == SYNCED, "spindle-synchronised move(s) (G33/G33.1), kept as written"),
+             (kind == CYCLE, "drilling cycle(s), kept as written"),
+             (cut & rotary, "move(s) turning a rotary axis (A/B/C), kept as written"),
+             (cut & ~rotary & (mode != 94), "feed move(s) in G93/G95, kept as written"),
+             (((kind == KEPT) | (cut & ~known)) & ~rotary & (mode == 94),
+              "move(s) from a position the offsets leave unknown, kept as written")]
+    said = [f"{int(sel.sum())} {what}" for sel, what in parts if sel.any()]
+    return "; ".join(said) if said else "only moves of zero length"
 
 
 def arc_geometry(program: Program, m: int) -> dict:

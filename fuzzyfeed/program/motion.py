@@ -1,6 +1,6 @@
 """The exact geometry of the G-code moves that need more than their end point: G2/G3 arcs (centre
-from I/J/K or R in the plane in force, turns, LinuxCNC's radius rule) and G5.2 … G5.3 NURBS
-blocks (LinuxCNC's uniform clamped knot vector). Used by :mod:`fuzzyfeed.program.read`; errors
+from I/J/K or R in the plane in force, turns, LinuxCNC's radius rule), G5.2 … G5.3 NURBS
+blocks (LinuxCNC's uniform clamped knot vector) and G5/G5.1 splines (Bézier curves). Used by :mod:`fuzzyfeed.program.read`; errors
 go through its ``fail(line_index, message)``."""
 
 from __future__ import annotations
@@ -138,3 +138,46 @@ def nurbs_blocks(fail, blocks, move_of_line, known, col, any_xyz, xyz_has, pos_b
         nurbs_lines[m] = (a, b)
 
     return nurbs, nurbs_lines
+
+
+def spline_moves(fail, kind, move_rows, motion, plane, start, endp, col, scale, known) -> dict:
+    """The Bézier curve of every G5 (cubic) and G5.1 (quadratic) move from a known point, in mm,
+    as LinuxCNC draws them in the XY plane: G5.1 X Y I J has its control point at start + (I, J);
+    G5 X Y I J P Q at start + (I, J) and end + (P, Q), and I, J left out continue the previous G5
+    smoothly (−P, −Q of it)."""
+    out = {}
+    ijpq = [col(ch) for ch in "IJPQ"]
+    previous_pq = None
+    for m in np.flatnonzero(np.isin(motion[move_rows], [50, 51])):
+        i = int(move_rows[m])
+        code = int(motion[i])
+        if plane[i] != 17:
+            fail(i, f"G{code / 10:g} in the G{int(plane[i])} plane: G5 and G5.1 work in G17 only")
+        if start[m, 2] != endp[m, 2]:
+            fail(i, f"Z with G{code / 10:g}: G5 and G5.1 are planar (X and Y only)")
+        ii, jj, pp, qq = (v[i] * scale[i] if not np.isnan(v[i]) else np.nan for v in ijpq)
+        s, e = start[m], endp[m]
+        if code == 51:
+            if np.isnan(ii) and np.isnan(jj):
+                fail(i, "G5.1 needs I and J (the control point from the start point)")
+            ctrl = [s, s + np.array([np.nan_to_num(ii), np.nan_to_num(jj), 0.0]), e]
+            previous_pq = None
+        else:
+            if np.isnan(pp) or np.isnan(qq):
+                fail(i, "G5 needs P and Q (the second control point from the end point)")
+            if np.isnan(ii) and np.isnan(jj):
+                if previous_pq is None or m == 0 or int(motion[move_rows[m - 1]]) != 50:
+                    fail(i, "G5 without I and J must follow a G5 (it continues that spline)")
+                ii, jj = -previous_pq[0], -previous_pq[1]
+            elif np.isnan(ii) or np.isnan(jj):
+                fail(i, "G5 needs both I and J, or neither")
+            ctrl = [s, s + np.array([ii, jj, 0.0]), e + np.array([pp, qq, 0.0]), e]
+            previous_pq = (pp, qq)
+        if not known[i]:
+            continue
+        degree = len(ctrl) - 1
+        try:
+            out[int(m)] = Nurbs(degree, [0.0] * (degree + 1) + [1.0] * (degree + 1), np.array(ctrl))
+        except NurbsError as exc:
+            fail(i, f"G{code / 10:g}: {exc}")
+    return out

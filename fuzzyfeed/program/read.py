@@ -13,10 +13,23 @@ G52 (offsets), G17/G18/G19, M0–M9, M30, M48–M53, M60–M66, M70–M73, M100�
 ``%``, ``/``, comments ``( )`` and ``;``. Canned cycles G73, G74, G81–G89 are moves of their
 own kind, kept as written. Arcs in any plane (I/J/K or R, helical, P turns) are exact.
 
-Refused with ``file:line``: parameters and expressions (``#``, ``[``, ``<``), O-words and
-M98/M99 subroutines, cutter compensation G41/G42 (.1), G5/G5.1 splines, threading G33/G76,
-probing G38.x, lathe diameter mode G7, the UVW planes, and arcs whose end radius does not fit
-the start radius (LinuxCNC's rule: more than 0.02 mm / 0.002 in *and* 0.1 %).
+A program with parameters, expressions or O-words (``#``, ``[``, ``<``, ``O``, M98/M99) is first
+executed line by line (:mod:`fuzzyfeed.program.flow`, LinuxCNC's semantics) into the words with
+plain values of every executed line; when each line runs at most once, in file order (parameters,
+expressions, ``if``), the rows are the file's lines and everything below is unchanged. With loops
+and calls a line may run many times: the arrays are per executed row, mapped back to their lines
+(``Program.rows``).
+
+Modal groups as LinuxCNC's reader checks them (``interp_read.cc`` read_g, ``enhance_block``): two
+codes of one group on a line are an error, except G80 beside another motion code (the other
+wins: ``G0 G80`` is G0); a motion code beside G10/G28/G30/G52/G92 is an error (both use the
+axis words), and so are axis words with G80 or with G80 in force.
+
+Refused with ``file:line``: cutter compensation G41/G42 (.1) unless :mod:`fuzzyfeed.program.compensation`
+is given the tool (see there), G5/G5.1 splines, threading G33/G76, probing G38.x, lathe diameter
+mode G7, the UVW planes, polar words, and arcs whose end radius does not fit the start radius
+(LinuxCNC's rule: more than 0.02 mm / 0.002 in *and* 0.1 %); coordinates beyond ±1 km (also a
+thousand-digit number).
 """
 
 from __future__ import annotations
@@ -28,139 +41,19 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.errors import PathFormatError
-from fuzzyfeed.program.motion import arc_centres, nurbs_blocks
-from fuzzyfeed.program.model import ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, Program
+from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
+from fuzzyfeed.program.compensation import comp_per_line, compensate
+from fuzzyfeed.program.flow import execute, needs_execution
+from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
+from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
+from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
+from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, SYNCED, Program,
+                                    Rows, lines_of_rows)
 
-_LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
-_NUMBER_CHARS = b"0123456789.+-"
-_TO_SPACE = str.maketrans({c: " " for c in _LETTERS + "\n"})
-
-# G codes by modal group (code × 10 as an integer)
-_GROUPS = {
-    "motion": [0, 10, 20, 30, 52, 53, 800, 730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890],
-    "plane": [170, 180, 190],
-    "distance": [900, 910],
-    "arc_distance": [901, 911],
-    "feed_mode": [930, 940, 950],
-    "units": [200, 210],
-    "comp": [400],
-    "length": [430, 431, 432, 490],
-    "coord": [540, 550, 560, 570, 580, 590, 591, 592, 593],
-    "control": [610, 611, 640],
-    "spindle": [960, 970],
-    "retract": [980, 990],
-    "nonmodal": [40, 100, 280, 281, 300, 301, 530, 920, 921, 922, 923, 520],
-    "lathe": [80],
-}
-_REFUSED_G = {
-    50: "cubic spline", 51: "quadratic spline", 410: "cutter compensation",
-    420: "cutter compensation", 411: "cutter compensation", 421: "cutter compensation",
-    330: "spindle-synchronised motion", 331: "rigid tapping", 760: "threading cycle",
-    382: "probing", 383: "probing", 384: "probing", 385: "probing", 70: "lathe diameter mode",
-    171: "UV plane", 181: "WU plane", 191: "VW plane",
-}
-_GROUP_ID = {name: k for k, name in enumerate(_GROUPS)}
-_G_LUT = np.full(1000, -1, dtype=np.int16)
-for _name, _codes in _GROUPS.items():
-    _G_LUT[_codes] = _GROUP_ID[_name]
-_CYCLES = {730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890}
-_M_ACCEPTED = set(range(0, 10)) | {30, 48, 49, 50, 51, 52, 53, 60, 61, 62, 63, 64, 65, 66,
-                                   67, 68, 70, 71, 72, 73} | set(range(100, 200))
-_M_STOP = {0, 1, 2, 30, 60}          # executed after the motion of their line
-_M_BREAK = {0, 1, 2, 6, 30, 60}      # the tool stops: a cut ends there
-
-
-def _fail(path: Path, line: int, message: str) -> None:
-    raise PathFormatError(f"{path}:{line}: {message}")
-
-
-def _strip_comments(raw: str, path: Path, number: int) -> str:
-    depth = 0
-    out = []
-    for ch in raw:
-        if ch == ";" and not depth:
-            break
-        if ch == "(":
-            if depth:
-                _fail(path, number, "nested comment '(' inside '(...)'")
-            depth = 1
-        elif ch == ")":
-            if not depth:
-                _fail(path, number, "')' without '('")
-            depth = 0
-        elif not depth:
-            out.append(ch)
-    if depth:
-        _fail(path, number, "comment '(' not closed on this line")
-    return "".join(out)
-
-
-def _clean_lines(lines: list[str], text: str, path: Path) -> list[str]:
-    """Program lines without comments, '%' lines or a leading '/', upper case, no blanks."""
-    clean = list(lines)
-    if "(" in text or ")" in text or ";" in text:
-        for i, raw in enumerate(lines):
-            if "(" in raw or ")" in raw or ";" in raw:
-                clean[i] = _strip_comments(raw, path, i + 1)
-    if "%" in text:
-        for i, raw in enumerate(clean):
-            if "%" in raw:
-                if raw.strip() != "%":
-                    _fail(path, i + 1, f"'%' in {lines[i].strip()!r}: '%' must stand alone on its line")
-                clean[i] = ""
-    return clean
-
-
-def _malformed(path: Path, body: str, pos: int, lines: list[str]) -> None:
-    line = body.count("\n", 0, pos) + 1
-    text = lines[line - 1].strip()
-    start = pos   # a parameter name reaches back to its '#<' (the checks may stop inside it)
-    while start > 0 and (body[start - 1].isalpha() or body[start - 1] in "_<"):
-        start -= 1
-    if start > 0 and body[start - 1] == "#":
-        pos = start - 1
-    frag = body[pos:pos + 12].split("\n")[0]
-    if frag[:1] in "#[<" or (frag[:1] == "O"):
-        _fail(path, line, f"'{frag}' in {text!r}: parameters, expressions and O-words are not "
-                          "supported (expand the program first)")
-    _fail(path, line, f"malformed word at '{frag}' in {text!r}; expected a letter followed by a number")
-
-
-def _tokenise(body: str, path: Path, lines: list[str]):
-    """(line index, letter index 0-25, value) arrays of every word of ``body``."""
-    raw = body.encode("ascii", errors="replace")
-    b = np.frombuffer(raw, dtype=np.uint8)
-    if b.size == 0:
-        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
-    is_letter = (b >= 65) & (b <= 90)
-    is_nl = b == 10
-    is_num = np.isin(b, np.frombuffer(_NUMBER_CHARS, dtype=np.uint8))
-    bad = ~(is_letter | is_nl | is_num)
-    if bad.any():
-        _malformed(path, body, int(np.argmax(bad)), lines)
-    letter_pos = np.flatnonzero(is_letter)
-    nxt = np.append(b, 10)[letter_pos + 1]
-    no_number = ~np.isin(nxt, np.frombuffer(_NUMBER_CHARS, dtype=np.uint8))
-    if no_number.any():
-        _malformed(path, body, int(letter_pos[np.argmax(no_number)]), lines)
-    prev = np.insert(b, 0, 10)[:-1]
-    orphan = is_num & ((prev == 10) | ((prev != 10) & ~np.insert(is_letter | is_num, 0, False)[:-1]))
-    if orphan.any():
-        _malformed(path, body, int(np.argmax(orphan)), lines)
-    numbers = body.translate(_TO_SPACE).split()
-    try:
-        values = np.array(numbers, dtype=float)
-    except ValueError:
-        for k, text in enumerate(numbers):
-            try:
-                float(text)
-            except ValueError:
-                _malformed(path, body, int(letter_pos[k]), lines)
-        raise
-    if values.size != letter_pos.size:  # pragma: no cover - guarded by the checks above
-        _malformed(path, body, int(letter_pos[0]), lines)
-    line_of = np.cumsum(is_nl)[letter_pos]
-    return line_of, b[letter_pos].astype(np.int64) - 65, values
+#: Largest number a word may hold (mm or inch): beyond, a coordinate leaves the ±1 km of
+#: MAX_COORDINATE_MM even in mm (checked again in mm on the positions).
+_MAX_WORD = 1e6
+_LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"]
 
 
 def _ffill(values: np.ndarray, has: np.ndarray, default):
@@ -190,17 +83,20 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     return pos, epoch
 
 
-def read_program(path: str | os.PathLike, text: str | None = None) -> Program:
-    """Read a G-code program (see the module docstring); ``text`` if already read."""
+def read_program(path: str | os.PathLike, text: str | None = None, tools: dict | None = None) -> Program:
+    """Read a G-code program (see the module docstring); ``text`` if already read; ``tools`` the
+    tool diameters (mm) by tool number, for cutter compensation
+    (:func:`fuzzyfeed.program.tools.read_tool_table`)."""
     path = Path(path)
     if text is None:
         from fuzzyfeed.base.files import read_text
         # G-code may be Latin-1 (comments in old controllers' files often are)
         text = read_text(path, "G-code", PathFormatError, latin1=True)
-    return parse_program(text, path)
+    return parse_program(text, path, tools)
 
 
-def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
+def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | None = None) -> Program:
+    """A program from its text (see :func:`read_program`)."""
     path = Path(path)
     newline = "\r\n" if "\r\n" in text else "\n"
     lines = text.split("\n")
@@ -208,7 +104,7 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
         lines.pop()
     if newline == "\r\n" or "\r" in text:
         lines = [ln.rstrip("\r") for ln in lines]
-    clean = _clean_lines(lines, text, path)
+    clean = clean_lines(lines, text, path)
     body = "\n".join(clean).upper().replace(" ", "").replace("\t", "")
     if "/" in body:
         body = re.sub(r"(?m)^/", "", body)
@@ -223,26 +119,50 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>") -> Program:
     else:
         end_line = n_all
         n = n_all
-    for special in ("O", "#", "[", "<"):
-        at = body.find(special)
-        if at >= 0:
-            _malformed(path, body, at, lines)
+    if needs_execution(body):
+        return _parse_executed(path, lines, newline, tools)
     if n == 0 or not body.strip():
         raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
                               "nothing to advise")
-    tl, tc, tv = _tokenise(body, path, lines)
-    return _interpret(path, lines, newline, end_line, n, tl, tc, tv)
+    tl, tc, tv = tokenise(body, path, lines)
+    return _interpret(path, lines, newline, end_line, n, tl, tc, tv, tools=tools)
 
 
-def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
+def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | None) -> Program:
+    """A program with parameters, expressions or O-words: executed first (see the module docs)."""
+    ex = execute(path, lines)
+    if ex.n_rows == 0 or ex.tl.size == 0:
+        raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
+                              "nothing to advise")
+    if ex.in_order:   # every row is its own line: the file's lines, some of them empty
+        last = int(ex.row_line[-1])
+        end_line = last if ex.ended else len(lines)
+        n = last + 1 if ex.ended else len(lines)
+        return _interpret(path, lines, newline, end_line, n, ex.row_line[ex.tl], ex.tc, ex.tv, tools=tools)
+    return _interpret(path, lines, newline, len(lines), ex.n_rows, ex.tl, ex.tc, ex.tv, rows=ex, tools=tools)
+
+
+def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=None) -> Program:
+    """The program from its tokens: per line (or, with ``rows``, per executed row) the words."""
     def fail(i: int, message: str):
-        _fail(path, int(i) + 1, message)
+        if rows is None:
+            fail_at(path, int(i) + 1, message)
+        where, number = rows.where(int(i))
+        raise PathFormatError(f"{where}:{number}: {message}")
 
-    letter = {ch: tc == ord(ch) - 65 for ch in _LETTERS}
-    if letter["O"].any():
-        i = int(tl[np.argmax(letter["O"])])
-        fail(i, f"O-word in {lines[i].strip()!r}: O-word subroutines and control flow are not "
-                "supported (expand the program first)")
+    def text_of(i: int) -> str:
+        if rows is None:
+            return lines[int(i)].strip()
+        where, number = rows.where(int(i))
+        return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
+
+    letter = {ch: tc == ord(ch) - 65 for ch in LETTERS}
+    big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTHLETTERS)
+    if big.any():
+        k = int(np.argmax(big))
+        text = f"{tv[k]:.6g}"
+        fail(tl[k], f"{chr(65 + int(tc[k]))}{text}: a number beyond ±{_MAX_WORD:g} (no machine moves "
+                    f"{_MAX_WORD:g} mm or inch; coordinates must lie within ±1 km)")
     # --- one column per letter (single-valued letters) ---
     cols = {}
     for ch in "XYZABCUVWIJKRPQLFSTHDE":
@@ -268,39 +188,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
 
     # --- G codes by group ---
     gmask = letter["G"]
-    g_line, g_val = tl[gmask], tv[gmask]
-    g10 = np.rint(g_val * 10).astype(np.int64)
-    odd = (np.abs(g_val * 10 - g10) > 1e-6) | (g10 < 0) | (g10 >= 1000)
-    if odd.any():
-        k = int(np.argmax(odd))
-        fail(g_line[k], f"G{g_val[k]:g}: unsupported G code")
-    for k in np.flatnonzero(np.isin(g10, list(_REFUSED_G))):
-        code = int(g10[k])
-        what = _REFUSED_G[code]
-        hint = " (cutter compensation: post the program with compensation done by the CAM)" \
-            if what == "cutter compensation" else ""
-        fail(g_line[k], f"G{code / 10:g} ({what}) is not supported; the path would be read "
-                        f"wrong{hint}")
-    grp = _G_LUT[g10]
-    if (grp < 0).any():
-        k = int(np.argmax(grp < 0))
-        fail(g_line[k], f"G{g_val[k]:g}: unsupported G code")
-    gcol = {}
-    for name, gid in _GROUP_ID.items():
-        sel = grp == gid
-        if not sel.any():
-            gcol[name] = None
-            continue
-        li = g_line[sel]
-        if name != "nonmodal":
-            dup = np.flatnonzero(np.diff(li) == 0)
-            if dup.size:
-                codes = g_val[sel]
-                fail(li[dup[0]], f"two G codes of one modal group on one line: G{codes[dup[0]]:g} "
-                                 f"and G{codes[dup[0] + 1]:g}")
-        c = np.full(n, -1, dtype=np.int64)
-        c[li] = g10[sel]
-        gcol[name] = c
+    g_line, g10, gcol = g_columns(fail, n, tl[gmask], tv[gmask])
 
     def gany(name):
         c = gcol[name]
@@ -318,7 +206,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     m_line, m_val = tl[mmask], tv[mmask]
     m_int = np.rint(m_val).astype(np.int64)
     for k in range(m_val.size):
-        if m_val[k] != m_int[k] or int(m_int[k]) not in _M_ACCEPTED:
+        if m_val[k] != m_int[k] or int(m_int[k]) not in M_ACCEPTED:
             what = " (subroutine calls are not supported)" if m_int[k] in (98, 99) else ""
             fail(m_line[k], f"M{m_val[k]:g}: unsupported M code{what}")
     e_col = cols["E"]
@@ -328,12 +216,12 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         stray = ~np.isnan(e_col) & ~e_users
         if stray.any():
             i = int(np.argmax(stray))
-            fail(i, f"E word with no M66, M67 or M68 to use it in {lines[i].strip()!r} (LinuxCNC "
+            fail(i, f"E word with no M66, M67 or M68 to use it in {text_of(i)!r} (LinuxCNC "
                     "refuses it; a number written as 1e6 reads as 1 E6)")
     m_stop = np.zeros(n, bool)
-    m_stop[m_line[np.isin(m_int, list(_M_STOP))]] = True
+    m_stop[m_line[np.isin(m_int, list(M_STOP))]] = True
     m_break = np.zeros(n, bool)
-    m_break[m_line[np.isin(m_int, list(_M_BREAK))]] = True
+    m_break[m_line[np.isin(m_int, list(M_BREAK))]] = True
 
     # --- modal state per line ---
     def modal(name, default):
@@ -386,15 +274,29 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     # feed: F in force, reset to 0 where the feed mode changes (LinuxCNC does)
     f_col = col("F")
     has_f = ~np.isnan(f_col)
+    # LinuxCNC sets F to 0 at every G94/G95 (also when already in force) and at a change of mode
     fm_change = np.zeros(n, bool)
     fm_change[1:] = feed_mode[1:] != feed_mode[:-1]
     fm_change[0] = feed_mode[0] != 94
+    if gcol["feed_mode"] is not None:
+        fm_change |= np.isin(gcol["feed_mode"], [940, 950])
     feed_value = _ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0)
     if has_f.any() and (f_col[has_f] < 0).any():
         i = int(np.flatnonzero(has_f & (f_col < 0))[0])
         fail(i, f"F{f_col[i]:g}: a feed must be >= 0")
     t_col = col("T")
     tool = _ffill(np.where(has("T"), t_col, -1), has("T"), -1).astype(np.int64)
+    # the tool in the spindle: the T in force at an M6, or M61's Q
+    m6 = np.zeros(n, bool)
+    m6[m_line[m_int == 6]] = True
+    m61 = np.zeros(n, bool)
+    m61[m_line[m_int == 61]] = True
+    loaded_set = m6 | (m61 & has("Q"))
+    loaded = _ffill(np.where(m6, tool, np.where(loaded_set, np.nan_to_num(col("Q")), 0)).astype(np.int64),
+                    loaded_set, 0)
+    comp_code = modal("comp", 400)
+    comp_side, comp_radius = comp_per_line(comp_code, gany("comp"), col("D"), loaded, plane, scale, tools,
+                                           fail)
 
     # --- which lines move, and how ---
     xyz_has = [has(ch) for ch in "XYZ"]
@@ -402,24 +304,50 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     abc_has = np.zeros(n, bool)
     for ch in "ABCUVW":
         abc_has |= has(ch)
+    # polar words (@ radius, ^ angle): the XY they reach depends on where the tool is; the move is
+    # kept as written and X, Y are unknown after it (LinuxCNC: G17 only, never beside X or Y)
+    polar = np.zeros(n, bool)
+    polar[tl[tc >= 26]] = True
+    bad_polar = polar & (xyz_has[0] | xyz_has[1] | (plane != 17))
+    if bad_polar.any():
+        i = int(np.argmax(bad_polar))
+        fail(i, "polar words (@, ^) beside X or Y, or outside G17 (LinuxCNC refuses them)")
     nonmodal = gcol["nonmodal"]
     nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
-    g10_l, g28, g30, g53, g92 = nm(100), nm(280), nm(300), nm(530), nm(920) | nm(921) | nm(922) | nm(923)
+    g10_l, g28, g30, g53 = nm(100), nm(280), nm(300), nm(530)
+    g92 = nm(920)
+    if gcol["g92_offsets"] is not None:
+        g92 = g92 | (gcol["g92_offsets"] >= 0)
     g52_local = nm(520)
-    takes_axes = g10_l | g92 | g52_local | g28 | g30  # axis words are not a target
+    covets = g10_l | nm(920) | g52_local | g28 | g30   # LinuxCNC's mode_zero_covets_axes
+    takes_axes = covets                                # axis words are not a target
+    motion_here = gcol["motion"] >= 0 if gcol["motion"] is not None else np.zeros(n, bool)
+    both = covets & motion_here & (gcol["motion"] != 800 if gcol["motion"] is not None else False)
+    if both.any():
+        i = int(np.argmax(both))
+        fail(i, f"G{gcol['motion'][i] / 10:g} with G{int(gcol['nonmodal'][i]) / 10:g}: two G codes that "
+                "both use the axis words (LinuxCNC refuses it)")
     arcs_words = has("I") | has("J") | has("K") | has("R")
     is_arc_mode = (motion == 20) | (motion == 30)
     full_circle = is_arc_mode & ~any_xyz & (has("I") | has("J") | has("K")) & ~takes_axes
-    moving = (any_xyz | abc_has | full_circle) & ~takes_axes & ~nurbs_open
+    moving = (any_xyz | abc_has | full_circle | polar) & ~takes_axes & ~nurbs_open
     no_motion = moving & (motion < 0) & ~g53
     if no_motion.any():
         fail(int(np.argmax(no_motion)), "axis words with no motion mode (G0, G1, G2, G3) in force")
+    modal_checks(fail, n, gcol, motion, motion_here, moving, any_xyz | abc_has, has, g53, absolute,
+                  nm(920) | g52_local, feed_value)
+    after_g80 = moving & (motion == 800)
+    if after_g80.any():
+        fail(int(np.argmax(after_g80)), "axis words with G80 in force (G80 cancels the motion "
+                                        "mode; LinuxCNC refuses them)")
     bad_arcwords = arcs_words & ((motion == 0) | (motion == 10)) & moving
     if bad_arcwords.any():
         i = int(np.argmax(bad_arcwords))
         which = "/".join(ch for ch in "IJKR" if has(ch)[i])
         fail(i, f"{which} with G{motion[i] / 10:g}: arc words belong to G2/G3")
-    cycle_line = moving & np.isin(motion, list(_CYCLES))
+    cycle_line = moving & np.isin(motion, list(CYCLES))
+    probe_line = moving & np.isin(motion, [382, 383, 384, 385])   # ends where the probe trips
+    tap_line = moving & (motion == 331)                           # rigid tapping: back where it began
     control_point = nurbs_open & any_xyz
     # frame resets: before the motion of their line (offsets), after it (homing, G53, cycles)
     coord_change = np.zeros(n, bool)
@@ -436,7 +364,9 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     pre = []
     for k in range(3):
         p = pre_all | (pre_z if k == 2 else False)
-        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k])
+        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | probe_line
+        if k < 2:
+            q = q | (polar & moving)
         if k == 2:
             q = q | cycle_line
         else:
@@ -445,7 +375,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         post.append(q)
 
     # --- positions ---
-    updates = (moving | control_point) & ~g53
+    updates = (moving | control_point) & ~g53 & ~tap_line
     pos_after = np.empty((n, 3))
     epoch_after = np.empty((n, 3), dtype=np.int64)
     for k, ch in enumerate("XYZ"):
@@ -457,6 +387,11 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         inc = np.where(given & ~absolute, v, 0.0)
         pos_after[:, k], epoch_after[:, k] = _axis_positions(n, np.where(is_set, v, 0.0), is_set,
                                                              inc, pre[k], post[k])
+    far = np.abs(pos_after) > MAX_COORDINATE_MM
+    if far.any():
+        i, k = (int(v) for v in np.argwhere(far)[0])
+        fail(i, f"{'XYZ'[k]} reaches {pos_after[i, k]:.6g} mm; coordinates must lie within "
+                f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
     epoch_before = np.vstack([np.zeros((1, 3), dtype=np.int64), epoch_after[:-1]])
     for k in range(3):
@@ -473,7 +408,9 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     kind[mo == 0] = RAPID
     kind[mo == 10] = LINE
     kind[(mo == 20) | (mo == 30)] = ARC
-    kind[np.isin(mo, list(_CYCLES))] = CYCLE
+    kind[np.isin(mo, list(CYCLES))] = CYCLE
+    kind[np.isin(mo, [330, 331])] = SYNCED
+    kind[polar[move_rows] & (kind != CYCLE)] = KEPT
     hl = home_line[move_rows] | g53[move_rows]
     kind[hl & ((mo == 0) | home_line[move_rows])] = HOME
     kind[g53[move_rows] & (mo != 0)] = KEPT
@@ -483,8 +420,9 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
     fmode = feed_mode[move_rows]
     kept = np.isin(kind, [LINE, ARC]) & (~known[move_rows] | abc_has[move_rows] | (fmode != 94))
     kind[kept & (kind == ARC) & ~known[move_rows]] = KEPT
-    feed_mm = np.where(np.isin(kind, [RAPID, HOME]), np.nan, feed_value[move_rows] * scale[move_rows])
+    feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * scale[move_rows])
     no_split = m_stop[move_rows].copy()
+    stops = m_stop[move_rows].copy()
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
                                                        endp, col, inch, scale, ij_absolute)
     no_split |= multi_turn
@@ -493,12 +431,49 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
                                       pos_before, pos_after)
     for m in nurbs:
         endp[m] = nurbs[m].control_points[-1]
+    splines = spline_moves(fail, kind, move_rows, motion, plane, start, endp, col, scale, known)
+    kind[list(splines)] = NURBS
+    nurbs.update(splines)
+    kind[np.isin(mo, [50, 51]) & (kind != NURBS)] = KEPT        # from an unknown point
+
+    # --- cutter compensation: the tool centre's path, where the tool's radius is known ---
+    side_m = comp_side[move_rows]
+    unknown_r = (side_m != 0) & np.isnan(comp_radius[move_rows])
+    if unknown_r.any():
+        i = int(move_rows[np.argmax(unknown_r)])
+        i = int(np.flatnonzero(gany("comp")[:i + 1])[-1])        # the G41/G42 line
+        _notice(f"{path}:{int(rows.where(i)[1]) if rows is not None else i + 1}: cutter compensation "
+                "with no tool diameter (give --tool-table FILE, or G41.1/G42.1 D<diameter>): the "
+                "programmed contour is advised, not the tool centre's path")
+        side_m = np.where(unknown_r, 0, side_m)
+    if (side_m != 0).any():
+        moved_kinds = np.isin(kind, [RAPID, LINE, ARC])
+        bad = (side_m != 0) & ~moved_kinds
+        if bad.any():
+            fail(move_rows[np.argmax(bad)], "only G0, G1, G2 and G3 moves can run under cutter "
+                                            "compensation (LinuxCNC refuses the others)")
+        comp = compensate(kind, start, endp, centre, turns, side_m, comp_radius[move_rows] * 1.0,
+                          plane[move_rows], bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg))
+        src = comp.src
+        remap = {int(old): k for k, old in enumerate(src) if int(old) in nurbs}
+        nurbs = {remap[m]: c for m, c in nurbs.items()}
+        nurbs_lines = {remap[m]: v for m, v in nurbs_lines.items()}
+        in_comp = side_m[src] != 0
+        move_rows, kind, start, endp = move_rows[src], comp.kind, comp.start, comp.end
+        centre = np.where((kind == ARC)[:, None] & in_comp[:, None], comp.centre, centre[src])
+        turns = np.where(in_comp, comp.turns, turns[src])
+        arc_plane = np.where(kind == ARC, np.where(in_comp, plane[move_rows], arc_plane[src]), 0)
+        feed_mm, no_split = feed_mm[src], no_split[src] | in_comp
+        stops = stops[src] & (np.append(src[1:] != src[:-1], True))   # after the line's last move
+        fmode = fmode[src]
 
     # --- cuts ---
     moved = np.any(endp != start, axis=1) | (turns != 0) | (kind == NURBS)
     advisable = np.isin(kind, [LINE, ARC, NURBS]) & (feed_mode[move_rows] == 94)
     advisable &= known[move_rows] | (kind == NURBS)
     advisable &= ~abc_has[move_rows]
+    if rows is not None:         # moves of another file's lines (a called NAME.ngc) are kept
+        advisable &= rows.row_line[move_rows] >= 0
     breaker_line = m_break | pre_all | pre_z | home_line | g53
     bcum = np.concatenate([[0], np.cumsum(breaker_line)])   # bcum[i] = breakers on lines < i
     # a chain is broken by a move that is not advised (a rapid that moves, home, cycle, kept) and
@@ -523,15 +498,35 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv) -> Program:
         if empty.any():
             remap = np.cumsum(~empty) - 1
             cut = np.where(cut >= 0, np.where(empty[np.maximum(cut, 0)], -1, remap[np.maximum(cut, 0)]), -1)
-    return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line,
-                   inch=_pad(inch, len(lines)), absolute=_pad(absolute, len(lines)),
-                   ij_absolute=_pad(ij_absolute, len(lines)), plane=_pad(plane, len(lines)),
-                   feed_mode=_pad(feed_mode, len(lines)), feed_value=_pad(feed_value, len(lines)),
-                   tool=_pad(tool, len(lines)), work_offset=_pad(coord / 10.0, len(lines)),
-                   length_offset=_pad(length_mode / 10.0, len(lines)), has_f=_pad(has_f, len(lines), False),
-                   move_line=move_rows, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
+    state = dict(inch=inch, absolute=absolute, ij_absolute=ij_absolute, plane=plane, feed_mode=feed_mode,
+                 feed_value=feed_value, tool=tool, work_offset=coord / 10.0, length_offset=length_mode / 10.0)
+    if rows is None:
+        per_line = {k: _pad(v, len(lines)) for k, v in state.items()}
+        per_line["has_f"] = _pad(has_f, len(lines), False)
+        per_line["feed_reset"] = _pad(fm_change, len(lines), False)
+        move_line, row_info = move_rows, None
+    else:
+        per_line = {k: lines_of_rows(v, rows.row_line, len(lines)) for k, v in state.items()}
+        per_line["has_f"] = lines_of_rows(has_f, rows.row_line, len(lines), False)
+        per_line["feed_reset"] = lines_of_rows(fm_change, rows.row_line, len(lines), False)
+        move_line = rows.row_line[move_rows]
+        row_info = Rows(line=rows.row_line, feed_mode=feed_mode, has_f=has_f, feed_value=feed_value,
+                        feed_reset=fm_change, move_row=move_rows)
+        runs = np.bincount(rows.row_line[rows.row_line >= 0], minlength=len(lines))
+        no_split |= (move_line < 0) | (runs[np.maximum(move_line, 0)] > 1)
+    return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line, **per_line,
+                   move_line=move_line, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
-                   has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines)
+                   has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
+                   rows=row_info, rotary=abc_has[move_rows], known=known[move_rows], stops=stops)
+
+
+def _notice(message: str) -> None:
+    import warnings
+
+    from fuzzyfeed.errors import FuzzyfeedNotice
+
+    warnings.warn(message, FuzzyfeedNotice, stacklevel=4)
 
 
 def _pad(arr: np.ndarray, total: int, value=None) -> np.ndarray:

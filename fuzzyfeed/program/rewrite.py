@@ -18,112 +18,12 @@ the program's units, rounded down (never above the feed wanted).
 
 from __future__ import annotations
 
-import math
 import re
 
 import numpy as np
 
-from fuzzyfeed.program.model import ARC, HOME, RAPID, Program, arc_geometry, arc_points
-
-_WORD = re.compile(r"([A-Za-z])(\s*)([-+]?\s*(?:\d+\.?\d*|\.\d+))")
-_AXES = "XYZ"
-
-
-def _words(raw: str) -> tuple[list[tuple[str, int, int, int, str]], int]:
-    """Words of a line outside comments: (letter, start of word, start of number, end, number
-    text), and where new words go (after the last word)."""
-    out = []
-    if "(" not in raw and ";" not in raw:
-        for m in _WORD.finditer(raw):
-            out.append((m.group(1).upper(), m.start(), m.start(3), m.end(), m.group(3)))
-    else:
-        i, n = 0, len(raw)
-        while i < n:
-            ch = raw[i]
-            if ch == "(":
-                j = raw.find(")", i)
-                i = n if j < 0 else j + 1
-                continue
-            if ch == ";":
-                break
-            m = _WORD.match(raw, i)
-            if m:
-                out.append((m.group(1).upper(), m.start(), m.start(3), m.end(), m.group(3)))
-                i = m.end()
-            else:
-                i += 1
-    insert_at = out[-1][3] if out else len(raw.rstrip())
-    return out, insert_at
-
-
-def edit_line(raw: str, sets: list[tuple[str, str]], remove: tuple[str, ...] = ()) -> str:
-    """``raw`` with the numbers of the words in ``sets`` replaced (or the words appended after the
-    last word, in order) and the words in ``remove`` deleted; comments and spacing kept."""
-    words, insert_at = _words(raw)
-    pos = {w[0]: w for w in words}
-    edits = []                                  # (start, end, text)
-    appended = []
-    for letter, text in sets:
-        w = pos.get(letter)
-        if w is not None:
-            edits.append((w[2], w[3], text))
-        else:
-            appended.append(letter + text)
-    for letter in remove:
-        w = pos.get(letter)
-        if w is not None:
-            start = w[1]
-            while start > 0 and raw[start - 1] in " \t":
-                start -= 1
-            edits.append((start, w[3], ""))
-    if appended:
-        edits.append((insert_at, insert_at, " " + " ".join(appended)))
-    out = raw
-    for start, end, text in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
-        out = out[:start] + text + out[end:]
-    return out
-
-
-def _decimals_of(text: str) -> int:
-    text = text.replace(" ", "")
-    return len(text) - text.index(".") - 1 if "." in text else 0
-
-
-def format_fixed(value_int: int, decimals: int) -> str:
-    """An integer count of 10^-decimals units as exact fixed-point text."""
-    sign = "-" if value_int < 0 else ""
-    q, r = divmod(abs(int(value_int)), 10 ** decimals)
-    return f"{sign}{q}.{r:0{decimals}d}" if decimals else f"{sign}{q}"
-
-
-def format_feed_down(value: float, inch: bool) -> str:
-    """F text rounded down (1 decimal in mm/min, 2 in inch/min; more if that would give 0)."""
-    d = 2 if inch else 1
-    while True:
-        q = math.floor(value * 10 ** d + 1e-9)
-        if q > 0 or d >= 6:
-            return format_fixed(max(q, 1), d)
-        d += 1
-
-
-def format_feed_exact(value: float) -> str:
-    text = f"{value:.6f}".rstrip("0").rstrip(".")
-    return text or "0"
-
-
-def feed_texts_down(values: np.ndarray, inch: np.ndarray) -> list[str]:
-    """:func:`format_feed_down` for many values at once."""
-    values = np.asarray(values, dtype=float)
-    d = np.where(inch, 2, 1)
-    q = np.floor(values * 10.0 ** d + 1e-9)
-    mm = (d == 1) & (q > 0)
-    out = np.empty(values.size, dtype=object)
-    if mm.any():
-        out[mm] = np.char.mod("%.1f", q[mm] / 10.0).tolist()
-    for i in np.flatnonzero(~mm):
-        out[i] = format_feed_down(float(values[i]), bool(inch[i]))
-    return out.tolist()
-
+from fuzzyfeed.program.lines import edit_line, feed_texts_down, format_feed_exact, split_lines
+from fuzzyfeed.program.model import NO_F_KINDS, Program
 
 _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
 
@@ -131,6 +31,10 @@ _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
 def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
                     piece_feed_mm_min: np.ndarray) -> str:
     """The program text with the pieces' feeds (see the module docstring)."""
+    if program.rows is not None:
+        from fuzzyfeed.program.rewrite_rows import rewrite_rows
+
+        return rewrite_rows(program, piece_move, piece_end, piece_feed_mm_min)
     lines = program.lines
     n_lines = len(lines)
     kind = program.kind
@@ -153,10 +57,15 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
     # per feed move: the F text wanted on its line (first piece) and in force after it (last)
     want_first = {}
     want_last = {}
-    feed_kind = ~np.isin(kind, [RAPID, HOME])
+    feed_kind = ~np.isin(kind, NO_F_KINDS)
     advised = piece_lo >= 0
     for m in np.flatnonzero(feed_kind & advised).tolist():
         li = int(move_line[m])
+        if li in want_first:   # several moves on one line (a corner arc of cutter compensation):
+            slowest = min(want_first[li][1], p_text[piece_lo[m]], key=float)    # one F, the slowest
+            want_first[li] = (want_first[li][0], slowest)
+            want_last[li] = slowest
+            continue
         want_first[li] = (m, p_text[piece_lo[m]])
         want_last[li] = p_text[piece_hi[m] - 1]
     for m in np.flatnonzero(feed_kind & ~advised).tolist():
@@ -166,10 +75,7 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
         text = format_feed_exact(float(feed_value[li]))
         want_first[li] = (m, text)
         want_last[li] = text
-    mode_change = np.zeros(n_lines, bool)
-    fm = program.feed_mode
-    mode_change[1:] = fm[1:] != fm[:-1]
-    mode_change[0] = fm[0] != 94
+    mode_change = program.feed_reset
     out_lines = []
     f_in_force = None   # value in program units
     end = min(program.end_line + 1, n_lines)
@@ -188,17 +94,17 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
         m, want = hit
         if piece_lo[m] >= 0 and piece_hi[m] - piece_lo[m] > 1:
             lo, hi = piece_lo[m], piece_hi[m]
-            out_lines.extend(_split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
+            out_lines.extend(split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
         else:
             want_v = float(want)
             if f_lines[li]:
                 if abs(float(feed_value[li]) - want_v) > 1e-9:
-                    if "(" in raw or ";" in raw:
+                    if any(c in raw for c in "(;#["):
                         raw = edit_line(raw, [("F", want)])
                     else:
                         raw = _F_WORD.sub("F" + want, raw, count=1)
             elif f_in_force is None or abs(f_in_force - want_v) > 1e-9:
-                if "(" in raw or ";" in raw:
+                if any(c in raw for c in "(;#["):
                     raw = edit_line(raw, [("F", want)])
                 else:
                     raw = raw.rstrip() + " F" + want
@@ -207,58 +113,3 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
     out_lines.extend(lines[end:])
     text = program.newline.join(out_lines)
     return text + program.newline if out_lines else text
-
-
-def _split_lines(program: Program, m: int, raw: str, fractions, feeds: list[str]) -> list[str]:
-    """The move's own line as the first piece plus one new line per further piece."""
-    li = int(program.move_line[m])
-    inch = bool(program.inch[li])
-    scale = 25.4 if inch else 1.0
-    absolute = bool(program.absolute[li])
-    ij_abs = bool(program.ij_absolute[li])
-    words, _ = _words(raw)
-    given = {w[0]: w[4] for w in words}
-    d = max([5 if inch else 4] + [_decimals_of(given[c]) for c in "XYZIJKR" if c in given])
-    unit = 10 ** d
-    fr = np.asarray(fractions, dtype=float)
-    start_mm, end_mm = program.start[m], program.end[m]
-    is_arc = program.kind[m] == ARC
-    if is_arc:
-        pts = arc_points(program, m, fr)
-    else:
-        pts = start_mm + (end_mm - start_mm) * fr[:, None]
-    # integer grid in program units; the start and end are exact on it (d >= the line's decimals)
-    q = np.rint(pts / scale * unit).astype(np.int64)
-    q0 = np.rint(start_mm / scale * unit).astype(np.int64)
-    q[-1] = np.rint(end_mm / scale * unit).astype(np.int64)
-    prev = np.vstack([q0[None, :], q[:-1]])
-    out = []
-    if is_arc:
-        g = arc_geometry(program, m)
-        ax_a, ax_b, ax_n = g["axes"]
-        centre = np.rint(np.array(g["centre"]) / scale * unit).astype(np.int64)
-        motion = "G2" if program.turns[m] < 0 else "G3"
-        rise = g["rise"] != 0
-    for k in range(fr.size):
-        target, before = q[k], prev[k]
-        sets = []
-        if is_arc:
-            axes = [ax_a, ax_b] + ([ax_n] if rise or _AXES[ax_n] in given else [])
-        else:
-            axes = [i for i in range(3) if target[i] != before[i] or (k == 0 and _AXES[i] in given)]
-            if not axes:
-                axes = [int(np.argmax(np.abs(target - before)))]
-        for i in sorted(axes):
-            value = target[i] if absolute else target[i] - before[i]
-            sets.append((_AXES[i], format_fixed(int(value), d)))
-        if is_arc and (k > 0 or "R" in given):
-            for i, c in ((ax_a, centre[0]), (ax_b, centre[1])):
-                value = c if ij_abs else c - before[i]
-                sets.append(("IJK"[i], format_fixed(int(value), d)))
-        sets.append(("F", feeds[k]))
-        if k == 0:
-            out.append(edit_line(raw, sets, remove=("R",) if is_arc and "R" in given else ()))
-        else:
-            head = motion if is_arc else "G1"
-            out.append(head + " " + " ".join(letter + text for letter, text in sets))
-    return out

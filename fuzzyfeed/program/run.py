@@ -80,7 +80,7 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
     feed_move = np.isin(kinds, [LINE, ARC, NURBS])
     runnable &= ~feed_move | ((feed_mode == 94) & (program.feed_mm_min > 0))
     # a line with a stop code stops the tool after its motion
-    stops = program.no_split & ~(kinds == ARC)
+    stops = program.stops if program.stops is not None else program.no_split & ~(kinds == ARC)
     chains: list[Chain] = []
     pts: list[np.ndarray] = []
     feed: list[float] = []
