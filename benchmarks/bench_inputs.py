@@ -34,7 +34,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-DEFAULT_LIBRARY = Path(os.environ.get("FUZZYFEED_LIBRARY", "/work/main/benchmarks/library"))
+DEFAULT_LIBRARY = Path(os.environ.get("FUZZYFEED_LIBRARY", ROOT / "benchmarks" / "library"))
 PATH_TYPES = ("LINE", "ARC", "CIRCLE", "ELLIPSE", "SPLINE", "LWPOLYLINE", "POLYLINE")
 
 
