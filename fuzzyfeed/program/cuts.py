@@ -181,9 +181,14 @@ def _junction_angles(program: Program, moves: np.ndarray, move_end_samples: np.n
     turn = np.zeros(n)
     if moves.size < 2:
         return turn
-    tangents = [move_end_tangents(program, int(m)) for m in moves]
-    t_end = np.array([t[1] for t in tangents[:-1]])
-    t_start = np.array([t[0] for t in tangents[1:]])
+    # a line's tangent is its direction (vectorised); arcs and splines need their exact end tangents
+    d = program.end[moves] - program.start[moves]
+    norm = np.linalg.norm(d, axis=1)
+    first = np.divide(d, norm[:, None], out=np.zeros_like(d), where=norm[:, None] > 0)
+    last = first.copy()
+    for i in np.flatnonzero(program.kind[moves] != LINE):
+        first[i], last[i] = move_end_tangents(program, int(moves[i]))
+    t_end, t_start = last[:-1], first[1:]
     cos = np.clip(np.einsum("ij,ij->i", t_end, t_start), -1.0, 1.0)
     turn[move_end_samples[1:-1]] = np.arccos(cos)
     return turn
