@@ -329,6 +329,12 @@ def test_a_killed_worker_loses_nothing_and_doubles_nothing(cluster, tmp_path):
     client.wait_for_workers(2)      # the nanny restarted it for the next test
 
 
+def _terminal_sigint() -> None:
+    """The child gets SIGINT's default action, as in a terminal (a test run started in the background
+    by a non-interactive shell inherits SIGINT ignored, and Python then installs no Ctrl-C handler)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_keeps_the_finished_files(cluster, tmp_path):
     """SIGINT to the command's whole process group (what a terminal's Ctrl-C does) on a local
     cluster: exit code 130, one line, no worker traceback; the finished files and their entries
@@ -339,7 +345,8 @@ def test_ctrl_c_keeps_the_finished_files(cluster, tmp_path):
         shutil.copy(src, lib / f"job{n % 3}" / src.name)
     out = tmp_path / "out"
     proc = subprocess.Popen(FUZZYFEED + ["batch", str(lib), "--out", str(out), "--workers", "2"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_terminal_sigint)
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and len(list((out / ".manifest").rglob("*.json"))) < 3:
         time.sleep(0.05)
