@@ -51,6 +51,14 @@ def library_programs(spec: str | None) -> list[Path]:
     return [manifest.parent / r["file"] for r in rows]
 
 
+def _key(path: Path) -> str:
+    """A program's name in tune's split file: its path from the repository's root, when inside it."""
+    try:
+        return Path(path).resolve().relative_to(HERE.parent).as_posix()
+    except ValueError:
+        return str(path)
+
+
 def run_one(path: str, machine_name: str, rules: str | None, reference: bool, max_written_s: float) -> dict:
     """One program on one machine: the value report's rows, or the one-line reason it was skipped."""
     from fuzzyfeed.errors import FuzzyfeedError
@@ -86,7 +94,7 @@ def run_one(path: str, machine_name: str, rules: str | None, reference: bool, ma
 
 
 def summarise(rows: list[dict], held_out: set[str] | None) -> list[str]:
-    ok = [r for r in rows if "skipped" not in r and (held_out is None or Path(r["program"]).name in held_out)]
+    ok = [r for r in rows if "skipped" not in r and (held_out is None or _key(r["program"]) in held_out)]
     lines = []
     by_machine: dict[str, list[dict]] = {}
     for r in ok:
@@ -156,6 +164,8 @@ def main() -> int:
     parser.add_argument("--programs", default=None, help="a folder of programs or a MANIFEST.csv (default: the library)")
     parser.add_argument("--rules", default=None, help="rule table (default: the machine table)")
     parser.add_argument("--split", default=None, help="tune's split file: summarise the held-out programs only")
+    parser.add_argument("--held-out-only", action="store_true",
+                        help="with --split: run the held-out programs only (the others are not simulated)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, default=None, help="the first N programs only")
     parser.add_argument("--no-reference", action="store_true")
@@ -169,6 +179,10 @@ def main() -> int:
     held_out = None
     if args.split:
         held_out = set(json.loads(Path(args.split).read_text())["held_out"])
+        if args.held_out_only:
+            programs = [p for p in programs if _key(p) in held_out]
+    elif args.held_out_only:
+        parser.error("--held-out-only needs --split")
     t0 = time.time()
     rows = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:

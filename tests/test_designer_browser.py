@@ -137,6 +137,13 @@ FOCUSED = """() => { let e = document.activeElement;
   return e && e.labels && e.labels.length ? e.labels[0].textContent.trim() : (e ? e.textContent.trim() : ''); }"""
 
 
+def expect(locator):
+    """Playwright's auto-waiting assertions (imported here: playwright is a test extra)."""
+    from playwright.sync_api import expect as playwright_expect
+
+    return playwright_expect(locator)
+
+
 def test_design_in_the_browser(browser, app, tmp_path):
     url, table = app
     page = browser.new_page(viewport={"width": 1500, "height": 1080})
@@ -186,13 +193,14 @@ def test_design_in_the_browser(browser, app, tmp_path):
     error = page.locator(".ff-error").filter(has_text="breakpoints must be non-decreasing")
     error.first.wait_for(timeout=30000)
     assert "curvature.VS = [0.0, 0.09, 0.05]" in error.first.inner_text()
-    assert page.get_by_role("button", name="Save").is_disabled()
+    expect(page.get_by_role("button", name="Save")).to_be_disabled(timeout=30000)
     assert _sum(page, "surface-image", "image") == surface2     # plots keep the last valid table
     if os.environ.get("FUZZYFEED_SCREENSHOT"):
         _screenshot(page, Path(os.environ["FUZZYFEED_SCREENSHOT"]))
     page.get_by_role("button", name="Undo").click()
     error.first.wait_for(state="detached", timeout=30000)
-    assert page.get_by_role("button", name="Save").is_enabled()
+    # the button's state is its own message from the server: wait for it, as a user would
+    expect(page.get_by_role("button", name="Save")).to_be_enabled(timeout=30000)
 
     # export: the download is `rules show --format fcl` of the draft (saved below)
     with page.expect_download() as download:
