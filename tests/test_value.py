@@ -171,3 +171,29 @@ def test_a_run_reports_the_worst_place():
     assert run.max_um > machine.contour_tol_um
     assert line in (3, 4)                    # 0-based: a corner's leaving move
     assert np.allclose(xyz[:2], [50, 0], atol=1) or np.allclose(xyz[:2], [50, 50], atol=1)
+
+
+def test_an_f_far_above_the_machine_is_the_machine_speed():
+    """A program written at F 1e6 (LinuxCNC's 3D_Chips does so: 'as fast as the machine goes') is
+    advised as the same program at the machine's own speed: the ratios and the fractions refer to
+    the feed the axes can reach, so the advice still holds the tolerance (at 0.05 % of F1e6 it
+    could not: 500 mm/min on a 0.5 mm corner radius is too fast), and the uniform slowdown is found,
+    not bounded by a time estimate that assumed the run slows with F."""
+    text = CORPUS.joinpath("grbl_02.ngc").read_text()
+    fast = "\n".join(_with_feed(line, 1e6) for line in text.splitlines()) + "\n"
+    program = parse_program(fast, "fast.ngc")
+    assert program.feed_mm_min[program.cut_moves(0)].min() == 1e6
+    machine = load_machine("reference")
+    ev = evaluate_program(program, machine, load_rule_table("machine"), reference=False)
+    r = ev.report
+    assert r.written.max_um > 3 * r.tol_um and r.advised.max_um <= r.tol_um
+    assert not r.uniform.label.endswith("(at least)") and r.uniform.max_um <= r.tol_um
+    assert r.uniform_factor < 0.01 and f"uniform x{r.uniform_factor:.3g}" in "\n".join(r.lines())
+    advised = parse_program(ev.text, "fast.ngc")
+    assert np.nanmax(advised.feed_mm_min) <= 1e6
+
+
+def _with_feed(line: str, feed: float) -> str:
+    import re
+
+    return re.sub(r"F[0-9.]+", f"F{feed:.0f}", line)

@@ -88,10 +88,14 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
     pm, pe, pf = [], [], []
     for k in chosen:
         cs = sample_cut(program, k, step_mm)
+        ceil_sample = feed[cs.sample_move]
+        if cap_mm_min is not None:
+            ceil_sample = np.minimum(ceil_sample, cap_mm_min)
         if table.inputs == MACHINE:
-            ceil_mm_min = feed[cs.sample_move]
-            if cap_mm_min is not None:
-                ceil_mm_min = np.minimum(ceil_mm_min, cap_mm_min)
+            # the feed the machine can run here: F, or less where the axes cannot reach F along the
+            # path (an F far above the machine is the machine's speed, not a thousandfold margin)
+            reach_mm_min = 60.0 * machine.move_velocity(cs.samples.tangent)
+            ceil_sample = ceil_mm_min = np.minimum(ceil_sample, reach_mm_min)
             adv = advise_details(cs.samples, table, 100.0, engine=engine, machine=machine,
                                  ceiling_mm_s=ceil_mm_min / 60.0, turn_angle=cs.turn_angle,
                                  corner=cs.corner, entry_direction=cs.entry_direction)
@@ -102,7 +106,11 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         if cap_mm_min is not None:
             ceiling_seg = np.minimum(ceiling_seg, cap_mm_min)
         seg_phi = np.minimum(phi[:-1], phi[1:])
-        q = quantise_down(seg_phi * ceiling_seg, feed_step_mm_min, ceiling_seg)
+        # a fraction of the feed the machine can run (below F only where the axes cannot reach F);
+        # 100 % keeps the program's F
+        reachable_seg = np.minimum(ceiling_seg, np.minimum(ceil_sample[:-1], ceil_sample[1:]))
+        q = quantise_down(np.where(seg_phi >= 1.0, ceiling_seg, seg_phi * reachable_seg), feed_step_mm_min,
+                          ceiling_seg)
         # one feed per move where it may not be split: the slowest over the move
         seg_len = np.diff(cs.samples.s)
         new_move = np.ones(q.size, bool)
@@ -126,9 +134,6 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         pf.append(p_feed)
         cut_samples.append(cs)
         advices.append(adv)
-        ceil_sample = feed[cs.sample_move]
-        if cap_mm_min is not None:
-            ceil_sample = np.minimum(ceil_sample, cap_mm_min)
         ceilings.append(ceil_sample)
     return ProgramAdvice(program=program, cuts=tuple(cut_samples), advice=tuple(advices),
                          ceiling_mm_min=tuple(ceilings), piece_move=np.concatenate(pm),

@@ -70,7 +70,8 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
     c = min(1.0, tol / first.max_um)          # the error grows at least linearly with the feed
     runs = 1
     while lo is None:
-        if first.time_s / c / machine.ts_s > max_ticks:
+        # time grows as 1/c only where F is within the machine's reach: ask the planner first
+        if first.time_s / c / machine.ts_s > max_ticks and _planned_time(path, machine, c) / machine.ts_s > max_ticks:
             return Uniform(hi, None, runs, _planned_time(path, machine, hi))
         r = run_program(path, machine, feed_scale=c)
         runs += 1
@@ -126,6 +127,7 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     chains = tuple(refine_chain(c, piece_mm) for c in path.chains)
     refined = ProgramPath(program=path.program, chains=chains, chord_tol_mm=path.chord_tol_mm)
     feeds = [c.motion.feed_mm_s.copy() for c in chains]
+    reachable = [_reachable_feed(c.motion, machine) for c in chains]
     runs: list[ChainRun] = [run_chain(c, machine) for c in chains]
     passes = 1
     while passes < REFERENCE_PASSES:
@@ -134,7 +136,7 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             over = np.flatnonzero(r.contour_mm > tol)
             if over.size == 0:
                 continue
-            new = _lowered(feeds[i], chain.motion.rapid, r, over, tol, chain.motion.feed_mm_s)
+            new = _lowered(feeds[i], chain.motion.rapid, r, over, tol, reachable[i])
             if not np.array_equal(new, feeds[i]):
                 feeds[i] = new
                 runs[i] = run_chain(chain, machine, new)
@@ -149,12 +151,21 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
 
 
+def _reachable_feed(motion: Motion, machine: Machine) -> np.ndarray:
+    """Per segment the feed (mm/s) the machine can run: F, or less where the axes cannot reach F
+    along the segment (the floor of :func:`_lowered` is a fraction of it)."""
+    d = np.diff(motion.points, axis=0)
+    norm = np.linalg.norm(d, axis=1)
+    unit = np.divide(d, norm[:, None], out=np.zeros_like(d), where=norm[:, None] > 0)
+    return np.minimum(motion.feed_mm_s, machine.move_velocity(unit))
+
+
 def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray, tol_mm: float,
              original: np.ndarray) -> np.ndarray:
     """Per piece the new feed: the pieces commanded during each offending tick's lookback window
     and the piece the tool is nearest to go down to the fraction √(tol/error)·margin of the
-    speed commanded at that tick (never up, never below :data:`REFERENCE_FLOOR` of the program's
-    feed)."""
+    speed commanded at that tick (never up, never below :data:`REFERENCE_FLOOR` of the feed the
+    machine can run there, ``original``)."""
     new = feed.copy()
     err = r.contour_mm[over]
     target = r.speed_mm_s[over] * np.sqrt(tol_mm / err) * REFERENCE_MARGIN

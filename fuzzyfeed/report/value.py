@@ -114,8 +114,11 @@ class ValueReport:
             text += (f"; {a.max_um:.1f} um at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)}) is "
                      "over the tolerance")
         if self.reference is not None and not self.reference_converged:
-            text += (f"; even the limit reference ends at {self.reference.max_um:.1f} um: no feed holds "
-                     "the tolerance there")
+            if a.max_um <= tol * (1 + 1e-9) or u.max_um <= tol * (1 + 1e-9):
+                text += f"; the limit reference stopped at {self.reference.max_um:.1f} um (its passes ran out)"
+            else:
+                text += (f"; even the limit reference ends at {self.reference.max_um:.1f} um: no feed holds "
+                         "the tolerance there")
         return text
 
     def csv_row(self) -> dict[str, object]:
@@ -180,7 +183,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     text = rewrite_program(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
     if not over:
         advised_run = written
-        uniform_factor, uniform_row = 1.0, ValueRow.of("uniform x1.000", written)
+        uniform_factor, uniform_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
         ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
         advised_path = path
     else:
@@ -190,8 +193,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
         uniform_factor = u.factor
-        uniform_row = (ValueRow(f"uniform x<{u.factor:.3f} (at least)", u.time_s, float("nan"), float("nan"))
-                       if u.bounded else ValueRow.of(f"uniform x{u.factor:.3f}", u.run))
+        uniform_row = (ValueRow(f"uniform x<{_factor(u.factor)} (at least)", u.time_s, float("nan"), float("nan"))
+                       if u.bounded else ValueRow.of(f"uniform x{_factor(u.factor)}", u.run))
         ref_row, converged = None, True
         if reference:
             step("limit reference")
@@ -260,3 +263,8 @@ def feed_trace(written_path: ProgramPath, written: ProgramRun, advised_path: Pro
                      feed_mm_min={"as written": wf, "advised": af},
                      segments=np.stack([pa, pb], axis=1) if pa.size else np.zeros((0, 2, 3)),
                      advised_fraction=np.clip(frac, 0.0, 1.0), over_s_mm=os_, over_xyz=ox)
+
+
+def _factor(c: float) -> str:
+    """A uniform factor as printed: three decimals, or three significant digits below 0.01."""
+    return f"{c:.3f}" if c >= 0.01 else f"{c:.3g}"
