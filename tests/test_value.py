@@ -197,3 +197,27 @@ def _with_feed(line: str, feed: float) -> str:
     import re
 
     return re.sub(r"F[0-9.]+", f"F{feed:.0f}", line)
+
+
+def test_a_chain_with_nothing_measured_adds_no_segment_to_the_feed_trace():
+    """A chain of one rapid between two offset changes (LinuxCNC's systems.ngc: G54, G0 X1 Y0, G92)
+    has no measured segment; the plot's arc lengths stayed one longer than their ends (a
+    broadcast error ended the value report)."""
+    from types import SimpleNamespace
+
+    from fuzzyfeed.machine.planner import Motion
+    from fuzzyfeed.program.run import Chain
+    from fuzzyfeed.report.value import _along
+
+    def chain(points, measured):
+        pts = np.array(points, float)
+        n = len(points) - 1
+        motion = Motion(pts, np.full(n, 10.0), ~np.array(measured), np.full(n + 1, np.nan))
+        return Chain(motion, np.arange(n), np.array(measured))
+
+    path = SimpleNamespace(chains=[chain([[0, 0, 0], [1, 0, 0], [1, 2, 0]], [True, True]),
+                                   chain([[1, 2, 0], [5, 5, 0]], [False]),
+                                   chain([[5, 5, 0], [6, 5, 0]], [True])])
+    s0, s1, feed, a, b, offsets = _along(path)
+    assert s0.size == s1.size == feed.size == 3
+    assert np.allclose(s0, [0, 1, 3]) and np.allclose(s1, [1, 3, 4]) and offsets == [0.0, 3.0, 3.0]

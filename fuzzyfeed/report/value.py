@@ -222,7 +222,7 @@ def _along(path: ProgramPath):
         m = chain.motion
         keep = chain.seg_measured
         lk = np.linalg.norm(np.diff(m.points, axis=0), axis=1)[keep]
-        start = offset + np.concatenate([[0.0], np.cumsum(lk)[:-1]])
+        start = offset + np.cumsum(lk) - lk          # a chain with no measured segment adds none
         offsets.append(offset)
         s0.append(start)
         s1.append(start + lk)
