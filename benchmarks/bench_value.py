@@ -135,6 +135,10 @@ def summarise(rows: list[dict], held_out: set[str] | None) -> list[str]:
     return lines
 
 
+def _factor(c: float) -> str:
+    return f"{c:.3f}" if c >= 0.01 else f"{c:.3g}"
+
+
 def table(rows: list[dict], markdown: bool) -> str:
     head = ["program", "machine", "written s", "written max um", "advised s", "advised max um", "advised p99 um",
             "uniform x", "uniform s", "reference s", "reference max um", "adv/uniform", "adv/ref"]
@@ -144,7 +148,7 @@ def table(rows: list[dict], markdown: bool) -> str:
             continue
         body.append([Path(r["program"]).name, r["machine"], f"{r['written_time_s']:.1f}", f"{r['written_max_um']:.1f}",
                      f"{r['advised_time_s']:.1f}", f"{r['advised_max_um']:.1f}", f"{r['advised_p99_um']:.1f}",
-                     ("<" if r.get("uniform_is_bound") else "") + f"{r['uniform_factor']:.3f}",
+                     ("<" if r.get("uniform_is_bound") else "") + _factor(r["uniform_factor"]),
                      (">=" if r.get("uniform_is_bound") else "") + f"{r['uniform_time_s']:.1f}",
                      f"{r['reference_time_s']:.1f}",
                      f"{r['reference_max_um']:.1f}", f"{r['advised_time_s'] / r['uniform_time_s']:.2f}",
