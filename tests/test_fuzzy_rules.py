@@ -57,7 +57,7 @@ def test_resolve_names_and_paths(tmp_path):
     assert resolve_rules_path(None) == PAPER
     assert resolve_rules_path("paper") == PAPER
     with pytest.raises(RuleTableError, match="rule table 'nosuch': no such shipped table or file; "
-                                             "shipped tables are: machine, paper"):
+                                             "shipped tables are: machine, machine-tuned, paper"):
         load_rule_table("nosuch")
     with pytest.raises(RuleTableError, match="no such file"):
         load_rule_table(tmp_path / "missing.toml")

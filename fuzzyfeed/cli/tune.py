@@ -121,8 +121,9 @@ def run_library(args: argparse.Namespace, out: Path) -> int:
     command = "fuzzyfeed tune " + " ".join(shlex.quote(a) for a in sys.argv[2:]) if sys.argv[1:2] == ["tune"] \
         else "fuzzyfeed tune (library)"
     name = args.name or out.stem
-    source = (f"machine table tuned on {len(programs)} programs for machine {machine.name!r} "
-              f"({machine.contour_tol_um:g} um), held out {args.holdout:g} (seed {args.seed}): {command}")
+    source = (f"machine table tuned for machine {machine.name!r} ({machine.contour_tol_um:g} um) on "
+              f"{len(programs)} programs less the share {args.holdout:g} held out (seed {args.seed}; the "
+              f"split file lists both parts): {command}")
     bar = tqdm(desc="tuning", unit="round", disable=not sys.stderr.isatty(), leave=False)
     with bar:
         result = tune_on_programs(programs, machine, args.holdout, args.seed, name=name, source=source,
