@@ -267,16 +267,19 @@ class DesignerView:
     # -- redraw -------------------------------------------------------------------------------
     def refresh(self) -> None:
         """Redraw every panel from the document (the surface and path only if the table changed)."""
+        from panel.io import hold
+
         start = time.perf_counter()
-        self._syncing = True
-        try:
-            self._sync_inputs()
-            if self.doc.table is not self._drawn:
-                self._draw_table()
-        finally:
-            self._syncing = False
-        self._show_state()
-        self._push()
+        with hold():       # every change of this redraw goes to the browser in one message
+            self._syncing = True
+            try:
+                self._sync_inputs()
+                if self.doc.table is not self._drawn:
+                    self._draw_table()
+            finally:
+                self._syncing = False
+            self._show_state()
+            self._push()
         self.redraw_s = time.perf_counter() - start
 
     def _sync_inputs(self) -> None:
