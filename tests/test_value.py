@@ -221,3 +221,25 @@ def test_a_chain_with_nothing_measured_adds_no_segment_to_the_feed_trace():
     s0, s1, feed, a, b, offsets = _along(path)
     assert s0.size == s1.size == feed.size == 3
     assert np.allclose(s0, [0, 1, 3]) and np.allclose(s1, [1, 3, 4]) and offsets == [0.0, 3.0, 3.0]
+
+
+def test_machine_advice_is_a_fraction_of_each_moves_own_f():
+    """Every written feed is at least the move's slowest advised fraction times that move's own F
+    (quantised down): the segment that ends a contour move at a plunge is not judged by the
+    plunge's F (it was once, through the per-sample feed the machine can reach: F40 for F230)."""
+    from fuzzyfeed.program.feeds import advise_program
+
+    program = read_program(CORPUS / "grbl_02.ngc")
+    pa = advise_program(program, load_rule_table("machine"), machine=load_machine("reference"))
+    step = pa.feed_step_mm_min
+    lowest: dict[int, float] = {}
+    for cs, adv in zip(pa.cuts, pa.advice):
+        phi = adv.feed_pct / 100.0
+        seg_phi = np.minimum(phi[:-1], phi[1:])
+        for m in np.unique(cs.seg_move):
+            f = program.feed_mm_min[m]
+            bound = max(step, np.floor(seg_phi[cs.seg_move == m].min() * f / step) * step)
+            lowest[int(m)] = min(f, bound)
+    assert lowest
+    for m, feed in zip(pa.piece_move, pa.piece_feed_mm_min):
+        assert feed >= lowest[int(m)] - 1e-9, (int(m), feed, lowest[int(m)])

@@ -106,9 +106,14 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         if cap_mm_min is not None:
             ceiling_seg = np.minimum(ceiling_seg, cap_mm_min)
         seg_phi = np.minimum(phi[:-1], phi[1:])
-        # a fraction of the feed the machine can run (below F only where the axes cannot reach F);
-        # 100 % keeps the program's F
-        reachable_seg = np.minimum(ceiling_seg, np.minimum(ceil_sample[:-1], ceil_sample[1:]))
+        reachable_seg = ceiling_seg
+        if table.inputs == MACHINE:
+            # a fraction of the feed the machine can run along the segment (below its own F only
+            # where the axes cannot reach F); 100 % keeps the program's F
+            d = np.diff(cs.samples.xyz, axis=0)
+            norm = np.linalg.norm(d, axis=1)
+            unit = np.divide(d, norm[:, None], out=np.zeros_like(d), where=norm[:, None] > 0)
+            reachable_seg = np.minimum(ceiling_seg, 60.0 * machine.move_velocity(unit))
         q = quantise_down(np.where(seg_phi >= 1.0, ceiling_seg, seg_phi * reachable_seg), feed_step_mm_min,
                           ceiling_seg)
         # one feed per move where it may not be split: the slowest over the move
