@@ -3,6 +3,7 @@ the key and the rule, flags replace fields, and a refused machine leaves no outp
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from fuzzyfeed.cli import main
@@ -103,3 +104,15 @@ def test_flags_replace_the_files_fields():
     m = machine_from_args(args)
     assert m.name == "hobby-router" and m.servo.kv_1_s == (45.0,) * 3 and m.corner_mm == 0.02
     assert m.axis_acc_mm_s2 == (300.0, 300.0, 100.0) and m.lookahead_moves == 16   # kept from the file
+
+
+def test_speed_along_a_polyline_is_the_axes_reach_in_each_direction():
+    """By hand: axes 100/100/50 mm/s; along X 100, at 45 degrees in XY 100·√2, along Z 50, a
+    segment of zero length takes the slowest axis."""
+    from dataclasses import replace as _replace
+
+    from fuzzyfeed.machine.description import load_machine
+
+    machine = _replace(load_machine("reference"), axis_vel_mm_s=(100.0, 100.0, 50.0))
+    pts = [[0, 0, 0], [10, 0, 0], [20, 10, 0], [20, 10, 5], [20, 10, 5]]
+    assert np.allclose(machine.speed_along(pts), [100.0, 100.0 * np.sqrt(2), 50.0, 50.0])

@@ -194,6 +194,14 @@ class Machine:
         """Largest speed (mm/s) along each unit direction: every axis within its velocity limit."""
         return self._along(np.asarray(self.axis_vel_mm_s), unit, None)
 
+    def speed_along(self, points: np.ndarray) -> np.ndarray:
+        """Largest speed (mm/s) on each segment of a polyline ``points`` (N, 3): :meth:`move_velocity`
+        along its direction (the slowest axis's on a segment of zero length)."""
+        d = np.diff(np.asarray(points, dtype=float), axis=0)
+        norm = np.linalg.norm(d, axis=1)
+        unit = np.divide(d, norm[:, None], out=np.zeros_like(d), where=norm[:, None] > 0)
+        return self.move_velocity(unit)
+
     @staticmethod
     def _along(per_axis: np.ndarray, unit: np.ndarray, cap: float | None) -> np.ndarray:
         u = np.abs(np.asarray(unit, dtype=float))

@@ -110,10 +110,7 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         if table.inputs == MACHINE:
             # a fraction of the feed the machine can run along the segment (below its own F only
             # where the axes cannot reach F); 100 % keeps the program's F
-            d = np.diff(cs.samples.xyz, axis=0)
-            norm = np.linalg.norm(d, axis=1)
-            unit = np.divide(d, norm[:, None], out=np.zeros_like(d), where=norm[:, None] > 0)
-            reachable_seg = np.minimum(ceiling_seg, 60.0 * machine.move_velocity(unit))
+            reachable_seg = np.minimum(ceiling_seg, 60.0 * machine.speed_along(cs.samples.xyz))
         q = quantise_down(np.where(seg_phi >= 1.0, ceiling_seg, seg_phi * reachable_seg), feed_step_mm_min,
                           ceiling_seg)
         # one feed per move where it may not be split: the slowest over the move

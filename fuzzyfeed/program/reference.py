@@ -154,10 +154,7 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
 def _reachable_feed(motion: Motion, machine: Machine) -> np.ndarray:
     """Per segment the feed (mm/s) the machine can run: F, or less where the axes cannot reach F
     along the segment (the floor of :func:`_lowered` is a fraction of it)."""
-    d = np.diff(motion.points, axis=0)
-    norm = np.linalg.norm(d, axis=1)
-    unit = np.divide(d, norm[:, None], out=np.zeros_like(d), where=norm[:, None] > 0)
-    return np.minimum(motion.feed_mm_s, machine.move_velocity(unit))
+    return np.minimum(motion.feed_mm_s, machine.speed_along(motion.points))
 
 
 def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray, tol_mm: float,
