@@ -190,6 +190,23 @@ def feed_texts_down(values: np.ndarray, inch: np.ndarray) -> list[str]:
 
 
 
+def piece_layout(program: Program, piece_move: np.ndarray,
+                 piece_feed_mm_min: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Per move the range [lo, hi) of its pieces (-1 for a move with none; pieces are in move
+    order), and every piece's F text in the units of its line (rounded down)."""
+    n_moves = program.kind.size
+    piece_lo = np.full(n_moves, -1)
+    piece_hi = np.full(n_moves, -1)
+    if piece_move.size:
+        bounds = np.flatnonzero(np.diff(piece_move)) + 1
+        starts = np.concatenate([[0], bounds])
+        stops = np.concatenate([bounds, [piece_move.size]])
+        piece_lo[piece_move[starts]] = starts
+        piece_hi[piece_move[starts]] = stops
+    p_inch = program.inch[program.move_line[piece_move]] if piece_move.size else np.zeros(0, bool)
+    return piece_lo, piece_hi, feed_texts_down(piece_feed_mm_min / np.where(p_inch, 25.4, 1.0), p_inch)
+
+
 def split_lines(program: Program, m: int, raw: str, fractions, feeds: list[str]) -> list[str]:
     """The move's own line as the first piece plus one new line per further piece."""
     li = int(program.move_line[m])

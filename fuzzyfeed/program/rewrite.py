@@ -22,7 +22,7 @@ import re
 
 import numpy as np
 
-from fuzzyfeed.program.lines import edit_line, feed_texts_down, format_feed_exact, split_lines
+from fuzzyfeed.program.lines import edit_line, piece_layout, format_feed_exact, split_lines
 from fuzzyfeed.program.model import NO_F_KINDS, Program
 
 _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
@@ -41,19 +41,7 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
     move_line = program.move_line
     feed_value = program.feed_value
     has_f = program.has_f
-    inch = program.inch
-    # pieces per move
-    n_moves = kind.size
-    piece_lo = np.full(n_moves, -1)
-    piece_hi = np.full(n_moves, -1)
-    if piece_move.size:
-        bounds = np.flatnonzero(np.diff(piece_move)) + 1
-        starts = np.concatenate([[0], bounds])
-        stops = np.concatenate([bounds, [piece_move.size]])
-        piece_lo[piece_move[starts]] = starts
-        piece_hi[piece_move[starts]] = stops
-    p_inch = inch[move_line[piece_move]] if piece_move.size else np.zeros(0, bool)
-    p_text = feed_texts_down(piece_feed_mm_min / np.where(p_inch, 25.4, 1.0), p_inch)
+    piece_lo, piece_hi, p_text = piece_layout(program, piece_move, piece_feed_mm_min)
     # per feed move: the F text wanted on its line (first piece) and in force after it (last)
     want_first = {}
     want_last = {}

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.program.model import NO_F_KINDS, Program
-from fuzzyfeed.program.lines import edit_line, feed_texts_down, format_feed_exact, split_lines
+from fuzzyfeed.program.lines import edit_line, piece_layout, format_feed_exact, split_lines
 
 #: Two feeds equal within this (program units per minute).
 _SAME = 1e-9
@@ -30,16 +30,7 @@ def rewrite_rows(program: Program, piece_move: np.ndarray, piece_end: np.ndarray
     kind = program.kind
     move_line = program.move_line
     n_moves = kind.size
-    piece_lo = np.full(n_moves, -1)
-    piece_hi = np.full(n_moves, -1)
-    if piece_move.size:
-        bounds = np.flatnonzero(np.diff(piece_move)) + 1
-        starts = np.concatenate([[0], bounds])
-        stops = np.concatenate([bounds, [piece_move.size]])
-        piece_lo[piece_move[starts]] = starts
-        piece_hi[piece_move[starts]] = stops
-    p_inch = program.inch[move_line[piece_move]] if piece_move.size else np.zeros(0, bool)
-    p_text = feed_texts_down(piece_feed_mm_min / np.where(p_inch, 25.4, 1.0), p_inch)
+    piece_lo, piece_hi, p_text = piece_layout(program, piece_move, piece_feed_mm_min)
     p_val = [float(t) for t in p_text]
     row_move = np.full(rows.line.size, -1)
     row_move[rows.move_row] = np.arange(n_moves)
