@@ -36,10 +36,11 @@ class ValueRow:
     time_s: float
     max_um: float
     p99_um: float
+    air_um: float = float("nan")     # largest error in the air (the tool nearest a rapid), not in the part
 
     @classmethod
     def of(cls, label: str, run: ProgramRun) -> ValueRow:
-        return cls(label, run.time_s, run.max_um, run.p99_um)
+        return cls(label, run.time_s, run.max_um, run.p99_um, run.air_max_um)
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +74,7 @@ class ValueReport:
     advised_cuts: tuple[int, ...]
     worst_advised: tuple[int, tuple[float, float, float]] | None
     trace: FeedTrace | None = None
+    worst_air: tuple[int, tuple[float, float, float]] | None = None
 
     @property
     def tol_um(self) -> float:
@@ -93,7 +95,24 @@ class ValueReport:
             flag = "  over" if r.max_um > tol * (1 + 1e-9) else ""
             out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {r.p99_um:10.1f}{flag}")
         out.append("  " + self.verdict())
+        air = self.air_line()
+        if air:
+            out.append("  " + air)
         return out
+
+    def air_line(self) -> str:
+        """Where the rows' errors are: max and p99 are in the part (the tool nearest a feed move);
+        the largest error in the air (the tool still nearest a rapid it lags behind, as the next
+        feed move starts) is said apart, with where, when there is one."""
+        w, a = self.written, self.advised
+        if not (w.air_um > 0 or a.air_um > 0):
+            return ""
+        text = (f"in the air (tool still nearest a rapid when a feed move starts; not in the part, no F changes "
+                f"it): as written {w.air_um:.1f} um, advised {a.air_um:.1f} um")
+        if self.worst_air is not None:
+            line, xyz = self.worst_air
+            text += f", largest at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)})"
+        return text
 
     def verdict(self) -> str:
         tol = self.tol_um
@@ -193,14 +212,15 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
         uniform_factor = u.factor
-        uniform_row = (ValueRow(f"uniform x<{_factor(u.factor)} (at least)", u.time_s, float("nan"), float("nan"))
-                       if u.bounded else ValueRow.of(f"uniform x{_factor(u.factor)}", u.run))
+        uniform_row = (ValueRow(f"uniform x{_factor(u.factor)}", u.time_s, u.max_um, float("nan"))
+                       if u.run is None else ValueRow.of(f"uniform x{_factor(u.factor)}", u.run))
         ref_row, converged = None, True
         if reference:
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
     worst = advised_run.worst()
+    air = advised_run.worst_air()
     report = ValueReport(
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
@@ -209,7 +229,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
-        trace=feed_trace(path, written, advised_path, tol))
+        trace=feed_trace(path, written, advised_path, tol),
+        worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])))
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report)
 
 
