@@ -107,13 +107,15 @@ def test_steady_state_error_on_a_circle_matches_the_closed_form():
     text = "G21 G90 G94 G17\nG0 X10 Y0 Z0\nG1 X10 Y0 F3000\nG3 X10 Y0 I-10 J0 P3\nG0 Z5\nM2\n"
     program = parse_program(text, "circle.ngc")
     machine = Machine(servo=ServoModel(kv_1_s=kv), chord_tol_mm=0.0005)
-    run = run_program(program_path(program, machine.chord_tol_mm), machine)
-    chain = run.runs[0]
+    path = program_path(program, machine.chord_tol_mm)
+    chain = trace_motion(path.chains[0].motion, machine, path.chains[0].seg_measured)   # every tick
     # the middle turn (steady state): the chords sag at most 0.5 um inside the circle
     t = chain.tick_time_s
     mid = (t > 0.35 * t.max()) & (t < 0.65 * t.max())
     assert np.median(chain.contour_mm[mid]) == pytest.approx(expected, abs=0.6e-3)
     assert expected > 0.1      # the case is not trivial: 136 um
+    # the streamed run (no ticks kept) finds the same largest error
+    assert run_program(path, machine).max_um == pytest.approx(chain.max_mm * 1e3, abs=1e-3)
 
 
 def test_corner_at_constant_speed_matches_the_closed_form():
@@ -131,9 +133,11 @@ def test_rapids_are_not_measured():
     text = "G21 G90 G94\nG0 X0 Y0 Z0\nG0 X50 Y0\nG0 X50 Y50\nG1 X0 Y50 F600\nM2\n"
     program = parse_program(text, "rapid.ngc")
     machine = Machine()
-    run = run_program(program_path(program, machine.chord_tol_mm), machine)
-    moves = np.concatenate([r.tick_move for r in run.runs])
-    assert set(np.unique(program.kind[moves])) == {1}      # LINE only
+    path = program_path(program, machine.chord_tol_mm)
+    run = run_program(path, machine)
+    # the segments where an error was measured belong to feed moves only
+    moves = np.concatenate([c.seg_move[r.stream.seg_max_mm > 0] for c, r in zip(path.chains, run.runs)])
+    assert moves.size and set(np.unique(program.kind[moves])) == {1}      # LINE only
 
 
 def test_contour_kernel_forms_agree_bit_for_bit():

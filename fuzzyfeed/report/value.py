@@ -187,7 +187,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     """Advise ``program`` for ``machine`` and measure what it bought (module docstring): the cuts
     (of ``cuts``, default all) that break the tolerance as written get the advice, the others keep
     their feeds. ``progress(step)`` is called with a short name before each stage. ``max_ticks``
-    bounds the servo periods of one run of the uniform search (its row is then a lower bound)."""
+    bounds the servo periods of the uniform slowdown's checking run (beyond it the row takes the
+    planner's time and the largest error of the hot stretches, and no p99)."""
     step = progress or (lambda _name: None)
     tol = machine.contour_tol_um
     step("as written")
