@@ -110,3 +110,26 @@ def test_stream_equals_the_tick_reference_on_the_library(rel):
     e = np.concatenate(errs)
     if e.size:
         assert run.p99_um == pytest.approx(float(np.percentile(e, 99)), abs=0.1)
+
+
+def test_uniform_slowdown_on_hot_stretches_equals_the_search_on_whole_runs(monkeypatch):
+    # the search re-running only the stretches around the hot spots finds the factor the search on
+    # whole runs finds (both to the search's 1 %), and its checking run holds the tolerance
+    import fuzzyfeed.program.reference as reference
+
+    machine = load_machine("reference")
+    program = read_program(Path(__file__).parent / "programs" / "corpus" / "grbl_02.ngc")
+    path = program_path(program, machine.chord_tol_mm)
+    written = run_program(path, machine)
+    assert written.max_um > 3 * machine.contour_tol_um
+    whole_runs = []
+    real_run = reference.run_program
+    monkeypatch.setattr(reference, "run_program", lambda *a, **k: whole_runs.append(1) or real_run(*a, **k))
+    fast = reference.uniform_slowdown(path, machine, written)
+    assert len(whole_runs) == 1                     # the trials ran hot stretches; one checking run
+    monkeypatch.setattr(reference, "UNIFORM_CHECKS", 0)
+    whole = reference.uniform_slowdown(path, machine, written)
+    assert fast.run is not None and fast.run.max_um <= machine.contour_tol_um
+    assert whole.run is not None and whole.run.max_um <= machine.contour_tol_um
+    assert fast.factor == pytest.approx(whole.factor, rel=reference.UNIFORM_RTOL)
+    assert fast.time_s == pytest.approx(reference._planned_time(path, machine, fast.factor), rel=1e-12)

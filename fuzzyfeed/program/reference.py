@@ -94,7 +94,8 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
     tolerance at the last factor that broke it (the error of a place grows with the feed: those
     that held there hold below it; :func:`~fuzzyfeed.machine.stream.segment_windows`); the time is
     the planner's. The factor found is checked by one whole run (if within ``max_ticks`` servo
-    periods); should a place outside the hot stretches break it, the search goes on below."""
+    periods); should a place outside the hot stretches break it, the search goes on below (after
+    :data:`UNIFORM_CHECKS` such misses, on whole runs)."""
     tol = machine.contour_tol_um if tol_um is None else tol_um
     tol_mm = tol * 1e-3
     first = as_written if as_written is not None else run_program(path, machine)
@@ -129,8 +130,32 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
         if run.max_um <= tol:
             return Uniform(lo, run, runs, run.time_s, run.max_um)
         hi, hi_max, hot = lo, run.max_um, _hot(run, tol_mm)     # a place the hot stretches missed
-    raise RuntimeError(f"uniform slowdown: {UNIFORM_CHECKS} whole runs broke the tolerance that their "
-                       "hot stretches held (the error is not monotone in the feed there)")
+    # the hot stretches kept missing a place (the error not monotone in the feed there): whole runs
+    return _whole_search(path, machine, tol, hi, hi_max, runs)
+
+
+def _whole_search(path: ProgramPath, machine: Machine, tol: float, hi: float, hi_max: float,
+                  runs: int) -> Uniform:
+    """The uniform search below ``hi`` (whose run's max was ``hi_max`` µm) on whole runs only."""
+    lo, lo_run = None, None
+    c = hi * min(1.0, tol / hi_max)
+    while lo is None:
+        r = run_program(path, machine, feed_scale=c)
+        runs += 1
+        if r.max_um <= tol:
+            lo, lo_run = c, r
+        else:
+            hi = c
+            c *= max(0.1, min(0.7, tol / r.max_um))
+    while hi / lo > 1.0 + UNIFORM_RTOL:
+        c = math.sqrt(lo * hi)
+        r = run_program(path, machine, feed_scale=c)
+        runs += 1
+        if r.max_um <= tol:
+            lo, lo_run = c, r
+        else:
+            hi = c
+    return Uniform(lo, lo_run, runs, lo_run.time_s, lo_run.max_um)
 
 
 def refine_chain(chain: Chain, piece_mm: float) -> Chain:
