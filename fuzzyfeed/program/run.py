@@ -27,8 +27,8 @@ from fuzzyfeed.machine.stream import StreamRun, percentile_um, stream_plan
 from fuzzyfeed.program.model import ARC, HOME, LINE, NURBS, RAPID, Program, arc_geometry, arc_points
 
 #: The most servo periods one chain's run may simulate (CPU, not memory: the run keeps no ticks;
-#: about 100 ns a tick, so a few minutes).
-MAX_STREAM_TICKS = 2e9
+#: 100–300 ns a tick, so a minute or two).
+MAX_STREAM_TICKS = 5e8
 
 
 @dataclass(frozen=True, eq=False)
