@@ -84,6 +84,8 @@ def report_table_html(reports: Sequence[ValueReport]) -> str:
                          f"<td>{row.max_um:.1f}</td><td>{row.p99_um:.1f}</td></tr>")
         parts.append("</table>")
         parts.append(f"<p>{html.escape(r.verdict())}</p>")
+        if r.air_line():
+            parts.append(f"<p>{html.escape(r.air_line())}</p>")
         buf = io.BytesIO()
         plot_value(r, buf)
         data = base64.b64encode(buf.getvalue()).decode("ascii")
