@@ -40,7 +40,10 @@ def _check_against_reference(motion: Motion, machine: Machine, measured: np.ndar
     assert run.max_mm == pytest.approx(ref.max_mm, abs=1e-3 * 1e-3)          # within 1e-3 um
     if ref.contour_mm.size:
         p99 = float(np.percentile(ref.contour_mm * 1e3, 99))
-        assert percentile_um(run.hist_bins, run.hist_counts, 99) == pytest.approx(p99, abs=0.06)
+        # within half a bin without rapids; within 1 um with them (a tie at a rapid's vertex, below,
+        # moves ticks between the part and the air by rounding)
+        tight = measured.all()
+        assert percentile_um(run.hist_bins, run.hist_counts, 99) == pytest.approx(p99, abs=0.03 if tight else 1.0)
         # the ticks over the tolerance are the reference's, merged: same largest, none missed
         tol = machine.contour_tol_um * 1e-3
         over = ref.contour_mm > tol
@@ -70,7 +73,7 @@ def test_stream_equals_the_tick_reference_on_random_polylines(seed, order, n, sc
     if pts.shape[0] < 2:
         return
     m = pts.shape[0] - 1
-    rapid = rng.random(m) < 0.15
+    rapid = rng.random(m) < (0.15 if seed % 2 else 0.0)
     feed = np.where(rapid, np.nan, rng.uniform(2.0, 90.0, m))
     motion = Motion(pts, feed, rapid, np.full(m + 1, np.nan))
     servo = ServoModel(kv_1_s=rng.uniform(15, 80), feedforward=ff) if order == 1 else \
