@@ -20,12 +20,15 @@ import numpy as np
 
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
-from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS, segment_windows
+from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS, segment_windows, warmup_ticks
 from fuzzyfeed.program.run import Chain, ChainRun, ProgramPath, ProgramRun, run_chain, run_program
 
 #: A uniform factor whose whole run passes this many servo periods is reported from its hot
 #: stretches (time: the planner's) without the whole run.
 MAX_TICKS = 2e8
+#: The most servo periods the hot stretches of one uniform trial may hold (beyond, the factor is a
+#: bound: the error does not come down with the feed there).
+HOT_MAX_TICKS = 4e7
 #: Whole runs checking a uniform factor found on the hot stretches, at most.
 UNIFORM_CHECKS = 8
 #: The uniform factor is searched to this relative step.
@@ -49,10 +52,8 @@ class Uniform:
     runs: int          # trials the search took (whole runs and runs of the hot stretches)
     time_s: float
     max_um: float = float("nan")
-
-    @property
-    def bounded(self) -> bool:
-        return False
+    bounded: bool = False   # no factor found within the tick budget: ``factor`` the lowest tried
+                            # (it breaks the tolerance), ``time_s`` the planner's time there
 
 
 def _scaled_plans(path: ProgramPath, machine: Machine, scale: float) -> list[Plan]:
@@ -66,17 +67,28 @@ def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
 
 
 def _hot_trial(path: ProgramPath, machine: Machine, scale: float, hot: list[np.ndarray],
-               tol_mm: float) -> tuple[float, list[np.ndarray]]:
+               tol_mm: float, max_ticks: float) -> tuple[float, list[np.ndarray]] | None:
     """Largest error (µm) of the stretches around the ``hot`` segments (per chain) with every F ×
-    ``scale``, and the segments over the tolerance there."""
-    worst, out = 0.0, []
+    ``scale``, and the segments over the tolerance there; None when the stretches pass
+    ``max_ticks`` servo periods."""
+    plans, windows = [], []
     for chain, h in zip(path.chains, hot):
         if h.size == 0:
-            out.append(h)
+            plans.append(None)
+            windows.append([])
             continue
         plan = plan_motion(Motion(chain.motion.points, chain.motion.feed_mm_s * scale, chain.motion.rapid,
                                   chain.motion.arc_radius_mm), machine)
-        r = run_chain(chain, machine, plan=plan, windows=segment_windows(plan, machine, h), keep_mm=np.inf)
+        plans.append(plan)
+        windows.append(segment_windows(plan, machine, h))
+    if sum(b - a + warmup_ticks(machine) for w in windows for a, b in w) > max_ticks:
+        return None
+    worst, out = 0.0, []
+    for chain, h, plan, w in zip(path.chains, hot, plans, windows):
+        if h.size == 0:
+            out.append(h)
+            continue
+        r = run_chain(chain, machine, plan=plan, windows=w, keep_mm=np.inf)
         seg_max = r.stream.seg_max_mm
         worst = max(worst, float(seg_max.max()) * 1e3)
         out.append(np.flatnonzero(seg_max > tol_mm))
@@ -95,7 +107,9 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
     that held there hold below it; :func:`~fuzzyfeed.machine.stream.segment_windows`); the time is
     the planner's. The factor found is checked by one whole run (if within ``max_ticks`` servo
     periods); should a place outside the hot stretches break it, the search goes on below (after
-    :data:`UNIFORM_CHECKS` such misses, on whole runs)."""
+    :data:`UNIFORM_CHECKS` such misses, on whole runs). When the hot stretches at a factor would
+    pass ``max_ticks`` servo periods (the error does not come down with the feed: a rapid's lag
+    at a plunge) the result is a bound (:attr:`Uniform.bounded`)."""
     tol = machine.contour_tol_um if tol_um is None else tol_um
     tol_mm = tol * 1e-3
     first = as_written if as_written is not None else run_program(path, machine)
@@ -107,7 +121,10 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
         lo, lo_max = None, 0.0
         c = min(hi, hi * tol / hi_max)          # the error grows at least linearly with the feed
         while lo is None:
-            m, h = _hot_trial(path, machine, c, hot, tol_mm)
+            trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
+            if trial is None:      # no factor within the budget (a lag no feed changes, e.g.)
+                return Uniform(hi, None, runs, _planned_time(path, machine, hi), bounded=True)
+            m, h = trial
             runs += 1
             if m <= tol:
                 lo, lo_max = c, m
@@ -116,7 +133,10 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
                 c *= max(0.1, min(0.7, tol / m))
         while hi / lo > 1.0 + UNIFORM_RTOL:
             c = math.sqrt(lo * hi)
-            m, h = _hot_trial(path, machine, c, hot, tol_mm)
+            trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
+            if trial is None:
+                return Uniform(lo, None, runs, _planned_time(path, machine, lo), lo_max)
+            m, h = trial
             runs += 1
             if m <= tol:
                 lo, lo_max = c, m

@@ -213,8 +213,12 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
         uniform_factor = u.factor
-        uniform_row = (ValueRow(f"uniform x{_factor(u.factor)}", u.time_s, u.max_um, float("nan"))
-                       if u.run is None else ValueRow.of(f"uniform x{_factor(u.factor)}", u.run))
+        if u.bounded:
+            uniform_row = ValueRow(f"uniform x<{_factor(u.factor)} (at least)", u.time_s, float("nan"), float("nan"))
+        elif u.run is None:
+            uniform_row = ValueRow(f"uniform x{_factor(u.factor)}", u.time_s, u.max_um, float("nan"))
+        else:
+            uniform_row = ValueRow.of(f"uniform x{_factor(u.factor)}", u.run)
         ref_row, converged = None, True
         if reference:
             step("limit reference")
