@@ -40,9 +40,10 @@ LAYERS = {
     "program": 5,
     "io": 6,
     "report": 7,
-    "batch": 8, "designer": 8,
-    "cli": 9,
-    "__main__": 10,
+    "advice": 8,
+    "batch": 9, "designer": 9,
+    "cli": 10,
+    "__main__": 11,
 }
 
 
