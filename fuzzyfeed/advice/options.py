@@ -33,8 +33,9 @@ def _flag(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
-def _number(name: str, value, rule: str = "positive"):
+def _number(name: str, value):
     """A finite number > 0 (at most MAX_LIMIT), as ``--NAME`` accepts it; one line otherwise."""
+    given = value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         try:
             value = float(value)
@@ -42,11 +43,11 @@ def _number(name: str, value, rule: str = "positive"):
             raise InputError(f"{_flag(name)}: {value!r} is not a number") from None
     value = float(value)
     if not math.isfinite(value) or value <= 0:
-        raise InputError(f"{_flag(name)}: {value!r} must be a finite number > 0")
+        raise InputError(f"{_flag(name)}: {given!r} must be a finite number > 0")
     from fuzzyfeed.machine.limits import MAX_LIMIT
 
     if value > MAX_LIMIT:
-        raise InputError(f"{_flag(name)}: {value!r} is too large; at most {MAX_LIMIT:g}")
+        raise InputError(f"{_flag(name)}: {given!r} is too large; at most {MAX_LIMIT:g}")
     return value
 
 
