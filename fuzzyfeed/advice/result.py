@@ -9,7 +9,6 @@ output transaction of :mod:`fuzzyfeed.base.outputs`), :meth:`~AdviceResult.plot`
 from __future__ import annotations
 
 import html
-import io
 import os
 from dataclasses import dataclass
 
@@ -51,6 +50,23 @@ class AdviceResult:
         """The value report (:class:`~fuzzyfeed.report.value.ValueReport`) of a program run on a
         machine: as written, advised, uniform slowdown, limit reference; else None."""
         return None
+
+    def value_table(self):
+        """The value report's four runs as a pandas DataFrame (run, time_s, max_um, p99_um, and
+        whether the run holds the tolerance); a program on a machine only."""
+        report = self.value
+        if report is None:
+            from fuzzyfeed.errors import MachineLimitsError
+
+            raise MachineLimitsError(f"{self.source}: the value report runs a G-code program on a machine "
+                                     "(give machine=NAME or FILE)")
+        import pandas as pd
+
+        return pd.DataFrame({"run": [r.label for r in report.rows],
+                             "time_s": [r.time_s for r in report.rows],
+                             "max_um": [r.max_um for r in report.rows],
+                             "p99_um": [r.p99_um for r in report.rows],
+                             "holds": [r.max_um <= report.tol_um * (1 + 1e-9) for r in report.rows]}).set_index("run")
 
     def columns(self) -> dict:
         """The CSV's columns (name -> array), one row per advised point."""
