@@ -183,14 +183,16 @@ def test_results_are_the_single_file_commands_bytes(library, cluster, tmp_path):
 
 
 def test_plots_and_value_reports_on_a_machine_are_the_commands(library, cluster, tmp_path):
-    """With a machine (flags only) and --plots --reports html: the value report, the plot and the
-    program advised for the machine are advise's bytes; the summary carries the report's row."""
+    """With a machine (made in Python as the flags make it) and --plots --reports html: the value
+    report, the plot and the program advised for the machine are advise's bytes; the summary
+    carries the report's row."""
     lc, _ = cluster
     out = tmp_path / "results"
-    machine = dict(contour_tol_um=50, axis_acc_mm_s2=(1000, 800, 500), servo_kv_1_s=30,
-                   junction_deviation_mm=0.01, no_reference=True)
-    frame = fuzzyfeed.advise_library([str(library / "jobC" / "*.gcode")], out, scheduler=lc.scheduler_address,
-                            plots=True, reports="html", **machine, **QUIET)
+    machine = fuzzyfeed.Machine(contour_tol_um=50, axis_acc_mm_s2=(1000, 800, 500),
+                                servo=fuzzyfeed.ServoModel(kv_1_s=30), corner_mm=0.01)
+    options = fuzzyfeed.AdviceOptions(machine=machine, reference=False)
+    frame = fuzzyfeed.advise_library([str(library / "jobC" / "*.gcode")], out, options, scheduler=lc.scheduler_address,
+                                     plots=True, reports="html", **QUIET)
     assert list(frame["file"]) == ["generated.gcode"] and frame["status"].tolist() == ["ok"]
     words = ["--contour-tol-um", "50", "--axis-acc-mm-s2", "1000,800,500", "--servo-kv-1-s", "30",
              "--junction-deviation-mm", "0.01", "--no-reference"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import numbers
 import os
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
@@ -36,7 +37,7 @@ def _flag(name: str) -> str:
 def _number(name: str, value):
     """A finite number > 0 (at most MAX_LIMIT), as ``--NAME`` accepts it; one line otherwise."""
     given = value
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         try:
             value = float(value)
         except (TypeError, ValueError):
@@ -52,7 +53,7 @@ def _number(name: str, value):
 
 
 def _count(name: str, value, minimum: int, maximum: int, unit: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         else:
@@ -61,7 +62,7 @@ def _count(name: str, value, minimum: int, maximum: int, unit: str) -> int:
         raise InputError(f"{_flag(name)}: {value} is too few; use at least {minimum} {unit}")
     if value > maximum:
         raise InputError(f"{_flag(name)}: {value} is too many; use at most {maximum:,} {unit}")
-    return value
+    return int(value)
 
 
 def _choice(name: str, value, choices: tuple[str, ...]):
@@ -73,7 +74,7 @@ def _choice(name: str, value, choices: tuple[str, ...]):
 
 def check_feed_mm_min(value: float) -> float:
     """The --feed-mm-min value, or a one-line MachineLimitsError (the command's own words)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise MachineLimitsError(f"--feed-mm-min = {value!r}; the maximum feed must be a number in mm/min")
     value = float(value)
     if not math.isfinite(value) or value <= 0:
@@ -139,14 +140,15 @@ class AdviceOptions:
         if self.feed_mm_min is not None:
             put(self, "feed_mm_min", check_feed_mm_min(self.feed_mm_min))
         if self.safe_z_mm is not None:
-            if isinstance(self.safe_z_mm, bool) or not isinstance(self.safe_z_mm, (int, float)) \
+            if isinstance(self.safe_z_mm, bool) or not isinstance(self.safe_z_mm, numbers.Real) \
                     or not math.isfinite(self.safe_z_mm):
                 raise InputError(f"--safe-z-mm: {self.safe_z_mm!r} must be a finite number")
             put(self, "safe_z_mm", float(self.safe_z_mm))
         put(self, "points", _count("points", self.points, 3, MAX_POINTS, "points"))
-        if isinstance(self.gcode_decimals, bool) or not isinstance(self.gcode_decimals, int) \
+        if isinstance(self.gcode_decimals, bool) or not isinstance(self.gcode_decimals, numbers.Integral) \
                 or not 3 <= self.gcode_decimals <= 9:
             raise InputError(f"--gcode-decimals: {self.gcode_decimals!r}: use 3 to 9 decimals for mm coordinates")
+        put(self, "gcode_decimals", int(self.gcode_decimals))
         if self.filter is not None:
             _choice("filter", self.filter, FILTERS)
         if self.units is not None:
