@@ -79,6 +79,7 @@ def run_program(args: argparse.Namespace) -> dict:
     from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
     from fuzzyfeed.base.atomic import atomic_write
     from fuzzyfeed.io.csv import write_columns
+    from fuzzyfeed.program.coverage import program_coverage
     from fuzzyfeed.program.read import read_program
     from fuzzyfeed.program.rewrite import rewrite_program
     from fuzzyfeed.io.points import pick_by_index
@@ -158,11 +159,14 @@ def run_program(args: argparse.Namespace) -> dict:
           f"max {fr.max():.2f} %   (F rounded down to {step:g} mm/min steps)")
     print(f"feed moves of the advised cuts: {t_prog:.3f} s at the programmed F, {t_adv:.3f} s at "
           f"the advised F (no acceleration); {n_split} split points")
+    coverage = program_coverage(program)
+    print(coverage.summary())
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
     if text is not None:
         print(f"wrote {args.gcode}")
     return {"cuts": program.n_cuts, "cuts_advised": len(pa.cuts), "time_written_s": t_prog,
-            "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean())}
+            "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean()),
+            **coverage.figures()}
 
 
 #: The CSV columns of a program's advice (fuzzyfeed.program.feeds.advice_columns), written as
@@ -194,7 +198,10 @@ def _pass_through(args: argparse.Namespace, path: Path, program) -> dict:
         with atomic_write(args.gcode, "wb") as handle:
             handle.write(path.read_bytes())
     print(f"wrote {args.output}" + (f" and {args.gcode}" if args.gcode else ""))
-    return {"cuts": 0, "cuts_advised": 0, "time_written_s": 0.0, "time_advised_s": 0.0}
+    from fuzzyfeed.program.coverage import program_coverage
+
+    return {"cuts": 0, "cuts_advised": 0, "time_written_s": 0.0, "time_advised_s": 0.0,
+            **program_coverage(program).figures()}
 
 
 def _default_points() -> int:

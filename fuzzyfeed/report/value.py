@@ -22,6 +22,7 @@ import numpy as np
 
 from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.program.coverage import Coverage, program_coverage
 from fuzzyfeed.program.feeds import ProgramAdvice, advice_columns, advise_program
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
@@ -73,6 +74,12 @@ class ValueReport:
     advised_cuts: tuple[int, ...]
     worst_advised: tuple[int, tuple[float, float, float]] | None
     trace: FeedTrace | None = None
+    coverage: Coverage | None = None     # the judged part (issue 40): no verdict beyond it
+
+    @property
+    def partial(self) -> bool:
+        """Part of the program's feed moves were not judged (see :mod:`fuzzyfeed.program.coverage`)."""
+        return self.coverage is not None and not self.coverage.complete
 
     @property
     def tol_um(self) -> float:
@@ -92,12 +99,19 @@ class ValueReport:
         for r in self.rows:
             flag = "  over" if r.max_um > tol * (1 + 1e-9) else ""
             out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {r.p99_um:10.1f}{flag}")
+        if self.coverage is not None:
+            out.append("  " + self.coverage.summary())
         out.append("  " + self.verdict())
         return out
 
     def verdict(self) -> str:
         tol = self.tol_um
         w, a, u = self.written, self.advised, self.uniform
+        cov = self.coverage
+        if self.holds_as_written and self.partial:
+            return (f"as written the judged part ({cov.length_share()}) holds the tolerance "
+                    f"(max {w.max_um:.1f} um <= {tol:g} um): its feeds are left alone; not judged: "
+                    f"{cov.not_judged_text()}")
         if self.holds_as_written:
             return (f"as written the program holds the tolerance (max {w.max_um:.1f} um <= {tol:g} um): "
                     "its feeds are left alone")
@@ -107,7 +121,9 @@ class ValueReport:
         if self.reference is not None:
             parts.append(f"{a.time_s / self.reference.time_s:.2f} x the limit reference")
         text = ", ".join(parts)
-        if a.max_um <= tol * (1 + 1e-9):
+        if a.max_um <= tol * (1 + 1e-9) and self.partial:
+            text += f"; holds the tolerance on the judged part ({cov.length_share()})"
+        elif a.max_um <= tol * (1 + 1e-9):
             text += "; holds the tolerance"
         elif self.worst_advised is not None:
             line, xyz = self.worst_advised
@@ -119,6 +135,8 @@ class ValueReport:
             else:
                 text += (f"; even the limit reference ends at {self.reference.max_um:.1f} um: no feed holds "
                          "the tolerance there")
+        if self.partial:
+            text += f"; not judged: {cov.not_judged_text()}"
         return text
 
     def csv_row(self) -> dict[str, object]:
@@ -132,6 +150,8 @@ class ValueReport:
             row[f"{key}_time_s"] = r.time_s if r is not None else float("nan")
             row[f"{key}_max_um"] = r.max_um if r is not None else float("nan")
             row[f"{key}_p99_um"] = r.p99_um if r is not None else float("nan")
+        if self.coverage is not None:
+            row.update(self.coverage.figures())
         return row
 
 
@@ -209,7 +229,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
-        trace=feed_trace(path, written, advised_path, tol))
+        trace=feed_trace(path, written, advised_path, tol), coverage=program_coverage(program))
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report)
 
 
