@@ -22,12 +22,18 @@ def add_program_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tool-units", choices=("mm", "inch"), default="mm",
                         help="length units of the tool table's diameters, the machine's units "
                              "(default: %(default)s; LinuxCNC's stand-alone rs274 reads inch)")
+    parser.add_argument("--verify-rs274", action="store_true",
+                        help="G-code programs: read the rewritten program with LinuxCNC's rs274 (on "
+                             "PATH) and the same tool table; lines whose rewrite it refuses or whose "
+                             "moves it changes keep their text, and the summary names them")
 
 
 def refuse_program_arguments(args: argparse.Namespace) -> None:
     """Refuse the program-only flags for a shape."""
     if args.tool_table is not None:
         raise ExportError("--tool-table applies to G-code programs only (cutter compensation)")
+    if getattr(args, "verify_rs274", False):
+        raise ExportError("--verify-rs274 applies to G-code programs only (it checks the rewritten program)")
 
 
 def is_program(spec: str) -> bool:
@@ -116,6 +122,7 @@ def run_program(args: argparse.Namespace) -> dict:
 
         tools = read_tool_table(args.tool_table, args.tool_units)
     program = read_program(path, tools=tools)
+    verify = _verifier(args, tools)
     if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
         return _pass_through(args, path, program)
     cuts = None
@@ -125,14 +132,20 @@ def run_program(args: argparse.Namespace) -> dict:
         cuts = [pick_by_index(program.path, selector, described)]
     step = args.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
     if machine is not None:
-        return _run_on_machine(args, program, machine, table, cuts, cap, step)
+        return _run_on_machine(args, program, machine, table, cuts, cap, step, verify, tools)
     if args.report is not None or args.no_reference:
         flag = "--report" if args.report is not None else "--no-reference"
         raise MachineLimitsError(f"{flag}: the value report needs a machine (--machine FILE, or a "
                                  "machine flag such as --contour-tol-um)")
     pa = advise_program(program, table, cuts=cuts, step_mm=args.step_mm or DEFAULT_STEP_MM,
                         cap_mm_min=cap, feed_step_mm_min=step)
-    text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min) if args.gcode else None
+    if verify is not None and not args.gcode:
+        raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
+    text, checked = None, None
+    if verify is not None:
+        text, checked = verify(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+    elif args.gcode:
+        text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
     columns = advice_columns(pa)
     write_columns(args.output, columns)
     from fuzzyfeed.fuzzy.provenance import provenance
@@ -161,12 +174,14 @@ def run_program(args: argparse.Namespace) -> dict:
           f"the advised F (no acceleration); {n_split} split points")
     coverage = program_coverage(program)
     print(coverage.summary())
+    if checked is not None:
+        print(checked.summary())
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
     if text is not None:
         print(f"wrote {args.gcode}")
     return {"cuts": program.n_cuts, "cuts_advised": len(pa.cuts), "time_written_s": t_prog,
             "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean()),
-            **coverage.figures()}
+            **coverage.figures(), **({} if checked is None else checked.figures())}
 
 
 #: The CSV columns of a program's advice (fuzzyfeed.program.feeds.advice_columns), written as
@@ -209,7 +224,22 @@ def _default_points() -> int:
     return DEFAULT_POINTS
 
 
-def _run_on_machine(args: argparse.Namespace, program, machine, table, cuts, cap, step) -> dict:
+def _verifier(args: argparse.Namespace, tools):
+    """With ``--verify-rs274``: a rewrite ``(program, move, end, feed) -> (text, Verification)``
+    checked by rs274 with the tool table ``tools`` (:mod:`fuzzyfeed.program.verify`); else None."""
+    if not getattr(args, "verify_rs274", False):
+        return None
+    from fuzzyfeed.program.rewrite import rewrite_program
+    from fuzzyfeed.program.verify import rs274_path, verified_rewrite
+
+    if rs274_path() is None:
+        raise ExportError("--verify-rs274: rs274 not found on PATH (LinuxCNC's interpreter, Debian "
+                          "package linuxcnc-uspace); leave the flag out to write the rewrite unchecked")
+    return lambda program, *pieces: verified_rewrite(program, *pieces, rewrite=rewrite_program, tools_mm=tools)
+
+
+def _run_on_machine(args: argparse.Namespace, program, machine, table, cuts, cap, step, verify=None,
+                    tools=None) -> dict:
     """``advise PROGRAM`` with a machine: the program run as written, the cuts that break the
     tolerance advised, the value report printed (and written with --report); returns the figures
     (times as the machine runs the program) with the value report's row."""
@@ -232,7 +262,7 @@ def _run_on_machine(args: argparse.Namespace, program, machine, table, cuts, cap
 
     ev = evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
                           step_mm=args.step_mm or DEFAULT_STEP_MM, cuts=cuts,
-                          reference=not args.no_reference, progress=progress)
+                          reference=not args.no_reference, progress=progress, verify=verify, tools=tools)
     columns = ev.columns()
     write_columns(args.output, columns)
     record = provenance(table, cap or 0.0, str(program.path), len(columns["s_mm"]))

@@ -85,6 +85,8 @@ def report_table_html(reports: Sequence[ValueReport]) -> str:
         parts.append("</table>")
         if r.coverage is not None:
             parts.append(f"<p>{html.escape(r.coverage.summary())}</p>")
+        if r.verification is not None:
+            parts.append(f"<p>{html.escape(r.verification.summary())}</p>")
         parts.append(f"<p>{html.escape(r.verdict())}</p>")
         buf = io.BytesIO()
         plot_value(r, buf)
