@@ -123,6 +123,15 @@ def test_the_flag_is_refused_where_it_cannot_check(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_the_flag_without_rs274_is_one_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("PATH", str(tmp_path))
+    out = tmp_path / "x.csv"
+    assert main(["advise", str(COMP), "-o", str(out), "--gcode", str(tmp_path / "y.ngc"), "--verify-rs274"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "rs274 not found on PATH" in err[0]
+    assert not out.exists() and not (tmp_path / "y.ngc").exists()
+
+
 _COMP = re.compile(r"G\s*0*4[12]\b", re.IGNORECASE)
 
 

@@ -254,7 +254,8 @@ def verified_rewrite(program: Program, piece_move: np.ndarray, piece_end: np.nda
 
         changed = sorted({int(v) for v in line_of if v >= 0})
         accepted = good(changed)
-        kept = tuple(v + 1 for v in changed if v not in set(accepted)) or tuple(v + 1 for v in changed)
+        taken = set(accepted)
+        kept = tuple(v + 1 for v in changed if v not in taken)
         final = subset(accepted) if accepted else rewrite(program, piece_move[:0], piece_end[:0],
                                                           piece_feed_mm_min[:0])
         return final, Verification("kept", said, kept, runs[0])
