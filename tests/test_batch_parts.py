@@ -207,6 +207,7 @@ def test_the_summary_has_a_row_per_file_and_the_machine_columns_only_when_given(
     frame = summary_frame(sources, plain, kept={"b.ngc"})
     assert list(frame.columns) == ["file", "kind", "status", "reason", "cuts", "time_written_s",
                                    "time_advised_s", "time_saved_s", "feed_pct_min", "feed_pct_mean",
+                                   "judged_length_pct", "not_judged",
                                    "cuts_advised", "compute_s", "earlier_run", "notes"]
     assert frame["status"].tolist() == ["ok", "refused", "not run"]
     assert frame.loc[0, "time_saved_s"] == -2.5

@@ -27,7 +27,7 @@ TOOL_UNITS = ("mm", "inch")
 DRAWING_ONLY = ("units", "points", "rule_strengths")
 #: Fields that apply to programs only, and the G-code export of a shape: a drawing's batch run drops them.
 PROGRAM_ONLY = ("step_mm", "reference", "tool_table", "tool_units", "safe_z_mm", "plunge_feed_mm_min",
-                "feed_step_mm_min", "line_numbers", "gcode_decimals", "g52_whole")
+                "feed_step_mm_min", "line_numbers", "gcode_decimals", "g52_whole", "verify_rs274")
 
 
 def _flag(name: str) -> str:
@@ -125,6 +125,9 @@ class AdviceOptions:
     line_numbers: bool = False
     gcode_decimals: int = 4
     g52_whole: bool = False
+    #: read the rewritten program with LinuxCNC's rs274 (on PATH) and the same tool table; lines it
+    #: refuses or whose moves it changes keep their text (:mod:`fuzzyfeed.program.verify`)
+    verify_rs274: bool = False
     #: the rule table with filter/window_mm/filter_mm applied (read at construction)
     table: object = field(init=False, repr=False, compare=False, default=None)
 
@@ -154,7 +157,7 @@ class AdviceOptions:
         if self.units is not None:
             _choice("units", self.units, UNITS)
         _choice("tool_units", self.tool_units, TOOL_UNITS)
-        for name in ("rule_strengths", "reference", "line_numbers", "g52_whole"):
+        for name in ("rule_strengths", "reference", "line_numbers", "g52_whole", "verify_rs274"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"{name}: {getattr(self, name)!r}; give True or False")
         if self.tool_table is not None:

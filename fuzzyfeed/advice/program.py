@@ -75,13 +75,28 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
                 print(f"fuzzyfeed: {program.path.name}: {stage} ...", file=sys.stderr, flush=True)
 
         ev = evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
-                              step_mm=step_mm, cuts=cuts, reference=options.reference, progress=progress)
+                              step_mm=step_mm, cuts=cuts, reference=options.reference, progress=progress,
+                              verify=_verifier(options, tools), tools=tools)
         return MachineProgramResult(spec, options, program, ev)
     if not options.reference:
         raise MachineLimitsError("--no-reference: the value report needs a machine (--machine FILE, or "
                                  "a machine flag such as --contour-tol-um)")
     pa = advise_program(program, table, cuts=cuts, step_mm=step_mm, cap_mm_min=cap, feed_step_mm_min=step)
-    return ProgramResult(spec, options, path, program, pa, step)
+    return ProgramResult(spec, options, path, program, pa, step, _verifier(options, tools))
+
+
+def _verifier(options: AdviceOptions, tools):
+    """With ``verify_rs274``: a rewrite ``(program, move, end, feed) -> (text, Verification)``
+    checked by rs274 with the tool table ``tools`` (:mod:`fuzzyfeed.program.verify`); else None."""
+    if not options.verify_rs274:
+        return None
+    from fuzzyfeed.program.rewrite import rewrite_program
+    from fuzzyfeed.program.verify import rs274_path, verified_rewrite
+
+    if rs274_path() is None:
+        raise ExportError("--verify-rs274: rs274 not found on PATH (LinuxCNC's interpreter, Debian "
+                          "package linuxcnc-uspace); leave the flag out to write the rewrite unchecked")
+    return lambda program, *pieces: verified_rewrite(program, *pieces, rewrite=rewrite_program, tools_mm=tools)
 
 
 def _refuse_report(report) -> None:
@@ -110,10 +125,15 @@ class ProgramResult(AdviceResult):
 
     kind = "program"
 
-    def __init__(self, source, options, path: Path, program, advice, feed_step_mm_min: float):
+    def __init__(self, source, options, path: Path, program, advice, feed_step_mm_min: float, verify=None):
+        from fuzzyfeed.program.coverage import program_coverage
+
         self.source, self.options, self.path, self.program = source, options, path, program
         self.advice, self.feed_step_mm_min = advice, feed_step_mm_min
+        self.coverage = program_coverage(program)
+        self._verify = verify
         self._text = None
+        self.verification = None     # what rs274 said of the rewrite (verify_rs274), once it is made
 
     @property
     def text(self) -> str:
@@ -121,7 +141,11 @@ class ProgramResult(AdviceResult):
 
         if self._text is None:
             pa = self.advice
-            self._text = rewrite_program(self.program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+            pieces = (pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+            if self._verify is not None:
+                self._text, self.verification = self._verify(self.program, *pieces)
+            else:
+                self._text = rewrite_program(self.program, *pieces)
         return self._text
 
     def columns(self) -> dict:
@@ -145,13 +169,17 @@ class ProgramResult(AdviceResult):
                 f"advised fraction of the programmed F  min {fr.min():.2f} %  mean {fr.mean():.2f} %  "
                 f"max {fr.max():.2f} %   (F rounded down to {step:g} mm/min steps)",
                 f"feed moves of the advised cuts: {t_prog:.3f} s at the programmed F, {t_adv:.3f} s at "
-                f"the advised F (no acceleration); {n_split} split points"]
+                f"the advised F (no acceleration); {n_split} split points",
+                self.coverage.summary(),
+                *([self.verification.summary()] if self.verification is not None else [])]
 
     def figures(self) -> dict:
         t_prog, t_adv = self._times()
         fr = np.concatenate([a.feed_pct for a in self.advice.advice])
         return {"cuts": self.program.n_cuts, "cuts_advised": len(self.advice.cuts), "time_written_s": t_prog,
-                "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean())}
+                "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean()),
+                **self.coverage.figures(),
+                **({} if self.verification is None else self.verification.figures())}
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
         from fuzzyfeed.fuzzy.provenance import provenance
@@ -159,6 +187,8 @@ class ProgramResult(AdviceResult):
 
         _check_outputs(csv, gcode, gcode_g52, plot)
         _refuse_report(report)
+        if self._verify is not None and not gcode:
+            raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
         text = self.text if gcode else None
         cap = self.options.feed_mm_min
         if csv is not None:
@@ -283,7 +313,10 @@ class NothingResult(AdviceResult):
         return {name: np.zeros(0) for name in ADVICE_COLUMNS}
 
     def figures(self) -> dict:
-        return {"cuts": 0, "cuts_advised": 0, "time_written_s": 0.0, "time_advised_s": 0.0}
+        from fuzzyfeed.program.coverage import program_coverage
+
+        return {"cuts": 0, "cuts_advised": 0, "time_written_s": 0.0, "time_advised_s": 0.0,
+                **program_coverage(self.program).figures()}
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
         from fuzzyfeed.base.atomic import atomic_write

@@ -49,6 +49,8 @@ def advise_shape_file(spec: str, options: AdviceOptions) -> AdviceResult:
                                  f"{spec} is not a program")
     if options.tool_table is not None:
         raise ExportError("--tool-table applies to G-code programs only (cutter compensation)")
+    if options.verify_rs274:
+        raise ExportError("--verify-rs274 applies to G-code programs only (it checks the rewritten program)")
     _, selector = split_selector(spec)
     shapes = None if selector is not None else load_shapes(spec)
     if shapes is not None and len(shapes) > 1:

@@ -94,7 +94,8 @@ def options_from_args(args: argparse.Namespace) -> AdviceOptions:
         point_tolerance=args.point_tolerance, path_tolerance=args.path_tolerance,
         tool_table=args.tool_table, tool_units=args.tool_units, safe_z_mm=args.safe_z_mm,
         plunge_feed_mm_min=args.plunge_feed_mm_min, line_numbers=args.line_numbers,
-        gcode_decimals=args.gcode_decimals, g52_whole=args.g52_whole)
+        gcode_decimals=args.gcode_decimals, g52_whole=args.g52_whole,
+        verify_rs274=args.verify_rs274)
 
 
 def run(args: argparse.Namespace) -> int:
