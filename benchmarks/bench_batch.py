@@ -165,13 +165,11 @@ def cluster_costs(workers: int) -> dict[str, float]:
 
 
 def _load_fuzzyfeed() -> None:
-    """What a worker's first file loads: the advise command, its parser, the program advisor."""
+    """What a worker's first file loads: the advice pipeline and the program advisor (no parser)."""
     import importlib
 
-    from fuzzyfeed.cli.batch import advise_parser
-
-    advise_parser()
-    for module in ("fuzzyfeed.cli.advise", "fuzzyfeed.program.feeds", "fuzzyfeed.fuzzy.advisor"):
+    for module in ("fuzzyfeed.advice.pipeline", "fuzzyfeed.advice.program", "fuzzyfeed.program.feeds",
+                   "fuzzyfeed.fuzzy.advisor"):
         importlib.import_module(module)
 
 

@@ -5,8 +5,16 @@ scheduler share one NURBS sampling layer. Importing the package stays light: it 
 third-party library (not even numpy), and the public names below load on first use.
 
 The flow, one package per step (each package's docstring says what it may import):
-``geometry`` → ``machine`` → ``fuzzy`` | ``slw`` → ``program`` → ``io`` → ``report`` → ``batch``,
-``designer`` → ``cli``; ``base`` and ``errors`` serve them all.
+``geometry`` → ``machine`` → ``fuzzy`` | ``slw`` → ``program`` → ``io`` → ``report`` → ``advice``
+→ ``batch``, ``designer`` → ``cli``; ``base`` and ``errors`` serve them all.
+
+In a notebook::
+
+    import fuzzyfeed as ff
+    result = ff.advise_file("part.ngc", machine="reference")   # an AdviceResult
+    result.value                                                # as written / advised / uniform / reference
+    result.plot()
+    ff.advise_library(["library/"], "results/", ff.AdviceOptions(machine="reference"))
 """
 
 from __future__ import annotations
@@ -38,21 +46,17 @@ _LAZY = {
     "read_program": "fuzzyfeed.program.read",
     "advise_program": "fuzzyfeed.program.feeds",
     "compare": "fuzzyfeed.report.compare",
+    # the advice pipeline (issue 39): one options value, one function per file and per library
+    "Machine": "fuzzyfeed.machine.description",
+    "load_machine": "fuzzyfeed.machine.description",
+    "AdviceOptions": "fuzzyfeed.advice.options",
+    "advise_file": "fuzzyfeed.advice.pipeline",
+    "AdviceResult": "fuzzyfeed.advice.result",
+    "advise_library": "fuzzyfeed.batch.library",
 }
 
 
-def _batch_api(paths, out, **options):
-    """``fuzzyfeed.batch(paths, out, ...)``: the batch command's Python face,
-    :func:`fuzzyfeed.cli.batch.batch` (the package :mod:`fuzzyfeed.batch` is callable and lands here,
-    so the engine never imports the command line it serves)."""
-    from fuzzyfeed.cli.batch import batch
-
-    return batch(paths, out, **options)
-
-
 def __getattr__(name: str):
-    if name == "batch":      # the package, callable: fuzzyfeed.batch(paths, out, ...)
-        return importlib.import_module("fuzzyfeed.batch")
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'fuzzyfeed' has no attribute {name!r}")
@@ -62,7 +66,7 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY) | {"batch"})
+    return sorted(set(globals()) | set(_LAZY))
 
 
-__all__ = sorted(["FuzzyfeedError", "__version__", "batch", *_LAZY])
+__all__ = sorted(["FuzzyfeedError", "__version__", *_LAZY])

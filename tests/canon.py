@@ -27,10 +27,12 @@ def tool_table(directory: Path) -> Path:
     return path
 
 
-def canon(program: Path, workdir: Path) -> list[tuple[str, str]]:
-    """(name, arguments) of every canonical call rs274 prints for ``program`` (exit 0 asserted)."""
+def canon(program: Path, workdir: Path, tools: Path | None = None) -> list[tuple[str, str]]:
+    """(name, arguments) of every canonical call rs274 prints for ``program`` (exit 0 asserted),
+    with the tool table ``tools`` (default :func:`tool_table`)."""
     out = workdir / (program.name + ".canon")
-    done = subprocess.run([rs274_binary(), "-t", str(tool_table(workdir)), "-g", str(program), str(out)],
+    table = tools if tools is not None else tool_table(workdir)
+    done = subprocess.run([rs274_binary(), "-t", str(table), "-g", str(program), str(out)],
                           capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=300,
                           cwd=workdir, env={**os.environ, "HOME": str(workdir)})
     # rs274 keeps its parameter file in the working directory and maps the tool table into

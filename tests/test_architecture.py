@@ -40,9 +40,10 @@ LAYERS = {
     "program": 5,
     "io": 6,
     "report": 7,
-    "batch": 8, "designer": 8,
-    "cli": 9,
-    "__main__": 10,
+    "advice": 8,
+    "batch": 9, "designer": 9,
+    "cli": 10,
+    "__main__": 11,
 }
 
 
@@ -100,3 +101,14 @@ def test_notebooks_are_stripped(notebook):
     for cell in cells:
         if cell["cell_type"] == "code":
             assert cell.get("outputs") == [] and cell.get("execution_count") is None
+
+
+@pytest.mark.parametrize("path", [p for p in sources() if p.relative_to(PACKAGE).parts[0] not in ("cli", "__main__.py")],
+                         ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_the_command_line_stays_in_cli(path):
+    """Issue 39: argparse and its Namespace end in ``cli/``; no module outside it imports argparse or
+    the command line, or names them (``__main__.py``, the entry point, only calls ``cli.main``)."""
+    imports = module_imports(path, top_level_only=False)
+    assert not {name for name in imports if name == "argparse" or name.startswith("fuzzyfeed.cli")}, imports
+    text = path.read_text()
+    assert "argparse" not in text and "fuzzyfeed.cli" not in text, f"{path.relative_to(PACKAGE)} names the command line"

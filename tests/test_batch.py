@@ -1,4 +1,4 @@
-"""``fuzzyfeed batch`` / ``fuzzyfeed.batch``: a generated library (good, refused and corrupt files,
+"""``fuzzyfeed batch`` / ``fuzzyfeed.advise_library``: a generated library (good, refused and corrupt files,
 programs and drawings in sub-folders) advised on a real Dask LocalCluster of worker processes.
 Every result is compared byte for byte with what the single-file command ``fuzzyfeed advise``
 writes; a worker is killed mid-run (nothing lost, nothing written twice); a rerun keeps what is
@@ -146,7 +146,7 @@ def files_under(folder: Path) -> dict[str, tuple[int, int]]:
 def test_results_are_the_single_file_commands_bytes(library, cluster, tmp_path):
     lc, _ = cluster
     out = tmp_path / "results"
-    frame = fuzzyfeed.batch([library], out, scheduler=lc.scheduler_address,
+    frame = fuzzyfeed.advise_library([library], out, scheduler=lc.scheduler_address,
                             feed_step_mm_min=50, step_mm=0.5, points=500, **QUIET)
     assert isinstance(frame, pd.DataFrame)
     assert set(frame["file"]) == EXPECTED_OK | EXPECTED_REFUSED          # .txt and .png are not inputs
@@ -183,14 +183,16 @@ def test_results_are_the_single_file_commands_bytes(library, cluster, tmp_path):
 
 
 def test_plots_and_value_reports_on_a_machine_are_the_commands(library, cluster, tmp_path):
-    """With a machine (flags only) and --plots --reports html: the value report, the plot and the
-    program advised for the machine are advise's bytes; the summary carries the report's row."""
+    """With a machine (made in Python as the flags make it) and --plots --reports html: the value
+    report, the plot and the program advised for the machine are advise's bytes; the summary
+    carries the report's row."""
     lc, _ = cluster
     out = tmp_path / "results"
-    machine = dict(contour_tol_um=50, axis_acc_mm_s2=(1000, 800, 500), servo_kv_1_s=30,
-                   junction_deviation_mm=0.01, no_reference=True)
-    frame = fuzzyfeed.batch([str(library / "jobC" / "*.gcode")], out, scheduler=lc.scheduler_address,
-                            plots=True, reports="html", **machine, **QUIET)
+    machine = fuzzyfeed.Machine(contour_tol_um=50, axis_acc_mm_s2=(1000, 800, 500),
+                                servo=fuzzyfeed.ServoModel(kv_1_s=30), corner_mm=0.01)
+    options = fuzzyfeed.AdviceOptions(machine=machine, reference=False)
+    frame = fuzzyfeed.advise_library([str(library / "jobC" / "*.gcode")], out, options, scheduler=lc.scheduler_address,
+                                     plots=True, reports="html", **QUIET)
     assert list(frame["file"]) == ["generated.gcode"] and frame["status"].tolist() == ["ok"]
     words = ["--contour-tol-um", "50", "--axis-acc-mm-s2", "1000,800,500", "--servo-kv-1-s", "30",
              "--junction-deviation-mm", "0.01", "--no-reference"]
@@ -246,10 +248,10 @@ def test_rerun_keeps_what_is_unchanged(library, cluster, tmp_path):
     rules = tmp_path / "mine.toml"
     shutil.copy(Path(fuzzyfeed.__file__).parents[1] / "rules" / "paper.toml", rules)
     args = dict(scheduler=lc.scheduler_address, rules=str(rules), **QUIET)
-    first = fuzzyfeed.batch([lib], out, **args)
+    first = fuzzyfeed.advise_library([lib], out, **args)
     assert not first["earlier_run"].any()
     before = files_under(out)
-    second = fuzzyfeed.batch([lib], out, **args)
+    second = fuzzyfeed.advise_library([lib], out, **args)
     assert second["earlier_run"].all()                      # refused files too: a refusal repeats
     after = files_under(out)
     changed = {p for p in before if p in after and before[p] != after[p]}
@@ -259,18 +261,18 @@ def test_rerun_keeps_what_is_unchanged(library, cluster, tmp_path):
     with open(lib / "jobC" / "grbl.ngc", "a") as handle:
         handle.write("(revised)\n")
     os.unlink(out / "jobA" / "part.ngc.csv")
-    third = fuzzyfeed.batch([lib], out, **args)
+    third = fuzzyfeed.advise_library([lib], out, **args)
     redone = set(third.loc[~third["earlier_run"], "file"])
     assert redone == {"jobC/grbl.ngc", "jobA/part.ngc"}
     assert (out / "jobA" / "part.ngc.csv").is_file()
     # the rule table's bytes are part of the options: editing it redoes everything
     rules.write_text(rules.read_text() + "\n# edited\n")
-    assert not fuzzyfeed.batch([lib], out, **args)["earlier_run"].any()
+    assert not fuzzyfeed.advise_library([lib], out, **args)["earlier_run"].any()
     # --force redoes everything
-    assert not fuzzyfeed.batch([lib], out, force=True, **args)["earlier_run"].any()
+    assert not fuzzyfeed.advise_library([lib], out, force=True, **args)["earlier_run"].any()
     # a file that now fails loses its old results (they would not match it)
     (lib / "jobA" / "part.ngc").write_text("G21\nG41.1\nG1 X1 F100\n")
-    last = fuzzyfeed.batch([lib], out, **args).set_index("file")
+    last = fuzzyfeed.advise_library([lib], out, **args).set_index("file")
     assert last.loc["jobA/part.ngc", "status"] == "refused"
     assert not (out / "jobA" / "part.ngc").exists() and not (out / "jobA" / "part.ngc.csv").exists()
 
@@ -290,7 +292,7 @@ def test_a_killed_worker_loses_nothing_and_doubles_nothing(cluster, tmp_path):
 
     def run():
         try:
-            result["frame"] = fuzzyfeed.batch([lib], out, scheduler=lc.scheduler_address, **QUIET)
+            result["frame"] = fuzzyfeed.advise_library([lib], out, scheduler=lc.scheduler_address, **QUIET)
         except BaseException as exc:  # reported by the main thread
             result["error"] = exc
 
@@ -365,7 +367,7 @@ def test_ctrl_c_keeps_the_finished_files(cluster, tmp_path):
         for expected in files:
             assert (out / expected.relative_to(ref)).read_bytes() == expected.read_bytes()
     lc, _ = cluster
-    again = fuzzyfeed.batch([lib], out, scheduler=lc.scheduler_address, **QUIET)
+    again = fuzzyfeed.advise_library([lib], out, scheduler=lc.scheduler_address, **QUIET)
     assert (again["status"] == "ok").all()
     assert set(again.loc[again["earlier_run"], "file"]) == done
 

@@ -1,5 +1,5 @@
 """The batch's parts without a cluster: which files a batch finds and where their results go,
-advise's options passed on exactly, the manifest's keys, the chunks, the summary and its page,
+the options value each kind of file gets, the manifest's keys, the chunks, the summary and its page,
 and the command's one-line refusals (nothing created)."""
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from fuzzyfeed.batch.manifest import file_key, is_current, options_sha256, sha25
 from fuzzyfeed.batch.run import MAX_FILES_PER_CHUNK, make_chunks
 from fuzzyfeed.batch.summary import pairs, summary_frame, summary_html
 from fuzzyfeed.batch.work import Job
-from fuzzyfeed.cli.batch import advise_options, forwarded_actions
+from fuzzyfeed.advice.options import AdviceOptions, make_options
+from fuzzyfeed.cli.batch import forwarded_actions
 from fuzzyfeed.errors import BatchError
 from fuzzyfeed.program.model import GCODE_SUFFIXES
 
@@ -88,25 +89,39 @@ def test_a_source_stays_inside_the_results():
         Source(path="x.ngc", rel="../x.ngc", kind="program")
 
 
-# --------------------------------------------------------------- advise's options, passed on exactly
-def test_options_are_passed_on_with_their_exact_values():
-    words = advise_options({"feed_step_mm_min": 0.1, "step_mm": 1e-5 * 3, "path_tolerance": 0.01,
-                            "points": 4000, "units": "inch", "filter": "mean", "line_numbers": False,
-                            "rule_strengths": True})
-    assert words["program"] == ["--path-tolerance", "0.01", "--step-mm", "3.0000000000000004e-05",
-                                "--filter", "mean", "--feed-step-mm-min", "0.1"]   # advise's order
-    assert words["drawing"] == ["--units", "inch", "--path-tolerance", "0.01", "--points", "4000",
-                                "--filter", "mean", "--rule-strengths"]
-    assert float("3.0000000000000004e-05") == 1e-5 * 3
-    machine = advise_options({"axis_acc_mm_s2": (1000.0, 0.1, 800), "contour_tol_um": 50})
-    assert machine["program"] == machine["drawing"] == ["--axis-acc-mm-s2", "1000.0,0.1,800.0", "--contour-tol-um", "50.0"]
-    assert machine["machine"].axis_acc_mm_s2 == (1000.0, 0.1, 800.0) and machine["machine"].contour_tol_um == 50.0
-    assert advise_options({"no_reference": True})["drawing"] == []        # the value report: programs only
-    assert advise_options({})["machine"] is None
+# --------------------------------------------------------------- the options each file gets
+def test_each_kind_of_file_gets_the_options_that_apply_to_it_exactly():
+    options = AdviceOptions(feed_step_mm_min=0.1, step_mm=1e-5 * 3, path_tolerance=0.01, points=4000,
+                            units="inch", filter="mean", line_numbers=False, rule_strengths=True)
+    program, drawing = options.for_kind("program"), options.for_kind("drawing")
+    assert program.changed() == {"feed_step_mm_min": 0.1, "step_mm": 1e-5 * 3, "filter": "mean",
+                                 "path_tolerance": 0.01}                       # exact values, no text
+    assert drawing.changed() == {"points": 4000, "filter": "mean", "rule_strengths": True, "units": "inch",
+                                 "path_tolerance": 0.01}
+    assert program.step_mm == 3.0000000000000004e-05
+    machine = AdviceOptions(machine="reference").replace(machine=None)
+    assert machine == AdviceOptions()
+    with_machine = make_options(None, machine="reference", feed_mm_min=500)
+    assert with_machine.for_kind("drawing").machine == with_machine.for_kind("program").machine
+    assert with_machine.machine.contour_tol_um == 50.0 and with_machine.table.name == "machine"
+    assert AdviceOptions(reference=False).for_kind("drawing").changed() == {}   # the value report: programs only
+    assert AdviceOptions().changed() == {}
+
+
+def test_the_options_value_goes_to_a_worker_as_it_is():
+    import pickle
+
+    options = AdviceOptions(machine="hobby-router", rules="machine-tuned", step_mm=0.5)
+    again = pickle.loads(pickle.dumps(options))
+    assert again == options and again.machine == options.machine
+    assert (again.table.name, again.table.rules, again.table.variables) == \
+        (options.table.name, options.table.rules, options.table.variables)
 
 
 def test_every_advise_option_but_the_output_files_is_offered():
+    from fuzzyfeed.advice.options import option_names
     from fuzzyfeed.cli import build_parser
+    from fuzzyfeed.cli._machine import MACHINE_FLAGS, SERVO_FLAGS
 
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
@@ -114,20 +129,26 @@ def test_every_advise_option_but_the_output_files_is_offered():
     batch = {a.dest.removeprefix("advise__") for a in sub.choices["batch"]._actions if a.dest.startswith("advise__")}
     assert batch == advise - {"help", "output", "gcode", "gcode_g52", "plot", "report"}
     assert {a.dest for a in forwarded_actions()} == batch
+    # every one of them is a field of the options value (the machine flags make its machine)
+    fields = set(option_names()) - {"reference"} | {"no_reference"}
+    assert batch - set(MACHINE_FLAGS) - set(SERVO_FLAGS) == fields
 
 
 @pytest.mark.parametrize("options, message", [
-    ({"feed_mm_minute": 100}, "feed_mm_minute: not an advise option"),
-    ({"step_mm": -1}, "argument --step-mm: '-1' must be a finite number > 0"),
-    ({"filter": "median"}, "argument --filter: invalid choice: 'median'"),
-    ({"points": 2}, "argument --points: 2 is too few"),
+    ({"feed_mm_minute": 100}, "feed_mm_minute: not an advice option"),
+    ({"step_mm": -1}, "--step-mm: -1 must be a finite number > 0"),
+    ({"filter": "median"}, "--filter: invalid choice: 'median'"),
+    ({"points": 2}, "--points: 2 is too few"),
+    ({"feed_mm_min": float("nan")}, "--feed-mm-min = nan; the maximum feed must be a finite number > 0"),
+    ({"rules": "machine"}, "--rules machine: table 'machine' reads the machine's terms"),
     ({"machine": "no-such-machine"}, "no-such-machine"),
 ])
 def test_bad_options_are_one_line(options, message):
-    from fuzzyfeed.errors import FuzzyfeedError
+    from fuzzyfeed.errors import FuzzyfeedError, InputError, MachineLimitsError
 
-    with pytest.raises(FuzzyfeedError, match=message):      # a bad machine is the machine's own error
-        advise_options(options)
+    with pytest.raises(FuzzyfeedError, match=message) as info:     # a bad machine is the machine's own error
+        make_options(None, **options)
+    assert isinstance(info.value, (InputError, MachineLimitsError)) and "\n" not in str(info.value)
 
 
 # --------------------------------------------------------------- manifest keys
@@ -162,7 +183,7 @@ def test_an_entry_is_current_only_for_the_same_input_options_version_and_results
 
 
 def test_chunks_hold_every_job_once_the_largest_alone():
-    jobs = [Job(rel=f"f{n}", source="", argv=(), outputs=(), entry="", size=s)
+    jobs = [Job(rel=f"f{n}", source="", files=(), options=None, outputs=(), entry="", size=s)
             for n, s in enumerate([10_000, 9_000] + [10] * 100)]
     chunks = make_chunks(jobs, workers=2)
     flat = [j.rel for c in chunks for j in c]
@@ -186,6 +207,7 @@ def test_the_summary_has_a_row_per_file_and_the_machine_columns_only_when_given(
     frame = summary_frame(sources, plain, kept={"b.ngc"})
     assert list(frame.columns) == ["file", "kind", "status", "reason", "cuts", "time_written_s",
                                    "time_advised_s", "time_saved_s", "feed_pct_min", "feed_pct_mean",
+                                   "judged_length_pct", "not_judged",
                                    "cuts_advised", "compute_s", "earlier_run", "notes"]
     assert frame["status"].tolist() == ["ok", "refused", "not run"]
     assert frame.loc[0, "time_saved_s"] == -2.5
@@ -252,16 +274,18 @@ def test_the_console_script_refuses_without_a_traceback(tmp_path):
     assert not (tmp_path / "R").exists()
 
 
-def test_fuzzyfeed_batch_is_the_package_and_the_function(tmp_path):
+def test_advise_library_is_the_python_api_and_the_batch_package_is_no_function(tmp_path):
     import importlib
 
     import fuzzyfeed
+    from fuzzyfeed.errors import InputError
 
-    assert "batch" in dir(fuzzyfeed) and callable(fuzzyfeed.batch)
-    importlib.import_module("fuzzyfeed.batch.run")          # importing a submodule keeps it callable
-    assert callable(fuzzyfeed.batch) and fuzzyfeed.batch is importlib.import_module("fuzzyfeed.batch")
+    assert not callable(importlib.import_module("fuzzyfeed.batch"))
+    assert fuzzyfeed.advise_library is importlib.import_module("fuzzyfeed.batch.library").advise_library
     with pytest.raises(BatchError, match="nowhere: no such file or folder"):
-        fuzzyfeed.batch(tmp_path / "nowhere", tmp_path / "out")
-    with pytest.raises(BatchError, match="rule_table: not an advise option"):
-        fuzzyfeed.batch(tmp_path, tmp_path / "out", rule_table="paper")
+        fuzzyfeed.advise_library(tmp_path / "nowhere", tmp_path / "out")
+    with pytest.raises(InputError, match="rule_table: not an advice option"):
+        fuzzyfeed.advise_library(tmp_path, tmp_path / "out", rule_table="paper")
+    with pytest.raises(BatchError, match="--reports html: the value report needs a machine"):
+        fuzzyfeed.advise_library(tmp_path, tmp_path / "out", reports="html")
     assert not (tmp_path / "out").exists()

@@ -1,8 +1,8 @@
 """A batch run, on the machine that starts it: which files are still to do, the chunks sent to the
 Dask cluster, progress, a killed worker's files tried again, Ctrl-C, and the summary at the end.
 
-The per-file work is handed in (``plan`` and ``task``), so this package never imports the command
-line: ``fuzzyfeed batch`` hands in the advise command's own work."""
+The per-file work is handed in (``plan`` and ``task``): :mod:`fuzzyfeed.batch.library` hands in
+:func:`~fuzzyfeed.advice.pipeline.advise_file` and its result's ``write``."""
 
 from __future__ import annotations
 
@@ -46,9 +46,10 @@ def run_batch(sources: list[Source], out_dir: str | os.PathLike, plan: Callable,
     written to ``summary.csv`` and ``summary.html``), its ``attrs["interrupted"]`` set when Ctrl-C or
     SIGTERM stopped the run (the finished files are kept).
 
-    ``plan(source) -> (argv, outputs)`` gives a file's own arguments and every file it writes;
+    ``plan(source) -> (files, options, outputs)`` gives a file's own outputs ((keyword, path)
+    pairs), the options value it is advised with, and every file it writes;
     ``task(job, finish)`` does the work on a worker (see :mod:`fuzzyfeed.batch.work`); ``options``
-    are the arguments shared by every file (their digest, with the files they name, is part of
+    are the options shared by every file as words (their digest, with the files they name, is part of
     every file's key). A file whose input, options and fuzzyfeed version match its manifest entry
     is kept as it is, unless ``force``."""
     from fuzzyfeed import __version__
@@ -63,9 +64,11 @@ def run_batch(sources: list[Source], out_dir: str | os.PathLike, plan: Callable,
     shared = options_sha256(options)
     jobs = []
     for src in sources:
-        argv, outputs = plan(src)
-        jobs.append(Job(rel=src.rel, source=src.path, argv=tuple(argv), outputs=tuple(outputs),
-                        entry=entry_path(out, src.rel), key=file_key(shared, argv), size=_size(src.path)))
+        files, file_options, outputs = plan(src)
+        words = [src.path, *(f"{name}={path}" for name, path in files)]
+        jobs.append(Job(rel=src.rel, source=src.path, files=tuple(files), options=file_options,
+                        outputs=tuple(outputs), entry=entry_path(out, src.rel), key=file_key(shared, words),
+                        size=_size(src.path)))
     entries, todo = _split(jobs, run)
     programs = sum(s.kind == "program" for s in sources)
     echo(f"{len(sources)} files ({programs} programs, {len(sources) - programs} drawings); "

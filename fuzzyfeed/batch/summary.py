@@ -19,7 +19,7 @@ import re
 
 #: The summary's first columns, in order; any other figure follows them.
 LEADING = ("file", "kind", "status", "reason", "cuts", "time_written_s", "time_advised_s",
-           "time_saved_s", "feed_pct_min", "feed_pct_mean")
+           "time_saved_s", "feed_pct_min", "feed_pct_mean", "judged_length_pct", "not_judged")
 #: The summary's last columns.
 TRAILING = ("cuts_advised", "compute_s", "earlier_run", "notes")
 #: Statuses of a file that did not get results.
@@ -55,8 +55,8 @@ def summary_frame(sources, entries: dict[str, dict], kept: set[str]):
     for name in ("cuts", "cuts_advised"):
         frame[name] = frame[name].astype("Int64")
     frame["earlier_run"] = frame["earlier_run"].astype("boolean")
-    for name in ("file", "kind", "status", "reason", "notes"):
-        frame[name] = frame[name].fillna("").astype(str)
+    for name in ("file", "kind", "status", "reason", "notes", "not_judged"):
+        frame[name] = frame[name].astype(object).fillna("").astype(str)
     return frame
 
 
@@ -121,9 +121,14 @@ def summary_html(frame) -> str:
         parts.append(f"<h2>Not advised ({len(failed)})</h2>")
         parts.append(failed[["file", "status", "reason"]].to_html(index=False, escape=True, border=0,
                                                                   classes="reasons"))
+    partial = frame[frame["not_judged"] != ""]
+    if len(partial):   # what the figures above do not cover (issue 40)
+        parts.append(f"<h2>Judged in part ({len(partial)})</h2>")
+        parts.append(partial[["file", "judged_length_pct", "not_judged"]].to_html(
+            index=False, escape=True, border=0, classes="reasons", float_format=lambda v: f"{v:.1f}"))
     parts.append("<h2>All files</h2>")
-    shown = frame.drop(columns=["reason", "notes"]).astype(object)
-    parts.append(shown.where(frame.drop(columns=["reason", "notes"]).notna(), "").to_html(
+    shown = frame.drop(columns=["reason", "notes", "not_judged"]).astype(object)
+    parts.append(shown.where(frame.drop(columns=["reason", "notes", "not_judged"]).notna(), "").to_html(
         index=False, escape=True, border=0, float_format=lambda v: f"{v:.4g}"))
     style = ("body{font-family:sans-serif;margin:2em}table{border-collapse:collapse;font-size:85%}"
              "td,th{padding:2px 8px;border-bottom:1px solid #ddd;text-align:right}"

@@ -2,7 +2,7 @@
 earlier one) already made its results, hash it, run the per-file task and record the outcome in
 its manifest entry.
 
-The task is the caller's (``fuzzyfeed batch`` passes the advise command's own work), called as
+The task is the caller's (:func:`fuzzyfeed.batch.library.advise_task`: advise_file and write), called as
 ``task(job, finish)``; it writes the file's results in one output transaction and, inside it after
 the work, calls ``finish(figures, notes)``, which adds the manifest entry to that transaction (it
 is renamed last). It returns ``{"status": "ok"}`` or ``{"status": "refused", "reason": LINE}``;
@@ -31,13 +31,15 @@ _ONE_AT_A_TIME = threading.Lock()
 @dataclass(frozen=True)
 class Job:
     """One input of a batch: ``rel`` its relative path (the key in the summary), ``source`` the
-    path the task reads, ``argv`` the task's per-file arguments, ``outputs`` every file it writes,
+    path the task reads, ``files`` the task's per-file outputs ((keyword, path) pairs),
+    ``options`` the value it advises with (pickled to the worker as it is), ``outputs`` every file it writes,
     ``entry`` its manifest entry, ``key`` the digest of its options and arguments
     (:func:`~fuzzyfeed.batch.manifest.file_key`), ``size`` its bytes (to balance the chunks)."""
 
     rel: str
     source: str
-    argv: tuple[str, ...]
+    files: tuple[tuple[str, str], ...]
+    options: object
     outputs: tuple[str, ...]
     entry: str
     key: str = ""

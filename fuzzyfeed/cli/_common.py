@@ -6,9 +6,7 @@ import argparse
 import contextlib
 import math
 import sys
-import warnings
 
-from fuzzyfeed.errors import MachineLimitsError
 
 
 def positive_float(text: str) -> float:
@@ -78,79 +76,16 @@ def add_shape_argument(parser: argparse.ArgumentParser) -> None:
 @contextlib.contextmanager
 def shape_context(args: argparse.Namespace):
     """While a command runs: ``--units`` applied to DXF loading (refused for other files),
-    ``--point-tolerance``/``--path-tolerance`` to point-sequence curvature, and
+    ``--point-tolerance``/``--path-tolerance`` to point-sequence curvature
+    (:func:`fuzzyfeed.advice.options.shape_settings`), and
     :class:`~fuzzyfeed.errors.FuzzyfeedNotice` warnings collected, then printed as
     ``fuzzyfeed: notice: ...`` lines when the command succeeds (an error stays one line)."""
-    from fuzzyfeed.errors import FuzzyfeedNotice, ShapeFileError
+    from fuzzyfeed.advice.options import shape_settings
+    from fuzzyfeed.advice.pipeline import collect_notices
 
-    token = None
-    units = getattr(args, "units", None)
-    if units is not None:
-        from pathlib import Path
-
-        from fuzzyfeed.io.dxf import UNITS_OVERRIDE
-        from fuzzyfeed.io.shapes import split_selector
-
-        base, _ = split_selector(args.shape)
-        if Path(str(base)).suffix.lower() != ".dxf":
-            raise ShapeFileError(f"--units {units}: applies to DXF drawings only; {base} states its "
-                                 "own units (G20/G21 in G-code, mm in CSV and shape files)")
-        token = UNITS_OVERRIDE.set(units)
-    from fuzzyfeed.geometry.polyline import TOLERANCES
-
-    tolerances = TOLERANCES.set((getattr(args, "point_tolerance", None),
-                                 getattr(args, "path_tolerance", None)))
-    notices: list[str] = []
-
-    def show(message, category, filename, lineno, file=None, line=None):
-        if issubclass(category, FuzzyfeedNotice):
-            if str(message) not in notices:
-                notices.append(str(message))
-            return
-        previous(message, category, filename, lineno, file, line)
-
-    previous = warnings.showwarning
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("always", FuzzyfeedNotice)
-            warnings.showwarning = show
+    with shape_settings(getattr(args, "shape", None), getattr(args, "units", None),
+                        getattr(args, "point_tolerance", None), getattr(args, "path_tolerance", None)):
+        with collect_notices() as notices:
             yield
         for text in notices:      # only when the command succeeds: an error stays one line
             print(f"fuzzyfeed: notice: {text}", file=sys.stderr)
-    finally:
-        TOLERANCES.reset(tolerances)
-        if token is not None:
-            UNITS_OVERRIDE.reset(token)
-
-
-def check_feed_mm_min(value: float) -> float:
-    """The --feed-mm-min value, or a one-line MachineLimitsError."""
-    if not math.isfinite(value) or value <= 0:
-        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be a finite "
-                                 "number > 0 mm/min")
-    from fuzzyfeed.machine.limits import MAX_LIMIT
-
-    if value > MAX_LIMIT:
-        raise MachineLimitsError(f"--feed-mm-min = {value:g}; the maximum feed must be at most "
-                                 f"{MAX_LIMIT:g} mm/min")
-    return value
-
-
-def table_from_args(args: argparse.Namespace, machine=None):
-    """The rule table of ``--rules`` with ``--filter``, ``--window-mm`` and ``--filter-mm`` applied
-    (one place for every path of ``advise``: a shape, a drawing's contours, a program's cuts).
-    Without ``--rules``: the machine table when a ``machine`` is given, else the paper's."""
-    from dataclasses import replace
-
-    from fuzzyfeed.errors import MachineLimitsError
-    from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, load_rule_table
-
-    spec = getattr(args, "rules", None)
-    table = load_rule_table(DEFAULT_MACHINE_TABLE if spec is None and machine is not None else spec)
-    if table.inputs == MACHINE and machine is None:
-        raise MachineLimitsError(f"--rules {spec}: table {table.name!r} reads the machine's terms (inputs "
-                                 "= 'machine'); give a machine (--machine FILE, or a machine flag such as "
-                                 "--contour-tol-um)")
-    changes = {key: getattr(args, key) for key in ("filter", "window_mm", "filter_mm")
-               if getattr(args, key, None) is not None}
-    return replace(table, **changes) if changes else table

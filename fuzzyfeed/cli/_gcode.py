@@ -9,10 +9,9 @@ outputs. So bad G-code options leave no file at all.
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass, field
 
+from fuzzyfeed.advice.gcode import DEFAULT_SAFE_Z_MM, PreparedGcode
 from fuzzyfeed.cli._common import positive_float
-from fuzzyfeed.errors import ExportError
 
 
 def _decimals(text: str) -> int:
@@ -23,18 +22,6 @@ def _decimals(text: str) -> int:
     if not 3 <= value <= 9:
         raise argparse.ArgumentTypeError(f"{value}: use 3 to 9 decimals for mm coordinates")
     return value
-
-
-#: Default safe height (mm), and the clearance above a path that reaches it.
-DEFAULT_SAFE_Z_MM = 5.0
-
-
-def safe_z(args: argparse.Namespace, profile) -> float:
-    """--safe-z-mm, or 5 mm (5 mm above the path's highest point when that is higher)."""
-    if args.safe_z_mm is not None:
-        return args.safe_z_mm
-    top = float(profile.samples.xyz[:, 2].max()) if profile.samples.dim == 3 else 0.0
-    return max(DEFAULT_SAFE_Z_MM, top + DEFAULT_SAFE_Z_MM)
 
 
 def add_gcode_arguments(parser: argparse.ArgumentParser) -> None:
@@ -68,75 +55,15 @@ def add_gcode_arguments(parser: argparse.ArgumentParser) -> None:
                         "only for uniform clamped knot vectors, refused otherwise")
 
 
-@dataclass
-class PreparedGcode:
-    """Program texts checked and ready to write (path, text) pairs."""
-
-    files: list[tuple[str, str]] = field(default_factory=list)
-
-    def write(self) -> list[str]:
-        from fuzzyfeed.base.atomic import atomic_write
-
-        for path, text in self.files:
-            with atomic_write(path, "w", newline="\n") as handle:
-                handle.write(text)
-        return [path for path, _ in self.files]
-
-    def __bool__(self) -> bool:
-        return bool(self.files)
-
-
 def prepare_gcode(args: argparse.Namespace, profile, shape=None, notes: tuple[str, ...] = (),
                   segment_feed_mm_min=None) -> PreparedGcode:
-    """Build the programs the G-code flags ask for (none without --gcode/--gcode-g52).
+    """Build the programs the G-code flags ask for (none without --gcode/--gcode-g52), see
+    :func:`fuzzyfeed.advice.gcode.prepare_gcode`."""
+    from fuzzyfeed.advice import gcode as export
 
-    ``profile`` is a :class:`~fuzzyfeed.machine.profile.FeedProfile` or a function returning one (called
-    only when a program is asked for); ``notes`` go into the header comment;
-    ``segment_feed_mm_min`` (or a function returning it) gives the feed of every segment."""
-    gcode = getattr(args, "gcode", None)
-    g52 = getattr(args, "gcode_g52", None)
-    if not gcode and not g52:
-        for flag, value in (("--feed-step-mm-min", args.feed_step_mm_min),
-                            ("--line-numbers", args.line_numbers), ("--g52-whole", args.g52_whole)):
-            if value:
-                raise ExportError(f"{flag} is a G-code option; add --gcode OUT.ngc or --gcode-g52 OUT.ngc")
-        return PreparedGcode()
-    if args.g52_whole and not g52:
-        raise ExportError("--g52-whole needs --gcode-g52 OUT.ngc")
-    from fuzzyfeed.io.gcode import gcode_program, nurbs_gcode_program
-
-    outputs = [p for p in (getattr(args, "output", None), gcode, g52) if p]
-    if len(set(outputs)) != len(outputs):
-        raise ExportError(f"output files must differ: {', '.join(outputs)}")
-    if callable(profile):
-        profile = profile()
-    title = f"{profile.method} feed on {shape.name}" if shape is not None else None
-    prepared = PreparedGcode()
-    if gcode:
-        if callable(segment_feed_mm_min):
-            segment_feed_mm_min = segment_feed_mm_min()
-        source = None
-        if shape is not None:
-            where = shape.path.name if shape.path is not None else shape.name
-            source = f"source: {where}" + (f" - {shape.source}" if shape.source else "")
-        program = gcode_program(profile, decimals=args.gcode_decimals,
-                                feed_step_mm_min=args.feed_step_mm_min,
-                                line_numbers=args.line_numbers, title=title,
-                                safe_z_mm=safe_z(args, profile), plunge_feed_mm_min=args.plunge_feed_mm_min,
-                                notes=tuple(notes) + ((source,) if source else ()),
-                                segment_feed_mm_min=segment_feed_mm_min)
-        prepared.files.append((gcode, program.text))
-    if g52:
-        curve = profile.samples.curve if profile.samples.curve is not None else None
-        if curve is None:
-            raise ExportError("--gcode-g52 needs a NURBS shape; this path is a point sequence "
-                              "(write it with --gcode)")
-        where = shape.path.name if shape is not None and shape.path is not None else getattr(shape, "name", "")
-        lines = nurbs_gcode_program(curve, profile, split="whole" if args.g52_whole else "spans",
-                                    decimals=args.gcode_decimals,
-                                    feed_step_mm_min=args.feed_step_mm_min,
-                                    line_numbers=args.line_numbers, title=title,
-                                    safe_z_mm=safe_z(args, profile), plunge_feed_mm_min=args.plunge_feed_mm_min,
-                                    notes=tuple(notes) + ((f"source: {where}",) if where else ()))
-        prepared.files.append((g52, "\n".join(lines) + "\n"))
-    return prepared
+    settings = export.GcodeSettings(
+        feed_step_mm_min=args.feed_step_mm_min, line_numbers=args.line_numbers, g52_whole=args.g52_whole,
+        gcode_decimals=args.gcode_decimals, safe_z_mm=args.safe_z_mm, plunge_feed_mm_min=args.plunge_feed_mm_min)
+    return export.prepare_gcode(settings, profile, shape, notes, segment_feed_mm_min,
+                                output=getattr(args, "output", None), gcode=getattr(args, "gcode", None),
+                                gcode_g52=getattr(args, "gcode_g52", None))

@@ -4,21 +4,15 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
+from fuzzyfeed.advice.options import AdviceOptions
+from fuzzyfeed.advice.shape import DEFAULT_FEED_MM_MIN
 from fuzzyfeed.cli import COMMANDS
-from fuzzyfeed.cli._common import (add_shape_argument, check_feed_mm_min, point_count, positive_float,
-                                   table_from_args)
-from fuzzyfeed.cli._program import add_program_arguments, refuse_program_arguments
-from fuzzyfeed.cli._gcode import add_gcode_arguments, prepare_gcode
+from fuzzyfeed.cli._common import add_shape_argument, point_count, positive_float
+from fuzzyfeed.cli._gcode import add_gcode_arguments
 from fuzzyfeed.cli._machine import add_machine_arguments, machine_from_args
+from fuzzyfeed.cli._program import add_program_arguments
+from fuzzyfeed.geometry.sampling import DEFAULT_POINTS
 from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
-from fuzzyfeed.errors import InputError, MachineLimitsError
-from fuzzyfeed.machine.limits import DEFAULT_FEED_MM_S
-from fuzzyfeed.geometry.sampling import DEFAULT_POINTS, POINT_STEP_MM
-
-#: Default maximum feed F (mm/min) when --feed-mm-min is not given: the machine default's feed.
-DEFAULT_FEED_MM_MIN = DEFAULT_FEED_MM_S * 60.0
 
 
 def register(sub) -> None:
@@ -89,189 +83,29 @@ def register(sub) -> None:
     p.set_defaults(run=run, csv_sidecar=True)
 
 
-def compute(args: argparse.Namespace, shape=None):
-    """Shape, rules and samples in, :class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice` out (one call);
-    ``shape``, if already loaded, is SHAPE's one path."""
-    from fuzzyfeed.fuzzy.advisor import advise_details
-    from fuzzyfeed.io.shapes import load_shape, sample_shape
-
-    feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
-    machine = machine_from_args(args)
-    table = table_from_args(args, machine)
-    shape = load_shape(args.shape) if shape is None else shape
-    try:
-        samples = sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM)
-        return shape, advise_details(samples, table, feed_mm_min / 60.0, machine=machine)
-    except InputError as exc:  # the message names the user's file
-        raise InputError(f"{args.shape}: {exc}") from None
-
-
-def advice_columns(advice, rule_strengths: bool = False) -> dict[str, np.ndarray]:
-    """The CSV columns of a fuzzy advice, units in the names (plus w_K_D per rule if asked)."""
-    profile = advice.profile
-    cols = dict(profile.samples.columns())
-    if advice.machine is not None:
-        ceiling = profile.max_feed_mm_s * 60.0
-        cols["safe_feed_mm_min"] = np.minimum(advice.machine.safe_feed_mm_s * 60.0, ceiling)
-        cols["safe_feed_ratio"] = advice.machine.safe_feed_ratio
-        cols["safe_feed_ratio_near"] = advice.machine.safe_feed_ratio_near
-    else:
-        cols["curvature_window_max_1_mm"] = advice.features.window_max_1_mm
-        cols["curvature_variation"] = advice.features.curvature_variation
-    cols["feed_pct_controller"] = advice.controller_pct
-    cols["feed_pct"] = profile.feed_pct
-    cols["feed_mm_min"] = profile.feed_mm_min
-    if rule_strengths:
-        _, w = advice.rule_strengths()
-        for n, (k, d, _) in enumerate(advice.table.rules):
-            cols[f"w_{k}_{d}"] = w[:, n]
-    return cols
-
-
-def advice_provenance(args: argparse.Namespace, shape, advice) -> dict[str, str]:
-    """Which table, F and tool path made this advice (CSV sidecar, G-code header)."""
-    from fuzzyfeed.fuzzy.provenance import provenance
-
-    source = str(shape.path) if getattr(shape, "path", None) else str(args.shape)
-    if getattr(shape, "source", ""):
-        source += f" ({shape.source})"
-    return provenance(advice.table, advice.profile.max_feed_mm_s * 60.0, source,
-                      len(advice.profile.samples))
-
-
-def summary(shape_name: str, advice) -> str:
-    p = advice.profile
-    f = p.feed_mm_min
-    pct = p.feed_pct
-    t = p.travel_time_s()
-    t_const = p.samples.length / p.max_feed_mm_s
-    return "\n".join([
-        f"{shape_name}: {len(p.samples)} points, length {p.samples.length:.3f} mm, rules "
-        f"{advice.table.name!r}, F = {p.max_feed_mm_s * 60:g} mm/min",
-        f"feed mm/min  min {f.min():.1f}  mean {f.mean():.1f}  max {f.max():.1f}   "
-        f"(% of F: {pct.min():.2f} / {pct.mean():.2f} / {pct.max():.2f})",
-        f"time at the advised feeds {t:.4f} s  (at constant F: {t_const:.4f} s)",
-        _filter_line(advice),
-    ])
-
-
-def _filter_line(advice) -> str:
-    """Smoothness before and after the filter, and the feed at the curvature peaks against the
-    controller's (issue 12: a filter must not speed up a corner)."""
-    from fuzzyfeed.fuzzy.filters import curvature_peaks
-
-    table = advice.table
-    raw, pct = advice.controller_pct, advice.feed_pct
-    size = f"{table.filter_mm:g} mm" if table.filter_mm else f"{table.filter_points} points"
-    steps = (f"{np.abs(np.diff(raw)).max():.2f} % -> {np.abs(np.diff(pct)).max():.2f} %"
-             if raw.size > 1 else "n/a")
-    peaks = curvature_peaks(advice.features.curvature_1_mm)
-    above = float((pct[peaks] - np.maximum(raw[peaks], table.feed_floor_pct)).max())
-    corners = ("never above the controller at a curvature peak" if above <= 1e-9 else
-               f"up to {above:.2f} % above the controller at a curvature peak")
-    return f"{table.filter} filter over {size}: largest point-to-point change {steps}; {corners}"
-
-
-def drawing_paths(args: argparse.Namespace) -> list | None:
-    """Every path of SHAPE (a drawing's contours; the one path of any other file), read once; None
-    when a FILE#SELECTOR picks one."""
-    from fuzzyfeed.io.shapes import load_shapes, split_selector
-
-    _, selector = split_selector(args.shape)
-    return None if selector is not None else load_shapes(args.shape)
-
-
-def run_paths(args: argparse.Namespace, shapes: list) -> dict:
-    """Advise every path of a file, as a program runs them: one CSV (column ``path``, 1-based, then
-    the one-path columns) and one summary line per path; returns the figures (see :func:`advise_file`)."""
-    from fuzzyfeed.errors import ExportError
-    from fuzzyfeed.fuzzy.advisor import advise_details
-    from fuzzyfeed.io.csv import write_columns
-    from fuzzyfeed.io.shapes import sample_shape
-
-    for flag in ("gcode", "gcode_g52", "plot"):
-        if getattr(args, flag, None):
-            option = "--" + flag.replace("_", "-")
-            raise ExportError(f"{option}: {args.shape} holds {len(shapes)} paths; {option} writes "
-                              f"one path, pick it with {args.shape}#path=N")
-    feed_mm_min = check_feed_mm_min(DEFAULT_FEED_MM_MIN if args.feed_mm_min is None else args.feed_mm_min)
-    machine = machine_from_args(args)
-    table = table_from_args(args, machine)
-    parts, lines, times = [], [], np.zeros((len(shapes), 2))
-    for number, shape in enumerate(shapes, start=1):
-        advice = advise_details(sample_shape(shape, args.points, max_step_mm=POINT_STEP_MM), table,
-                                feed_mm_min / 60.0, machine=machine)
-        cols = advice_columns(advice, args.rule_strengths)
-        parts.append({"path": np.full(len(advice.profile.samples), number), **cols})
-        p = advice.profile
-        lines.append(f"path {number} {shape.name}: {len(p.samples)} points, length "
-                     f"{p.samples.length:.3f} mm, feed mm/min min {p.feed_mm_min.min():.1f} mean "
-                     f"{p.feed_mm_min.mean():.1f} max {p.feed_mm_min.max():.1f}, time "
-                     f"{p.travel_time_s():.4f} s")
-        times[number - 1] = p.samples.length / p.max_feed_mm_s, p.travel_time_s()
-    columns = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
-    write_columns(args.output, columns)
-    from fuzzyfeed.fuzzy.provenance import provenance
-    from fuzzyfeed.io.csv import write_metadata
-
-    write_metadata(args.output, list(columns),
-                   provenance(table, feed_mm_min, f"{args.shape} ({len(shapes)} paths)", columns["path"].size))
-    print(f"{args.shape}: {len(shapes)} paths, rules {table.name!r}, F = {feed_mm_min:g} mm/min")
-    print("\n".join(lines))
-    print(f"wrote {args.output}")
-    return _figures(len(shapes), times.sum(axis=0), columns["feed_pct"])
-
-
-def _figures(paths: int, times_s, feed_pct: np.ndarray) -> dict:
-    """The summary figures :func:`advise_file` returns for a shape or drawing (time as written:
-    every path at the constant F)."""
-    return {"cuts": paths, "cuts_advised": paths, "time_written_s": float(times_s[0]),
-            "time_advised_s": float(times_s[1]), "feed_pct_min": float(feed_pct.min()),
-            "feed_pct_mean": float(feed_pct.mean())}
+def options_from_args(args: argparse.Namespace) -> AdviceOptions:
+    """The advise flags (output files apart) as one :class:`AdviceOptions` value: the only place
+    the command's Namespace becomes the library's options (the machine flags make the machine)."""
+    return AdviceOptions(
+        rules=args.rules, machine=machine_from_args(args), feed_mm_min=args.feed_mm_min,
+        feed_step_mm_min=args.feed_step_mm_min, step_mm=args.step_mm, points=args.points,
+        filter=args.filter, window_mm=args.window_mm, filter_mm=args.filter_mm,
+        rule_strengths=args.rule_strengths, reference=not args.no_reference, units=args.units,
+        point_tolerance=args.point_tolerance, path_tolerance=args.path_tolerance,
+        tool_table=args.tool_table, tool_units=args.tool_units, safe_z_mm=args.safe_z_mm,
+        plunge_feed_mm_min=args.plunge_feed_mm_min, line_numbers=args.line_numbers,
+        gcode_decimals=args.gcode_decimals, g52_whole=args.g52_whole,
+        verify_rs274=args.verify_rs274)
 
 
 def run(args: argparse.Namespace) -> int:
-    advise_file(args)
+    """The command: the options made once, the file advised (:func:`fuzzyfeed.advice.pipeline.
+    advise_file`), its outputs written in the command's transaction, the summary printed."""
+    from fuzzyfeed.advice.pipeline import advise_file
+
+    result = advise_file(args.shape, options_from_args(args))
+    wrote = result.write(csv=args.output, gcode=args.gcode, gcode_g52=args.gcode_g52, plot=args.plot,
+                         report=args.report)
+    for line in (*result.summary(), *wrote):
+        print(line)
     return 0
-
-
-def advise_file(args: argparse.Namespace) -> dict:
-    """What ``fuzzyfeed advise`` does with parsed ``args`` (outputs written, summary printed),
-    returning its figures: ``cuts`` (paths of a drawing), ``cuts_advised``, ``time_written_s``
-    (a program at its own F, a shape at constant F), ``time_advised_s``, ``feed_pct_min``,
-    ``feed_pct_mean``; a program on a machine: the times as the machine runs it and the value
-    report's row (``written_max_um``, ``advised_max_um``, ...). ``fuzzyfeed batch`` calls it once
-    per file."""
-    from fuzzyfeed.cli._program import is_program, run_program
-    from fuzzyfeed.io.csv import write_columns, write_metadata
-
-    if is_program(args.shape):
-        return run_program(args)
-    if args.step_mm is not None:
-        raise MachineLimitsError("--step-mm applies to G-code programs only; shapes take --points")
-    if args.report is not None or args.no_reference:
-        flag = "--report" if args.report is not None else "--no-reference"
-        raise MachineLimitsError(f"{flag}: the value report runs a G-code program on a machine; "
-                                 f"{args.shape} is not a program")
-    refuse_program_arguments(args)
-    shapes = drawing_paths(args)
-    if shapes is not None and len(shapes) > 1:
-        return run_paths(args, shapes)
-    shape, advice = compute(args, shapes[0] if shapes else None)
-    notes = (f"rules {advice.table.name!r}; F = {advice.profile.max_feed_mm_s * 60:g} mm/min "
-             "(feed % refers to it)",)
-    gcode = prepare_gcode(args, advice.profile, shape, notes)  # checked before any file is written
-    columns = advice_columns(advice, args.rule_strengths)
-    write_columns(args.output, columns)
-    meta = write_metadata(args.output, list(columns), advice_provenance(args, shape, advice))
-    if args.plot:
-        from fuzzyfeed.report.plot import plot_fuzzy_advice
-
-        plot_fuzzy_advice(advice, shape.name, args.plot)
-    print(summary(shape.name, advice))
-    print(f"wrote {args.output}" + (f" ({meta}: rules, F, source)" if meta else "")
-          + (f" and {args.plot}" if args.plot else ""))
-    for path in gcode.write():
-        print(f"wrote {path}")
-    p = advice.profile
-    return _figures(1, (p.samples.length / p.max_feed_mm_s, p.travel_time_s()), p.feed_pct)

@@ -1,4 +1,4 @@
-"""The interactive rule designer (layer 8): a rule table's membership functions, rule grid,
+"""The interactive rule designer (layer 9): a rule table's membership functions, rule grid,
 control surface and the advice on a path, edited together and redrawn after every edit; inline
 in Jupyter or as a local web app (``fuzzyfeed design``). May import every package but ``cli``;
 Panel and Bokeh are imported only when a view is built."""

@@ -6,10 +6,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fuzzyfeed.advice.shape import DEFAULT_FEED_MM_MIN
 from fuzzyfeed.designer.document import Document
 from fuzzyfeed.errors import ShapeFileError
-
-DEFAULT_FEED_MM_MIN = 6000.0
 
 
 def load_path(shape: str | None = None, program: str | None = None, points: int = 2000):

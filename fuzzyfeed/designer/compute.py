@@ -14,10 +14,13 @@ from fuzzyfeed.geometry.sampling import PathSamples
 
 def path_advice(samples: PathSamples, table: RuleTable, max_feed_mm_s: float, machine=None):
     """The advice the path panel shows (:class:`~fuzzyfeed.fuzzy.advisor.FuzzyAdvice`); the one
-    place the designer calls the advisor (a machine table reads the ``machine``'s terms)."""
-    from fuzzyfeed.fuzzy.advisor import advise_details
+    place the designer advises, through the advice pipeline's own
+    :func:`~fuzzyfeed.advice.shape.advise_path` (what ``advise`` and ``advise_file`` do with a path):
+    the edited table and the ``machine`` as one options value (a machine table reads its terms)."""
+    from fuzzyfeed.advice.options import AdviceOptions
+    from fuzzyfeed.advice.shape import advise_path
 
-    return advise_details(samples, table, max_feed_mm_s, machine=machine)
+    return advise_path(samples, AdviceOptions(rules=table, machine=machine), max_feed_mm_s=max_feed_mm_s)
 
 
 def path_on_machine(samples: PathSamples, feed_mm_s: np.ndarray, machine) -> tuple[float, float]:

@@ -123,6 +123,8 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         grp = np.cumsum(new_move) - 1
         whole = (program.no_split[cs.seg_move] | (program.kind[cs.seg_move] == NURBS)
                  | (move_len[grp] < 2 * min_piece_mm))
+        if program.comp_unknown is not None:   # LinuxCNC's compensation rules need the move whole
+            whole |= program.comp_unknown[cs.seg_move]
         q = np.where(whole, move_min[grp], q)
         q = hold_min_length(q, seg_len, first, min_piece_mm)
         change = new_move.copy()

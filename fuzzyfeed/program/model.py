@@ -113,6 +113,11 @@ class Program:
     rotary: np.ndarray | None = None  # (M,) bool: the move turns a rotary axis (A/B/C; U/V/W)
     known: np.ndarray | None = None   # (M,) bool: the move starts from a known point
     stops: np.ndarray | None = None   # (M,) bool: its line stops the program after it (M0/M1/M2/M30/M60)
+    #: (M,) bool: a move of cutter compensation (G41/G42) whose tool diameter is not known, and
+    #: the move that leaves it: its row is the programmed contour, not the tool centre's path
+    #: (LinuxCNC offsets it), so it is not judged and its line is never split (the controller's
+    #: entry and corner rules depend on the move as written)
+    comp_unknown: np.ndarray | None = None
 
     @property
     def n_cuts(self) -> int:

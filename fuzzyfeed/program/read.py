@@ -439,6 +439,9 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     # --- cutter compensation: the tool centre's path, where the tool's radius is known ---
     side_m = comp_side[move_rows]
     unknown_r = (side_m != 0) & np.isnan(comp_radius[move_rows])
+    # on the programmed contour, not the tool centre's path: moves under G41/G42 with no diameter
+    # and the move after them (it starts from the compensated point); see Program.comp_unknown
+    comp_unknown = unknown_r | ((side_m == 0) & np.concatenate([[False], unknown_r[:-1]]))
     if unknown_r.any():
         i = int(move_rows[np.argmax(unknown_r)])
         i = int(np.flatnonzero(gany("comp")[:i + 1])[-1])        # the G41/G42 line
@@ -466,6 +469,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         feed_mm, no_split = feed_mm[src], no_split[src] | in_comp
         stops = stops[src] & (np.append(src[1:] != src[:-1], True))   # after the line's last move
         fmode = fmode[src]
+        comp_unknown = comp_unknown[src]
 
     # --- cuts ---
     moved = np.any(endp != start, axis=1) | (turns != 0) | (kind == NURBS)
@@ -518,7 +522,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
                    move_line=move_line, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
                    cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
-                   rows=row_info, rotary=abc_has[move_rows], known=known[move_rows], stops=stops)
+                   rows=row_info, rotary=abc_has[move_rows], known=known[move_rows], stops=stops,
+                   comp_unknown=comp_unknown)
 
 
 def _notice(message: str) -> None:

@@ -22,6 +22,8 @@ import numpy as np
 
 from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.program.coverage import Coverage, program_coverage
+from fuzzyfeed.program.verify import Verification
 from fuzzyfeed.program.feeds import ProgramAdvice, advice_columns, advise_program
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
@@ -74,7 +76,14 @@ class ValueReport:
     advised_cuts: tuple[int, ...]
     worst_advised: tuple[int, tuple[float, float, float]] | None
     trace: FeedTrace | None = None
+    coverage: Coverage | None = None     # the judged part (issue 40): no verdict beyond it
+    verification: Verification | None = None   # what rs274 said of the rewrite (--verify-rs274)
     worst_air: tuple[int, tuple[float, float, float]] | None = None
+
+    @property
+    def partial(self) -> bool:
+        """Part of the program's feed moves were not judged (see :mod:`fuzzyfeed.program.coverage`)."""
+        return self.coverage is not None and not self.coverage.complete
 
     @property
     def tol_um(self) -> float:
@@ -94,6 +103,10 @@ class ValueReport:
         for r in self.rows:
             flag = "  over" if r.max_um > tol * (1 + 1e-9) else ""
             out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {r.p99_um:10.1f}{flag}")
+        if self.coverage is not None:
+            out.append("  " + self.coverage.summary())
+        if self.verification is not None:
+            out.append("  " + self.verification.summary())
         out.append("  " + self.verdict())
         air = self.air_line()
         if air:
@@ -103,9 +116,10 @@ class ValueReport:
     def air_line(self) -> str:
         """Where the rows' errors are: max and p99 are in the part (the tool nearest a feed move);
         the largest error in the air (the tool still nearest a rapid it lags behind, as the next
-        feed move starts) is said apart, with where, when there is one."""
+        feed move starts) is said apart, with where, when it passes the tolerance (as written or
+        advised); an error in the air within the tolerance is not worth a line."""
         w, a = self.written, self.advised
-        if not (w.air_um > 0 or a.air_um > 0):
+        if not (w.air_um > self.tol_um or a.air_um > self.tol_um):
             return ""
         text = (f"in the air (tool still nearest a rapid when a feed move starts; not in the part, no F changes "
                 f"it): as written {w.air_um:.1f} um, advised {a.air_um:.1f} um")
@@ -117,6 +131,11 @@ class ValueReport:
     def verdict(self) -> str:
         tol = self.tol_um
         w, a, u = self.written, self.advised, self.uniform
+        cov = self.coverage
+        if self.holds_as_written and self.partial:
+            return (f"as written the judged part ({cov.length_share()}) holds the tolerance "
+                    f"(max {w.max_um:.1f} um <= {tol:g} um): its feeds are left alone; not judged: "
+                    f"{cov.not_judged_text()}")
         if self.holds_as_written:
             return (f"as written the program holds the tolerance (max {w.max_um:.1f} um <= {tol:g} um): "
                     "its feeds are left alone")
@@ -126,7 +145,9 @@ class ValueReport:
         if self.reference is not None:
             parts.append(f"{a.time_s / self.reference.time_s:.2f} x the limit reference")
         text = ", ".join(parts)
-        if a.max_um <= tol * (1 + 1e-9):
+        if a.max_um <= tol * (1 + 1e-9) and self.partial:
+            text += f"; holds the tolerance on the judged part ({cov.length_share()})"
+        elif a.max_um <= tol * (1 + 1e-9):
             text += "; holds the tolerance"
         elif self.worst_advised is not None:
             line, xyz = self.worst_advised
@@ -138,6 +159,8 @@ class ValueReport:
             else:
                 text += (f"; even the limit reference ends at {self.reference.max_um:.1f} um: no feed holds "
                          "the tolerance there")
+        if self.partial:
+            text += f"; not judged: {cov.not_judged_text()}"
         return text
 
     def csv_row(self) -> dict[str, object]:
@@ -151,6 +174,10 @@ class ValueReport:
             row[f"{key}_time_s"] = r.time_s if r is not None else float("nan")
             row[f"{key}_max_um"] = r.max_um if r is not None else float("nan")
             row[f"{key}_p99_um"] = r.p99_um if r is not None else float("nan")
+        if self.coverage is not None:
+            row.update(self.coverage.figures())
+        if self.verification is not None:
+            row.update(self.verification.figures())
         return row
 
 
@@ -183,12 +210,16 @@ class Evaluation:
 def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, cap_mm_min: float | None = None,
                      feed_step_mm_min: float = 10.0, step_mm: float = 0.25, min_piece_mm: float = 1.0,
                      cuts: list[int] | None = None, reference: bool = True, progress=None,
-                     max_ticks: float | None = None) -> Evaluation:
+                     max_ticks: float | None = None, verify=None, tools: dict | None = None) -> Evaluation:
     """Advise ``program`` for ``machine`` and measure what it bought (module docstring): the cuts
     (of ``cuts``, default all) that break the tolerance as written get the advice, the others keep
     their feeds. ``progress(step)`` is called with a short name before each stage. ``max_ticks``
     bounds the servo periods of the uniform slowdown's checking run (beyond it the row takes the
-    planner's time and the largest error of the hot stretches, and no p99)."""
+    planner's time and the largest error of the hot stretches, and no p99).
+    ``verify(program, move, end, feed) -> (text, Verification)`` replaces the plain rewrite (rs274's
+    check, :func:`fuzzyfeed.program.verify.verified_rewrite`): the advised run is of its text.
+    ``tools``: the tool table the program was read with (the advised text is read with it too, so
+    its compensated moves are the tool centre's path as the written program's are)."""
     step = progress or (lambda _name: None)
     tol = machine.contour_tol_um
     step("as written")
@@ -200,7 +231,12 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     pa = advise_program(program, table, cuts=chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
                         feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm, machine=machine)
     keep = np.isin(program.cut[pa.piece_move], over) if pa.piece_move.size else np.zeros(0, bool)
-    text = rewrite_program(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
+    checked = None
+    if verify is None:
+        text = rewrite_program(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
+    else:
+        step("rs274")
+        text, checked = verify(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
     if not over:
         advised_run = written
         uniform_factor, uniform_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
@@ -208,7 +244,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         advised_path = path
     else:
         step("advised run")
-        advised_path = program_path(parse_program(text, program.path), machine.chord_tol_mm)
+        advised_path = program_path(parse_program(text, program.path, tools), machine.chord_tol_mm)
         advised_run = run_program(advised_path, machine)
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
@@ -234,8 +270,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
-        trace=feed_trace(path, written, advised_path, tol),
-        worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])))
+        trace=feed_trace(path, written, advised_path, tol), coverage=program_coverage(program),
+        verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])))
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report)
 
 

@@ -83,6 +83,10 @@ def report_table_html(reports: Sequence[ValueReport]) -> str:
             parts.append(f"<tr{cls}><td>{html.escape(row.label)}</td><td>{row.time_s:.2f}</td>"
                          f"<td>{row.max_um:.1f}</td><td>{row.p99_um:.1f}</td></tr>")
         parts.append("</table>")
+        if r.coverage is not None:
+            parts.append(f"<p>{html.escape(r.coverage.summary())}</p>")
+        if r.verification is not None:
+            parts.append(f"<p>{html.escape(r.verification.summary())}</p>")
         parts.append(f"<p>{html.escape(r.verdict())}</p>")
         if r.air_line():
             parts.append(f"<p>{html.escape(r.air_line())}</p>")
@@ -109,4 +113,4 @@ def write_value_report(reports: Sequence[ValueReport], path: str | os.PathLike) 
     rows = [r.csv_row() for r in reports]
     cols = {key: np.array([int(row[key]) if isinstance(row[key], bool) else row[key] for row in rows])
             for key in rows[0]}
-    write_columns(path, cols, allow_nan=tuple(k for k in cols if k.startswith(("reference_", "uniform_"))))
+    write_columns(path, cols, allow_nan=tuple(k for k in cols if k.startswith(("reference_", "uniform_", "judged_"))))

@@ -1,0 +1,368 @@
+"""A G-code program advised (``advise PROGRAM.ngc``): cut by cut under its own F
+(:func:`~fuzzyfeed.program.feeds.advise_program`) and written back with the advised F words, or, on a
+machine, run as written and the cuts that break the tolerance advised, with the value report
+(:func:`~fuzzyfeed.report.value.evaluate_program`). ``PROGRAM.ngc#N`` advises cut N only."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from fuzzyfeed.advice.options import AdviceOptions
+from fuzzyfeed.advice.result import AdviceResult
+from fuzzyfeed.errors import ExportError, MachineLimitsError
+
+#: The CSV columns of a program's advice (fuzzyfeed.program.feeds.advice_columns), written as
+#: a header alone when a program has nothing to advise.
+ADVICE_COLUMNS = ("cut", "source_line", "u", "x_mm", "y_mm", "z_mm", "s_mm", "curvature_1_mm",
+                  "curvature_window_max_1_mm", "curvature_variation", "feed_pct_controller", "feed_pct",
+                  "programmed_feed_mm_min", "feed_mm_min")
+
+_G52 = "--gcode-g52 writes a NURBS shape; a G-code program is written back with --gcode OUT.ngc"
+
+
+def _feed_note(cap) -> str:
+    return "the program's own F" + (f", capped at {cap:g} mm/min" if cap else "")
+
+
+def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
+    """The program ``spec`` (``FILE`` or ``FILE#N``) advised with ``options``."""
+    from fuzzyfeed.geometry.sampling import DEFAULT_POINTS
+    from fuzzyfeed.io.points import pick_by_index
+    from fuzzyfeed.io.shapes import resolve_shape_path, split_selector
+    from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
+    from fuzzyfeed.program.feeds import DEFAULT_PROGRAM_FEED_STEP_MM_MIN, advise_program
+    from fuzzyfeed.program.read import read_program
+
+    cap = options.feed_mm_min
+    if options.line_numbers or options.g52_whole:
+        flag = "--line-numbers" if options.line_numbers else "--g52-whole"
+        raise ExportError(f"{flag}: a program written back keeps its own lines and words; "
+                          "leave the flag out")
+    if options.rule_strengths:
+        raise ExportError("--rule-strengths is for shapes; a program's CSV has one row per sample "
+                          "of every cut")
+    if options.points != DEFAULT_POINTS:
+        raise MachineLimitsError("--points is for shapes; a program is sampled every --step-mm "
+                                 "along its cuts")
+    base, selector = split_selector(spec)
+    path = resolve_shape_path(base)
+    machine, table = options.machine, options.table
+    tools = None
+    if options.tool_table is not None:
+        from fuzzyfeed.program.tools import read_tool_table
+
+        tools = read_tool_table(options.tool_table, options.tool_units)
+    program = read_program(path, tools=tools)
+    if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
+        return NothingResult(spec, options, path, program)
+    cuts = None
+    if selector is not None and program.n_cuts:
+        described = [f"{k + 1} (line {int(program.move_line[program.cut_moves(k)[0]]) + 1})"
+                     for k in range(program.n_cuts)]
+        cuts = [pick_by_index(program.path, selector, described)]
+    step = options.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
+    step_mm = options.step_mm or DEFAULT_STEP_MM
+    if machine is not None:
+        from fuzzyfeed.report.value import evaluate_program
+
+        tty = sys.stderr.isatty()
+
+        def progress(stage: str) -> None:
+            if tty:
+                print(f"fuzzyfeed: {program.path.name}: {stage} ...", file=sys.stderr, flush=True)
+
+        ev = evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
+                              step_mm=step_mm, cuts=cuts, reference=options.reference, progress=progress,
+                              verify=_verifier(options, tools), tools=tools)
+        return MachineProgramResult(spec, options, program, ev)
+    if not options.reference:
+        raise MachineLimitsError("--no-reference: the value report needs a machine (--machine FILE, or "
+                                 "a machine flag such as --contour-tol-um)")
+    pa = advise_program(program, table, cuts=cuts, step_mm=step_mm, cap_mm_min=cap, feed_step_mm_min=step)
+    return ProgramResult(spec, options, path, program, pa, step, _verifier(options, tools))
+
+
+def _verifier(options: AdviceOptions, tools):
+    """With ``verify_rs274``: a rewrite ``(program, move, end, feed) -> (text, Verification)``
+    checked by rs274 with the tool table ``tools`` (:mod:`fuzzyfeed.program.verify`); else None."""
+    if not options.verify_rs274:
+        return None
+    from fuzzyfeed.program.rewrite import rewrite_program
+    from fuzzyfeed.program.verify import rs274_path, verified_rewrite
+
+    if rs274_path() is None:
+        raise ExportError("--verify-rs274: rs274 not found on PATH (LinuxCNC's interpreter, Debian "
+                          "package linuxcnc-uspace); leave the flag out to write the rewrite unchecked")
+    return lambda program, *pieces: verified_rewrite(program, *pieces, rewrite=rewrite_program, tools_mm=tools)
+
+
+def _refuse_report(report) -> None:
+    if report is not None:
+        raise MachineLimitsError("--report: the value report needs a machine (--machine FILE, or a "
+                                 "machine flag such as --contour-tol-um)")
+
+
+def _check_outputs(csv, gcode, gcode_g52, plot) -> None:
+    if gcode_g52:
+        raise ExportError(_G52)
+    outputs = [p for p in (csv, gcode, plot) if p]
+    if len(set(outputs)) != len(outputs):
+        raise ExportError(f"output files must differ: {', '.join(outputs)}")
+
+
+def _write_text(path: str, text: str) -> None:
+    from fuzzyfeed.base.atomic import atomic_write
+
+    with atomic_write(path, "w", newline="") as handle:
+        handle.write(text)
+
+
+class ProgramResult(AdviceResult):
+    """A program advised without a machine: every cut (or the one picked) under its own F."""
+
+    kind = "program"
+
+    def __init__(self, source, options, path: Path, program, advice, feed_step_mm_min: float, verify=None):
+        from fuzzyfeed.program.coverage import program_coverage
+
+        self.source, self.options, self.path, self.program = source, options, path, program
+        self.advice, self.feed_step_mm_min = advice, feed_step_mm_min
+        self.coverage = program_coverage(program)
+        self._verify = verify
+        self._text = None
+        self.verification = None     # what rs274 said of the rewrite (verify_rs274), once it is made
+
+    @property
+    def text(self) -> str:
+        from fuzzyfeed.program.rewrite import rewrite_program
+
+        if self._text is None:
+            pa = self.advice
+            pieces = (pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+            if self._verify is not None:
+                self._text, self.verification = self._verify(self.program, *pieces)
+            else:
+                self._text = rewrite_program(self.program, *pieces)
+        return self._text
+
+    def columns(self) -> dict:
+        from fuzzyfeed.program.feeds import advice_columns
+
+        return advice_columns(self.advice)
+
+    def _times(self):
+        from fuzzyfeed.program.feeds import program_times
+
+        return program_times(self.advice)
+
+    def summary(self) -> list[str]:
+        pa, program, cap, step = self.advice, self.program, self.options.feed_mm_min, self.feed_step_mm_min
+        t_prog, t_adv = self._times()
+        fr = np.concatenate([a.feed_pct for a in pa.advice])
+        n_split = int(np.sum(np.diff(pa.piece_move) == 0))
+        return [f"{self.path.name}: {len(program.lines)} lines, {program.kind.size} moves, {program.n_cuts} "
+                f"cut(s), {len(pa.cuts)} advised; rules {pa.table.name!r}; F from the program"
+                + (f", capped at {cap:g} mm/min" if cap else ""),
+                f"advised fraction of the programmed F  min {fr.min():.2f} %  mean {fr.mean():.2f} %  "
+                f"max {fr.max():.2f} %   (F rounded down to {step:g} mm/min steps)",
+                f"feed moves of the advised cuts: {t_prog:.3f} s at the programmed F, {t_adv:.3f} s at "
+                f"the advised F (no acceleration); {n_split} split points",
+                self.coverage.summary(),
+                *([self.verification.summary()] if self.verification is not None else [])]
+
+    def figures(self) -> dict:
+        t_prog, t_adv = self._times()
+        fr = np.concatenate([a.feed_pct for a in self.advice.advice])
+        return {"cuts": self.program.n_cuts, "cuts_advised": len(self.advice.cuts), "time_written_s": t_prog,
+                "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean()),
+                **self.coverage.figures(),
+                **({} if self.verification is None else self.verification.figures())}
+
+    def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
+        from fuzzyfeed.fuzzy.provenance import provenance
+        from fuzzyfeed.io.csv import write_columns, write_metadata
+
+        _check_outputs(csv, gcode, gcode_g52, plot)
+        _refuse_report(report)
+        if self._verify is not None and not gcode:
+            raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
+        text = self.text if gcode else None
+        cap = self.options.feed_mm_min
+        if csv is not None:
+            columns = self.columns()
+            write_columns(csv, columns)
+            record = provenance(self.advice.table, cap or 0.0, str(self.path), len(columns["s_mm"]))
+            record["F_mm_min"] = _feed_note(cap)
+            write_metadata(csv, list(columns), record)
+        if plot:
+            self.plot(plot)
+        if text is not None:
+            _write_text(gcode, text)
+        lines = []
+        if csv is not None or plot:
+            lines.append("wrote " + " and ".join(p for p in (csv, plot) if p))
+        if text is not None:
+            lines.append(f"wrote {gcode}")
+        return lines
+
+    def _plot(self, output) -> None:
+        from fuzzyfeed.report.plot import plot_fuzzy_advice
+
+        plot_fuzzy_advice(combined_advice(self.advice),
+                          f"{self.path.name}: {len(self.advice.cuts)} cut(s) end to end", output)
+
+
+class MachineProgramResult(AdviceResult):
+    """A program on a machine: run as written, the cuts that break the tolerance advised, the
+    value report (``.value``)."""
+
+    kind = "program on a machine"
+
+    def __init__(self, source, options, program, evaluation):
+        self.source, self.options, self.program, self.evaluation = source, options, program, evaluation
+        self._columns = None
+
+    @property
+    def text(self) -> str:
+        return self.evaluation.text
+
+    @property
+    def value(self):
+        return self.evaluation.report
+
+    def columns(self) -> dict:
+        if self._columns is None:
+            self._columns = self.evaluation.columns()
+        return self._columns
+
+    def summary(self) -> list[str]:
+        ev, program, machine = self.evaluation, self.program, self.options.machine
+        left = program.n_cuts - len(ev.advised_cuts)
+        return [f"{program.path.name}: {len(program.lines)} lines, {program.n_cuts} cut(s); {machine.describe()}",
+                f"advised {len(ev.advised_cuts)} cut(s) that break the tolerance as written; {left} left as written",
+                *ev.report.lines()]
+
+    def figures(self) -> dict:
+        ev, columns = self.evaluation, self.columns()
+        r = ev.report
+        row = {k: v for k, v in r.csv_row().items() if k not in ("program", "written_time_s", "advised_time_s")}
+        return {"cuts": self.program.n_cuts, "cuts_advised": len(ev.advised_cuts), "time_written_s": r.written.time_s,
+                "time_advised_s": r.advised.time_s, "feed_pct_min": float(columns["feed_pct"].min()),
+                "feed_pct_mean": float(columns["feed_pct"].mean()), **row}
+
+    def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
+        from fuzzyfeed.fuzzy.provenance import provenance
+        from fuzzyfeed.io.csv import write_columns, write_metadata
+
+        _check_outputs(csv, gcode, gcode_g52, plot)
+        cap, machine = self.options.feed_mm_min, self.options.machine
+        if csv is not None:
+            columns = self.columns()
+            write_columns(csv, columns)
+            record = provenance(self.options.table, cap or 0.0, str(self.program.path), len(columns["s_mm"]))
+            record["F_mm_min"] = _feed_note(cap)
+            record["machine"] = machine.describe()
+            write_metadata(csv, list(columns), record)
+        if gcode:
+            _write_text(gcode, self.text)
+        if plot:
+            self.plot(plot)
+        if report:
+            from fuzzyfeed.report.value_files import write_value_report
+
+            write_value_report([self.value], report)
+        written = [p for p in (csv, gcode, plot, report) if p]
+        return ["wrote " + ", ".join(written)] if written else []
+
+    def _plot(self, output) -> None:
+        from fuzzyfeed.report.value_files import plot_value
+
+        plot_value(self.value, output)
+
+    def report_html(self) -> str:
+        """The value report as one HTML page (``--report FILE.html``)."""
+        from fuzzyfeed.report.value_files import report_table_html
+
+        return report_table_html([self.value])
+
+
+class NothingResult(AdviceResult):
+    """A program with no cut: written back unchanged, its CSV a header alone, one notice."""
+
+    kind = "program, nothing to advise"
+
+    def __init__(self, source, options, path: Path, program):
+        import warnings
+
+        from fuzzyfeed.errors import FuzzyfeedNotice
+        from fuzzyfeed.program.model import why_nothing_to_advise
+
+        self.source, self.options, self.path, self.program = source, options, path, program
+        self.reason = why_nothing_to_advise(program)
+        warnings.warn(f"{path}: nothing to advise ({self.reason}); the program is "
+                      "written back unchanged", FuzzyfeedNotice, stacklevel=3)
+
+    @property
+    def text(self) -> str:
+        return self.path.read_bytes().decode("utf-8", "surrogateescape")
+
+    def columns(self) -> dict:
+        return {name: np.zeros(0) for name in ADVICE_COLUMNS}
+
+    def figures(self) -> dict:
+        from fuzzyfeed.program.coverage import program_coverage
+
+        return {"cuts": 0, "cuts_advised": 0, "time_written_s": 0.0, "time_advised_s": 0.0,
+                **program_coverage(self.program).figures()}
+
+    def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
+        from fuzzyfeed.base.atomic import atomic_write
+        from fuzzyfeed.io.csv import write_columns, write_metadata
+
+        if gcode_g52:
+            raise ExportError(_G52)
+        if csv is not None:
+            write_columns(csv, self.columns())
+            write_metadata(csv, list(ADVICE_COLUMNS), {"source": str(self.path), "generator": "fuzzyfeed",
+                                                       "advice": f"nothing to advise: {self.reason}"})
+        if gcode:
+            with atomic_write(gcode, "wb") as handle:
+                handle.write(self.path.read_bytes())
+        written = [p for p in (csv, gcode) if p]
+        return ["wrote " + " and ".join(written)] if written else []
+
+
+def combined_advice(pa):
+    """One FuzzyAdvice over all advised cuts end to end (for the plot): arc length runs on."""
+    from fuzzyfeed.fuzzy.advisor import FuzzyAdvice
+    from fuzzyfeed.fuzzy.features import Features
+    from fuzzyfeed.geometry.sampling import PathSamples
+    from fuzzyfeed.machine.profile import FeedProfile
+
+    parts = {k: [] for k in ("xyz", "s", "tangent", "k", "wmax", "dk", "raw", "pct", "feed")}
+    offset = 0.0
+    for cs, adv, ceil in zip(pa.cuts, pa.advice, pa.ceiling_mm_min):
+        sm = cs.samples
+        parts["xyz"].append(sm.xyz)
+        parts["s"].append(sm.s + offset)
+        offset += sm.length
+        parts["tangent"].append(sm.tangent)
+        parts["k"].append(sm.curvature)
+        parts["wmax"].append(adv.features.window_max_1_mm)
+        parts["dk"].append(adv.features.curvature_variation)
+        parts["raw"].append(adv.controller_pct)
+        parts["pct"].append(adv.feed_pct)
+        parts["feed"].append(adv.feed_pct / 100.0 * ceil / 60.0)
+    cat = {k: np.concatenate(v) for k, v in parts.items()}
+    nan = np.full_like(cat["xyz"], np.nan)
+    s = cat["s"]
+    samples = PathSamples(u=s / max(s[-1], 1e-300), xyz=cat["xyz"], s=s, tangent=cat["tangent"],
+                          curvature=cat["k"], d1=nan, d2=nan, dim=3)
+    f_max = float(np.max(np.concatenate(pa.ceiling_mm_min))) / 60.0
+    profile = FeedProfile(samples=samples, feed_mm_s=cat["feed"], method="fuzzy", max_feed_mm_s=f_max)
+    feats = Features(curvature_1_mm=cat["k"], window_max_1_mm=cat["wmax"], curvature_variation=cat["dk"])
+    return FuzzyAdvice(profile=profile, features=feats, controller_pct=cat["raw"],
+                       feed_pct=cat["pct"], table=pa.table)
