@@ -107,13 +107,15 @@ def test_steady_state_error_on_a_circle_matches_the_closed_form():
     text = "G21 G90 G94 G17\nG0 X10 Y0 Z0\nG1 X10 Y0 F3000\nG3 X10 Y0 I-10 J0 P3\nG0 Z5\nM2\n"
     program = parse_program(text, "circle.ngc")
     machine = Machine(servo=ServoModel(kv_1_s=kv), chord_tol_mm=0.0005)
-    run = run_program(program_path(program, machine.chord_tol_mm), machine)
-    chain = run.runs[0]
+    path = program_path(program, machine.chord_tol_mm)
+    chain = trace_motion(path.chains[0].motion, machine, path.chains[0].seg_measured)   # every tick
     # the middle turn (steady state): the chords sag at most 0.5 um inside the circle
     t = chain.tick_time_s
     mid = (t > 0.35 * t.max()) & (t < 0.65 * t.max())
     assert np.median(chain.contour_mm[mid]) == pytest.approx(expected, abs=0.6e-3)
     assert expected > 0.1      # the case is not trivial: 136 um
+    # the streamed run (no ticks kept) finds the same largest error
+    assert run_program(path, machine).max_um == pytest.approx(chain.max_mm * 1e3, abs=1e-3)
 
 
 def test_corner_at_constant_speed_matches_the_closed_form():
@@ -131,9 +133,11 @@ def test_rapids_are_not_measured():
     text = "G21 G90 G94\nG0 X0 Y0 Z0\nG0 X50 Y0\nG0 X50 Y50\nG1 X0 Y50 F600\nM2\n"
     program = parse_program(text, "rapid.ngc")
     machine = Machine()
-    run = run_program(program_path(program, machine.chord_tol_mm), machine)
-    moves = np.concatenate([r.tick_move for r in run.runs])
-    assert set(np.unique(program.kind[moves])) == {1}      # LINE only
+    path = program_path(program, machine.chord_tol_mm)
+    run = run_program(path, machine)
+    # the segments where an error was measured belong to feed moves only
+    moves = np.concatenate([c.seg_move[r.stream.seg_max_mm > 0] for c, r in zip(path.chains, run.runs)])
+    assert moves.size and set(np.unique(program.kind[moves])) == {1}      # LINE only
 
 
 def test_contour_kernel_forms_agree_bit_for_bit():
@@ -155,3 +159,53 @@ def test_contour_kernel_forms_agree_bit_for_bit():
     a, d = pts[seg], np.diff(pts, axis=0)[seg]
     t = np.clip(np.einsum("ij,ij->i", q[k] - a, d) / np.einsum("ij,ij->i", d, d), 0, 1)
     assert slow[0][k] == pytest.approx(np.linalg.norm(q[k] - (a + d * t[:, None]), axis=1).min(), rel=1e-12)
+
+
+def test_linuxcnc_stops_between_a_rapid_and_a_feed_move_grbl_blends():
+    # LinuxCNC's tp.c (tpCheckCanonType) never blends G0 with G1: the junction ends at rest even
+    # when the two are in line; GRBL runs the same junction at the feed move's speed
+    pts = [[0, 0, 0], [10, 0, 0], [20, 0, 0], [30, 0, 0]]
+    m = Motion(np.asarray(pts, float), np.array([np.nan, 20.0, np.nan]), np.array([True, False, True]),
+               np.full(4, np.nan))
+    lcnc = plan_motion(m, Machine(corner="path-tolerance"))
+    grbl = plan_motion(m, Machine(corner="junction-deviation"))
+    assert lcnc.v_exit[0] == 0.0 and lcnc.v_entry[1] == 0.0 and lcnc.v_exit[1] == 0.0
+    assert grbl.v_exit[0] == pytest.approx(20.0) and grbl.v_exit[1] == pytest.approx(20.0)
+
+
+def test_rapid_lag_decays_into_the_next_feed_move_in_the_part():
+    # Issue 37, defect 3 (LinuxCNC 3dtest.ngc: 70 um at a slow G1 after two rapids): G0 along x
+    # into G1 along y on LinuxCNC. The command stops at the junction; the tool is still
+    # e0 = a/Kv^2 (1 - e^(-Kv T)) behind in x (a ramp from v_r to 0 over T = v_r/a through a
+    # first-order loop), which decays as e^(-Kv t) while y starts. The tool is nearest the rapid
+    # (in the air) until its y passes its x lag, then nearest the G1 (in the part): the largest
+    # error in the part is e0 e^(-Kv t*) at that crossing, y(t*) the first-order response to the
+    # G1's trapezoid (a, v).
+    kv, a, v_r, v = 30.0, 1000.0, 100.0, 10.0
+    machine = Machine(corner="path-tolerance", servo=ServoModel(kv_1_s=kv), axis_vel_mm_s=v_r,
+                      axis_acc_mm_s2=a)
+    text = "G21 G90 G94 G17\nG0 X0 Y0 Z0\nG0 X100\nG1 Y10 F600\nM2\n"
+    program = parse_program(text, "rapid_into_cut.ngc")
+    run = run_program(program_path(program, machine.chord_tol_mm), machine)
+    e0 = a / kv**2 * (1 - math.exp(-kv * v_r / a))
+    t = np.linspace(0.0, 0.3, 300_001)
+    t_acc = v / a
+    y_cmd = np.where(t < t_acc, 0.5 * a * t * t, 0.5 * a * t_acc**2 + v * (t - t_acc))
+    # first-order response to y_cmd: y' = Kv (y_cmd - y), y(0) = 0 (exact for piecewise-linear steps)
+    dt = t[1] - t[0]
+    decay = math.exp(-kv * dt)
+    slope = np.diff(y_cmd) / (kv * dt) * (1 - decay)
+    lag = np.zeros_like(t)                     # y_cmd - y
+    for i in range(t.size - 1):
+        lag[i + 1] = lag[i] * decay + slope[i]
+    y = y_cmd - lag
+    e_x = e0 * np.exp(-kv * t)
+    cross = int(np.argmax(y > e_x))
+    expected_um = e_x[cross] * 1e3
+    assert expected_um > 50.0                                   # the case is not trivial
+    # the first tick in the part comes within one tick (3 %) after the crossing
+    assert expected_um * math.exp(-kv * machine.ts_s) * 0.999 <= run.max_um <= expected_um * 1.001
+    # the report says which error is in the air: the tool nearest the rapid, at most its y
+    assert 0.0 < run.air_max_um <= expected_um * 1.001
+    line, _ = run.worst()
+    assert program.lines[line].startswith("G1")

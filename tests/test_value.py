@@ -243,3 +243,17 @@ def test_machine_advice_is_a_fraction_of_each_moves_own_f():
     assert lowest
     for m, feed in zip(pa.piece_move, pa.piece_feed_mm_min):
         assert feed >= lowest[int(m)] - 1e-9, (int(m), feed, lowest[int(m)])
+
+
+def test_the_report_says_the_error_in_the_air_apart(grbl02):
+    # issue 37 defect 3: the rows are the error in the part; the error of a tool still nearest a
+    # rapid as a feed move starts is said apart, with its line, in the text and the HTML page
+    from fuzzyfeed.report.value_files import report_table_html
+
+    program, ev = grbl02
+    r = ev.report
+    assert r.written.air_um > 0 and r.worst_air is not None
+    line = r.air_line()
+    assert line.startswith("in the air") and f"line {r.worst_air[0] + 1} " in line
+    assert line in r.lines()[-1]
+    assert "in the air" in report_table_html([r])

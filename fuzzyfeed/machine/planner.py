@@ -17,6 +17,11 @@ cap of its speed. The plan, like GRBL's planner (``planner.c``):
   of that radius (LinuxCNC leaves the corner by at most δ = ``G64 P``; the blend's geometry is made
   by :func:`blend_corners`), and the inner vertices of a flattened arc take v² = a·ρ on the arc's
   own radius ρ instead;
+- LinuxCNC (``corner = "path-tolerance"``) does not blend a rapid into a feed move or a feed move
+  into a rapid: its planner sets the junction's end condition to a stop (``tp.c``,
+  ``tpCheckCanonType``: "Can't blend between rapid and feed move"), the command stops there, and it
+  does not wait for the axes to be in position, so the servo's lag from the rapid still decays
+  while the feed move starts (issue 37, defect 3). GRBL's planner blends them like any junction;
 - the squared speed at every vertex is the largest that allows reaching the next and the previous
   cap with the acceleration: w_k = min_j (c_j + |D_k − D_j|), D the running sum of 2·a·L (one
   forward and one backward pass, each a running minimum); the program starts and ends at rest;
@@ -169,6 +174,8 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         j_acc = machine.move_acceleration(j_unit)
         w_corner = j_acc * r
         cap[1:-1] = np.minimum(w_corner, np.minimum(nominal[:-1], nominal[1:]) ** 2)
+        if machine.corner == "path-tolerance":
+            cap[1:-1] = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, cap[1:-1])
     reach = 2.0 * acc * length                       # Δ(v²) a segment allows
     if machine.lookahead_moves:
         csum = np.concatenate([[0.0], np.cumsum(reach)])

@@ -1,7 +1,11 @@
 """A motion run on a machine: planned (:mod:`~fuzzyfeed.machine.planner`), sampled every Ts, the
 set-points run through the axis servo (:func:`~fuzzyfeed.machine.servo.following_errors`), and the
 contour error of the actual tool measured against the path it was commanded
-(:func:`~fuzzyfeed.machine.contour.windowed_distance`)."""
+(:func:`~fuzzyfeed.machine.contour.windowed_distance`).
+
+Every tick is held in memory here: this is the reference implementation (small motions: the
+designer, the tests). Program runs go through :func:`fuzzyfeed.machine.stream.stream_plan`, the
+same operations tick by tick keeping summaries only, held to this one by tests/test_machine_stream.py."""
 
 from __future__ import annotations
 

@@ -19,10 +19,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.trace import MAX_TICKS
-from fuzzyfeed.machine.planner import Motion
+from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
+from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS, segment_windows, warmup_ticks
 from fuzzyfeed.program.run import Chain, ChainRun, ProgramPath, ProgramRun, run_chain, run_program
 
+#: A uniform factor whose whole run passes this many servo periods is reported from its hot
+#: stretches (time: the planner's) without the whole run.
+MAX_TICKS = 2e8
+#: The most servo periods the hot stretches of one uniform trial may hold (beyond, the factor is a
+#: bound: the error does not come down with the feed there).
+HOT_MAX_TICKS = 4e7
+#: Whole runs checking a uniform factor found on the hot stretches, at most.
+UNIFORM_CHECKS = 8
 #: The uniform factor is searched to this relative step.
 UNIFORM_RTOL = 0.01
 #: A piece's new feed is this fraction of the √(tol/error) estimate (the estimate's own margin).
@@ -35,44 +43,123 @@ REFERENCE_FLOOR = 0.01
 
 @dataclass(frozen=True, eq=False)
 class Uniform:
-    """The uniform slowdown: its factor and run; or, when the factor lies below what the tick
-    budget lets us simulate, ``run`` None, ``factor`` the lowest factor tried (which breaks the
-    tolerance) and ``time_s`` a lower bound: the plan's time at that factor."""
+    """The uniform slowdown: its factor and run (``run`` None when the run at that factor would pass
+    the tick budget: then ``time_s`` is the planner's time at the factor, exact, and ``max_um``
+    the largest error of the stretches around the hot spots, where the tolerance is decided)."""
 
     factor: float
     run: ProgramRun | None
-    runs: int          # simulations the search took
+    runs: int          # trials the search took (whole runs and runs of the hot stretches)
     time_s: float
+    max_um: float = float("nan")
+    bounded: bool = False   # no factor found within the tick budget: ``factor`` the lowest tried
+                            # (it breaks the tolerance), ``time_s`` the planner's time there
 
-    @property
-    def bounded(self) -> bool:
-        return self.run is None
+
+def _scaled_plans(path: ProgramPath, machine: Machine, scale: float) -> list[Plan]:
+    return [plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
+                               c.motion.arc_radius_mm), machine) for c in path.chains]
 
 
 def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
     """The run's time at ``scale`` without the servo (the planner alone, closed form)."""
-    from fuzzyfeed.machine.planner import plan_motion
+    return float(sum(p.time_s for p in _scaled_plans(path, machine, scale)))
 
-    return float(sum(plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
-                                        c.motion.arc_radius_mm), machine).time_s for c in path.chains))
+
+def _hot_trial(path: ProgramPath, machine: Machine, scale: float, hot: list[np.ndarray],
+               tol_mm: float, max_ticks: float) -> tuple[float, list[np.ndarray]] | None:
+    """Largest error (µm) of the stretches around the ``hot`` segments (per chain) with every F ×
+    ``scale``, and the segments over the tolerance there; None when the stretches pass
+    ``max_ticks`` servo periods."""
+    plans, windows = [], []
+    for chain, h in zip(path.chains, hot):
+        if h.size == 0:
+            plans.append(None)
+            windows.append([])
+            continue
+        plan = plan_motion(Motion(chain.motion.points, chain.motion.feed_mm_s * scale, chain.motion.rapid,
+                                  chain.motion.arc_radius_mm), machine)
+        plans.append(plan)
+        windows.append(segment_windows(plan, machine, h))
+    if sum(b - a + warmup_ticks(machine) for w in windows for a, b in w) > max_ticks:
+        return None
+    worst, out = 0.0, []
+    for chain, h, plan, w in zip(path.chains, hot, plans, windows):
+        if h.size == 0:
+            out.append(h)
+            continue
+        r = run_chain(chain, machine, plan=plan, windows=w, keep_mm=np.inf)
+        seg_max = r.stream.seg_max_mm
+        worst = max(worst, float(seg_max.max()) * 1e3)
+        out.append(np.flatnonzero(seg_max > tol_mm))
+    return worst, out
+
+
+def _hot(run: ProgramRun, tol_mm: float) -> list[np.ndarray]:
+    return [np.flatnonzero(r.stream.seg_max_mm > tol_mm) for r in run.runs]
 
 
 def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun | None = None,
                      tol_um: float | None = None, max_ticks: float = MAX_TICKS) -> Uniform:
     """The largest factor c (to 1 %) with every F × c holding the tolerance (c = 1 when the program
-    as written holds it). A factor whose run would pass ``max_ticks`` servo periods is not
-    simulated: the result is then a bound (:class:`Uniform`)."""
+    as written holds it). Each trial runs only the stretches around the segments over the
+    tolerance at the last factor that broke it (the error of a place grows with the feed: those
+    that held there hold below it; :func:`~fuzzyfeed.machine.stream.segment_windows`); the time is
+    the planner's. The factor found is checked by one whole run (if within ``max_ticks`` servo
+    periods); should a place outside the hot stretches break it, the search goes on below (after
+    :data:`UNIFORM_CHECKS` such misses, on whole runs). When the hot stretches at a factor would
+    pass ``max_ticks`` servo periods (the error does not come down with the feed: a rapid's lag
+    at a plunge) the result is a bound (:attr:`Uniform.bounded`)."""
     tol = machine.contour_tol_um if tol_um is None else tol_um
+    tol_mm = tol * 1e-3
     first = as_written if as_written is not None else run_program(path, machine)
     if first.max_um <= tol:
-        return Uniform(1.0, first, 1, first.time_s)
-    hi, lo, lo_run = 1.0, None, None
-    c = min(1.0, tol / first.max_um)          # the error grows at least linearly with the feed
+        return Uniform(1.0, first, 1, first.time_s, first.max_um)
+    hi, hi_max, hot = 1.0, first.max_um, _hot(first, tol_mm)
     runs = 1
+    for _ in range(UNIFORM_CHECKS):
+        lo, lo_max = None, 0.0
+        c = min(hi, hi * tol / hi_max)          # the error grows at least linearly with the feed
+        while lo is None:
+            trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
+            if trial is None:      # no factor within the budget (a lag no feed changes, e.g.)
+                return Uniform(hi, None, runs, _planned_time(path, machine, hi), bounded=True)
+            m, h = trial
+            runs += 1
+            if m <= tol:
+                lo, lo_max = c, m
+            else:
+                hi, hot = c, h
+                c *= max(0.1, min(0.7, tol / m))
+        while hi / lo > 1.0 + UNIFORM_RTOL:
+            c = math.sqrt(lo * hi)
+            trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
+            if trial is None:
+                return Uniform(lo, None, runs, _planned_time(path, machine, lo), lo_max)
+            m, h = trial
+            runs += 1
+            if m <= tol:
+                lo, lo_max = c, m
+            else:
+                hi, hot = c, h
+        time_s = _planned_time(path, machine, lo)
+        if time_s / machine.ts_s > max_ticks:
+            return Uniform(lo, None, runs, time_s, lo_max)
+        run = run_program(path, machine, feed_scale=lo)
+        runs += 1
+        if run.max_um <= tol:
+            return Uniform(lo, run, runs, run.time_s, run.max_um)
+        hi, hi_max, hot = lo, run.max_um, _hot(run, tol_mm)     # a place the hot stretches missed
+    # the hot stretches kept missing a place (the error not monotone in the feed there): whole runs
+    return _whole_search(path, machine, tol, hi, hi_max, runs)
+
+
+def _whole_search(path: ProgramPath, machine: Machine, tol: float, hi: float, hi_max: float,
+                  runs: int) -> Uniform:
+    """The uniform search below ``hi`` (whose run's max was ``hi_max`` µm) on whole runs only."""
+    lo, lo_run = None, None
+    c = hi * min(1.0, tol / hi_max)
     while lo is None:
-        # time grows as 1/c only where F is within the machine's reach: ask the planner first
-        if first.time_s / c / machine.ts_s > max_ticks and _planned_time(path, machine, c) / machine.ts_s > max_ticks:
-            return Uniform(hi, None, runs, _planned_time(path, machine, hi))
         r = run_program(path, machine, feed_scale=c)
         runs += 1
         if r.max_um <= tol:
@@ -88,7 +175,7 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
             lo, lo_run = c, r
         else:
             hi = c
-    return Uniform(lo, lo_run, runs, lo_run.time_s)
+    return Uniform(lo, lo_run, runs, lo_run.time_s, lo_run.max_um)
 
 
 def refine_chain(chain: Chain, piece_mm: float) -> Chain:
@@ -120,32 +207,108 @@ class Reference:
     converged: bool
 
 
+@dataclass
+class _Measured:
+    """What a pass of the limit reference needs of a chain's run, spliced from the stretches
+    re-run: the largest error per segment and the events (ticks over the tolerance)."""
+
+    plan: Plan
+    seg_max_mm: np.ndarray
+    contour_mm: np.ndarray
+    speed_mm_s: np.ndarray
+    tick_segment: np.ndarray
+    nearest_segment: np.ndarray
+    lookback_segment: np.ndarray
+
+    @classmethod
+    def of(cls, r: ChainRun) -> _Measured:
+        s = r.stream
+        return cls(r.plan, s.seg_max_mm, s.contour_mm, s.speed_mm_s, s.tick_segment, s.nearest_segment,
+                   s.lookback_segment)
+
+    def splice(self, r: ChainRun, redone: np.ndarray) -> _Measured:
+        """This run with the segments ``redone`` (bool per segment) taken from ``r``, a run of the
+        stretches that hold them."""
+        s = r.stream
+        old = ~redone[self.tick_segment]
+        new = redone[s.tick_segment]
+        cat = lambda a, b: np.concatenate([a[old], b[new]])  # noqa: E731
+        return _Measured(r.plan, np.where(redone, s.seg_max_mm, self.seg_max_mm),
+                         cat(self.contour_mm, s.contour_mm), cat(self.speed_mm_s, s.speed_mm_s),
+                         cat(self.tick_segment, s.tick_segment), cat(self.nearest_segment, s.nearest_segment),
+                         cat(self.lookback_segment, s.lookback_segment))
+
+
+def _changed(old: Plan, new: Plan, machine: Machine) -> np.ndarray:
+    """Segments whose run may differ between two plans of the same path (bool per segment): those
+    whose speed profile changed, and after each the ones commanded within a warm-up of the servo
+    (its memory; :data:`~fuzzyfeed.machine.stream.WARMUP_TIME_CONSTANTS`)."""
+    diff = ((old.v_entry != new.v_entry) | (old.v_peak != new.v_peak) | (old.v_exit != new.v_exit)
+            | (old.acc != new.acc))
+    out = diff.copy()
+    idx = np.flatnonzero(diff)
+    if idx.size == 0:
+        return out
+    horizon = WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s
+    # runs of changed segments: from each run's first segment to the one commanded a horizon
+    # after the run's end
+    starts = idx[np.concatenate([[True], np.diff(idx) > 1])]
+    ends = idx[np.concatenate([np.diff(idx) > 1, [True]])]
+    until = np.searchsorted(new.t_start, new.t_start[ends + 1] + horizon, side="right")
+    n = diff.size
+    mark = np.zeros(n + 1, np.int64)
+    np.add.at(mark, starts, 1)
+    np.add.at(mark, np.minimum(until, n), -1)
+    return np.cumsum(mark[:-1]) > 0
+
+
 def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
                     tol_um: float | None = None, progress=None) -> Reference:
-    """Feeds lowered piece by piece where the run breaks the tolerance (module docstring)."""
+    """Feeds lowered piece by piece where the run breaks the tolerance (module docstring). Each
+    pass re-runs only the stretches whose speed profile the new feeds changed (and the servo's
+    memory after them); the result is one whole run on the final feeds."""
     tol = (machine.contour_tol_um if tol_um is None else tol_um) * 1e-3
     chains = tuple(refine_chain(c, piece_mm) for c in path.chains)
     refined = ProgramPath(program=path.program, chains=chains, chord_tol_mm=path.chord_tol_mm)
     feeds = [c.motion.feed_mm_s.copy() for c in chains]
     reachable = [_reachable_feed(c.motion, machine) for c in chains]
-    runs: list[ChainRun] = [run_chain(c, machine) for c in chains]
+    first: list[ChainRun] = [run_chain(c, machine, keep_mm=tol) for c in chains]
+    state = [_Measured.of(r) for r in first]
+    touched = [False] * len(chains)
+    runs = list(first)
     passes = 1
     while passes < REFERENCE_PASSES:
         changed = False
-        for i, (chain, r) in enumerate(zip(chains, runs)):
-            over = np.flatnonzero(r.contour_mm > tol)
+        for i, (chain, m) in enumerate(zip(chains, state)):
+            over = np.flatnonzero(m.contour_mm > tol)
             if over.size == 0:
                 continue
-            new = _lowered(feeds[i], chain.motion.rapid, r, over, tol, reachable[i])
+            new = _lowered(feeds[i], chain.motion.rapid, m, over, tol, reachable[i])
             if not np.array_equal(new, feeds[i]):
                 feeds[i] = new
-                runs[i] = run_chain(chain, machine, new)
-                changed = True
+                plan = plan_motion(Motion(chain.motion.points, new, chain.motion.rapid,
+                                          chain.motion.arc_radius_mm), machine)
+                redo = _changed(m.plan, plan, machine)
+                r = run_chain(chain, machine, plan=plan, keep_mm=tol,
+                              windows=segment_windows(plan, machine, np.flatnonzero(redo)))
+                state[i] = m.splice(r, redo)
+                touched[i] = changed = True
         passes += 1
         if progress is not None:
             progress(passes)
         if not changed:
-            break
+            # a stretch's ticks fall at other instants once earlier feeds change (its max moves by
+            # a fraction of a µm): the passes end on whole runs, as they began
+            stale = [i for i, t in enumerate(touched) if t]
+            for i in stale:
+                runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
+                state[i] = _Measured.of(runs[i])
+                touched[i] = False
+            if not any((state[i].contour_mm > tol).any() for i in stale):
+                break
+    for i, t in enumerate(touched):
+        if t:
+            runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
     final = ProgramRun(path=refined, machine=machine, runs=tuple(runs))
     return Reference(path=refined, feeds=tuple(feeds), run=final, passes=passes,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
@@ -157,7 +320,7 @@ def _reachable_feed(motion: Motion, machine: Machine) -> np.ndarray:
     return np.minimum(motion.feed_mm_s, machine.speed_along(motion.points))
 
 
-def _lowered(feed: np.ndarray, rapid: np.ndarray, r: ChainRun, over: np.ndarray, tol_mm: float,
+def _lowered(feed: np.ndarray, rapid: np.ndarray, r: _Measured | ChainRun, over: np.ndarray, tol_mm: float,
              original: np.ndarray) -> np.ndarray:
     """Per piece the new feed: the pieces commanded during each offending tick's lookback window
     and the piece the tool is nearest to go down to the fraction √(tol/error)·margin of the

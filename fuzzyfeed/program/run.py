@@ -7,10 +7,11 @@ arcs and G5.2 blocks as chords within the machine's chord tolerance) whose posit
 A chain ends where the tool stops or the position is not known: a move of unknown position, a
 canned cycle, a move in G93/G95 or with rotary axes, a stop code (M0/M1/M2/M6/M30/M60), a frame
 change. Those moves are left out of the time. :func:`run_program` plans every chain
-(:func:`fuzzyfeed.machine.planner.plan_motion`), samples it every Ts, runs the set-points through
-the servo (:func:`fuzzyfeed.machine.servo.following_errors`) and measures the contour error of the
-ticks commanded on feed moves of cuts against the programmed path
-(:func:`fuzzyfeed.machine.trace.trace_motion`); rapids are excluded.
+(:func:`fuzzyfeed.machine.planner.plan_motion`) and runs it tick by tick through the servo,
+measuring the contour error of the ticks commanded on feed moves of cuts against the programmed
+path (:func:`fuzzyfeed.machine.stream.stream_plan`, held to the whole-array reference
+:func:`fuzzyfeed.machine.trace.trace_motion`); rapids are excluded. Nothing is kept per tick: a
+run keeps summaries (largest error per segment, a histogram, the ticks over the tolerance).
 """
 
 from __future__ import annotations
@@ -21,9 +22,14 @@ import numpy as np
 
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.planner import Motion, Plan
-from fuzzyfeed.machine.trace import trace_motion
+from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
+from fuzzyfeed.machine.stream import StreamRun, percentile_um, stream_plan
 from fuzzyfeed.program.model import ARC, HOME, LINE, NURBS, RAPID, Program, arc_geometry, arc_points
+
+#: The most servo periods one chain's run may simulate (CPU, not memory: the run keeps no ticks;
+#: 100–300 ns a tick, so a minute or two).
+MAX_STREAM_TICKS = 5e8
+
 
 @dataclass(frozen=True, eq=False)
 class Chain:
@@ -143,18 +149,47 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
 
 @dataclass(frozen=True, eq=False)
 class ChainRun:
-    """One chain planned and run: its plan, and per measured tick the time, the contour error
-    (mm), the move commanded and the nearest segment of the actual tool."""
+    """One chain planned and run (:func:`~fuzzyfeed.machine.stream.stream_plan`): its plan, the
+    run's summaries (``stream``) and, per tick over the tolerance in the part (merged into runs,
+    see :class:`~fuzzyfeed.machine.stream.StreamRun`), the time, the contour error (mm), the move
+    and segment commanded, the nearest segment and point of the path, the commanded speed and the
+    segment commanded a lookback earlier."""
 
     plan: Plan
-    tick_time_s: np.ndarray
-    contour_mm: np.ndarray
+    stream: StreamRun
     tick_move: np.ndarray
-    tick_segment: np.ndarray
-    nearest_segment: np.ndarray
-    nearest_xyz: np.ndarray
-    speed_mm_s: np.ndarray
-    lookback_segment: np.ndarray
+
+    @property
+    def tick_time_s(self) -> np.ndarray:
+        return self.stream.tick_time_s
+
+    @property
+    def contour_mm(self) -> np.ndarray:
+        return self.stream.contour_mm
+
+    @property
+    def tick_segment(self) -> np.ndarray:
+        return self.stream.tick_segment
+
+    @property
+    def nearest_segment(self) -> np.ndarray:
+        return self.stream.nearest_segment
+
+    @property
+    def nearest_xyz(self) -> np.ndarray:
+        return self.stream.nearest_xyz
+
+    @property
+    def speed_mm_s(self) -> np.ndarray:
+        return self.stream.speed_mm_s
+
+    @property
+    def lookback_segment(self) -> np.ndarray:
+        return self.stream.lookback_segment
+
+    @property
+    def max_mm(self) -> float:
+        return self.stream.max_mm
 
 
 @dataclass(frozen=True, eq=False)
@@ -169,57 +204,84 @@ class ProgramRun:
         return float(sum(r.plan.time_s for r in self.runs))
 
     @property
-    def contour_um(self) -> np.ndarray:
-        parts = [r.contour_mm for r in self.runs]
-        return np.concatenate(parts) * 1e3 if parts else np.zeros(0)
-
-    @property
     def max_um(self) -> float:
-        e = self.contour_um
-        return float(e.max()) if e.size else 0.0
+        """Largest contour error in the part (µm)."""
+        return max((r.stream.max_mm for r in self.runs), default=0.0) * 1e3
 
     @property
     def p99_um(self) -> float:
-        e = self.contour_um
-        return float(np.percentile(e, 99)) if e.size else 0.0
+        """99th percentile of the contour error in the part over every measured tick (µm, from the
+        runs' histograms: within 0.025 µm below 500 µm)."""
+        if not self.runs:
+            return 0.0
+        bins = np.concatenate([r.stream.hist_bins for r in self.runs])
+        counts = np.concatenate([r.stream.hist_counts for r in self.runs])
+        if bins.size == 0:
+            return 0.0
+        ub, inv = np.unique(bins, return_inverse=True)
+        return percentile_um(ub, np.bincount(inv, weights=counts).astype(np.int64), 99.0)
 
-    def worst(self) -> tuple[int, np.ndarray] | None:
-        """(program line, 0-based, of the move commanded then) and the point of the path nearest to
-        the tool (mm) at the largest contour error, or None."""
+    @property
+    def air_max_um(self) -> float:
+        """Largest error in the air (µm): ticks commanded on a feed move while the tool is still
+        nearest a rapid it lags behind (no feed of the cut changes it)."""
+        return max((r.stream.air_max_mm for r in self.runs), default=0.0) * 1e3
+
+    def _where(self, attr: str, seg_attr: str, xyz_attr: str) -> tuple[int, np.ndarray] | None:
         best = None
-        for r in self.runs:
-            if r.contour_mm.size == 0:
-                continue
-            k = int(np.argmax(r.contour_mm))
-            if best is None or r.contour_mm[k] > best[0]:
-                best = (float(r.contour_mm[k]), int(r.tick_move[k]), r.nearest_xyz[k])
+        for chain, r in zip(self.path.chains, self.runs):
+            v = getattr(r.stream, attr)
+            seg = getattr(r.stream, seg_attr)
+            if seg >= 0 and (best is None or v > best[0]):
+                best = (v, int(chain.seg_move[seg]), getattr(r.stream, xyz_attr))
         if best is None:
             return None
         return int(self.path.program.move_line[best[1]]), best[2]
+
+    def worst(self) -> tuple[int, np.ndarray] | None:
+        """(program line, 0-based, of the move commanded then) and the point of the path nearest to
+        the tool (mm) at the largest contour error in the part, or None."""
+        return self._where("max_mm", "max_segment", "max_xyz")
+
+    def worst_air(self) -> tuple[int, np.ndarray] | None:
+        """As :meth:`worst`, for the largest error in the air (the point: on the rapid)."""
+        return self._where("air_max_mm", "air_segment", "air_xyz")
 
     def cut_max_um(self) -> np.ndarray:
         """Largest contour error (µm) of every cut of the program (0 for a cut never measured)."""
         out = np.zeros(self.path.program.n_cuts)
         cut = self.path.program.cut
-        for r in self.runs:
-            if r.contour_mm.size:
-                c = cut[r.tick_move]
-                ok = c >= 0
-                np.maximum.at(out, c[ok], r.contour_mm[ok] * 1e3)
+        for chain, r in zip(self.path.chains, self.runs):
+            c = cut[chain.seg_move]
+            ok = (c >= 0) & (r.stream.seg_max_mm > 0)
+            np.maximum.at(out, c[ok], r.stream.seg_max_mm[ok] * 1e3)
         return out
 
 
-def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = None) -> ChainRun:
-    """Plan ``chain`` (with ``feed_mm_s`` per segment instead of its own, if given), sample it every
-    Ts, run the servo and measure the contour error of its measured ticks."""
+def chain_motion(chain: Chain, feed_mm_s: np.ndarray | None = None) -> Motion:
+    """The chain's motion, with ``feed_mm_s`` per segment instead of its own if given."""
     motion = chain.motion
     if feed_mm_s is not None:
         motion = Motion(motion.points, feed_mm_s, motion.rapid, motion.arc_radius_mm)
-    tr = trace_motion(motion, machine, chain.seg_measured)
-    return ChainRun(plan=tr.plan, tick_time_s=tr.tick_time_s, contour_mm=tr.contour_mm,
-                    tick_move=chain.seg_move[tr.tick_segment], tick_segment=tr.tick_segment,
-                    nearest_segment=tr.nearest_segment, nearest_xyz=tr.nearest_xyz, speed_mm_s=tr.speed_mm_s,
-                    lookback_segment=tr.lookback_segment)
+    return motion
+
+
+def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = None,
+              windows: list[tuple[int, int]] | None = None, plan: Plan | None = None,
+              keep_mm: float | None = None) -> ChainRun:
+    """Plan ``chain`` (with ``feed_mm_s`` per segment instead of its own, if given; or take
+    ``plan``) and run it through the servo tick by tick (only the tick ``windows`` if given),
+    measuring the contour error of its measured ticks; ticks over ``keep_mm`` (default the
+    machine's tolerance) are kept as events."""
+    if plan is None:
+        plan = plan_motion(chain_motion(chain, feed_mm_s), machine)
+    ticks = plan.time_s / machine.ts_s
+    if windows is None and not ticks <= MAX_STREAM_TICKS:
+        raise InputError(f"a run of {plan.time_s:.0f} s at Ts = {machine.ts_s:g} s is {ticks:.2g} servo "
+                         f"periods; at most {MAX_STREAM_TICKS:.0e} are simulated (split the program, or "
+                         "give a longer --ts-s)")
+    sr = stream_plan(plan, machine, chain.seg_measured, keep_mm=keep_mm, windows=windows)
+    return ChainRun(plan=plan, stream=sr, tick_move=chain.seg_move[sr.tick_segment])
 
 
 def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | None = None,

@@ -38,10 +38,11 @@ class ValueRow:
     time_s: float
     max_um: float
     p99_um: float
+    air_um: float = float("nan")     # largest error in the air (the tool nearest a rapid), not in the part
 
     @classmethod
     def of(cls, label: str, run: ProgramRun) -> ValueRow:
-        return cls(label, run.time_s, run.max_um, run.p99_um)
+        return cls(label, run.time_s, run.max_um, run.p99_um, run.air_max_um)
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,6 +78,7 @@ class ValueReport:
     trace: FeedTrace | None = None
     coverage: Coverage | None = None     # the judged part (issue 40): no verdict beyond it
     verification: Verification | None = None   # what rs274 said of the rewrite (--verify-rs274)
+    worst_air: tuple[int, tuple[float, float, float]] | None = None
 
     @property
     def partial(self) -> bool:
@@ -106,7 +108,25 @@ class ValueReport:
         if self.verification is not None:
             out.append("  " + self.verification.summary())
         out.append("  " + self.verdict())
+        air = self.air_line()
+        if air:
+            out.append("  " + air)
         return out
+
+    def air_line(self) -> str:
+        """Where the rows' errors are: max and p99 are in the part (the tool nearest a feed move);
+        the largest error in the air (the tool still nearest a rapid it lags behind, as the next
+        feed move starts) is said apart, with where, when it passes the tolerance (as written or
+        advised); an error in the air within the tolerance is not worth a line."""
+        w, a = self.written, self.advised
+        if not (w.air_um > self.tol_um or a.air_um > self.tol_um):
+            return ""
+        text = (f"in the air (tool still nearest a rapid when a feed move starts; not in the part, no F changes "
+                f"it): as written {w.air_um:.1f} um, advised {a.air_um:.1f} um")
+        if self.worst_air is not None:
+            line, xyz = self.worst_air
+            text += f", largest at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)})"
+        return text
 
     def verdict(self) -> str:
         tol = self.tol_um
@@ -194,7 +214,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     """Advise ``program`` for ``machine`` and measure what it bought (module docstring): the cuts
     (of ``cuts``, default all) that break the tolerance as written get the advice, the others keep
     their feeds. ``progress(step)`` is called with a short name before each stage. ``max_ticks``
-    bounds the servo periods of one run of the uniform search (its row is then a lower bound).
+    bounds the servo periods of the uniform slowdown's checking run (beyond it the row takes the
+    planner's time and the largest error of the hot stretches, and no p99).
     ``verify(program, move, end, feed) -> (text, Verification)`` replaces the plain rewrite (rs274's
     check, :func:`fuzzyfeed.program.verify.verified_rewrite`): the advised run is of its text.
     ``tools``: the tool table the program was read with (the advised text is read with it too, so
@@ -228,14 +249,19 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
         uniform_factor = u.factor
-        uniform_row = (ValueRow(f"uniform x<{_factor(u.factor)} (at least)", u.time_s, float("nan"), float("nan"))
-                       if u.bounded else ValueRow.of(f"uniform x{_factor(u.factor)}", u.run))
+        if u.bounded:
+            uniform_row = ValueRow(f"uniform x<{_factor(u.factor)} (at least)", u.time_s, float("nan"), float("nan"))
+        elif u.run is None:
+            uniform_row = ValueRow(f"uniform x{_factor(u.factor)}", u.time_s, u.max_um, float("nan"))
+        else:
+            uniform_row = ValueRow.of(f"uniform x{_factor(u.factor)}", u.run)
         ref_row, converged = None, True
         if reference:
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
     worst = advised_run.worst()
+    air = advised_run.worst_air()
     report = ValueReport(
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
@@ -245,7 +271,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
         trace=feed_trace(path, written, advised_path, tol), coverage=program_coverage(program),
-        verification=checked)
+        verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])))
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report)
 
 

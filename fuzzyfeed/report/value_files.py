@@ -88,6 +88,8 @@ def report_table_html(reports: Sequence[ValueReport]) -> str:
         if r.verification is not None:
             parts.append(f"<p>{html.escape(r.verification.summary())}</p>")
         parts.append(f"<p>{html.escape(r.verdict())}</p>")
+        if r.air_line():
+            parts.append(f"<p>{html.escape(r.air_line())}</p>")
         buf = io.BytesIO()
         plot_value(r, buf)
         data = base64.b64encode(buf.getvalue()).decode("ascii")

@@ -1,0 +1,219 @@
+"""The servo-tick loop compiled by numba (see :mod:`fuzzyfeed.machine.stream`): one pass over the
+ticks of a planned motion, nothing kept per tick. It does, tick by tick, what
+:meth:`~fuzzyfeed.machine.planner.Plan.sample`, :func:`~fuzzyfeed.machine.servo.following_errors`
+and :func:`~fuzzyfeed.machine.contour.windowed_distance` do on whole arrays in
+:func:`~fuzzyfeed.machine.trace.trace_motion` (the reference the tests hold it to)."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+#: Histogram of the contour error (µm): linear bins of HIST_STEP_UM below HIST_LINEAR_UM, then
+#: logarithmic bins of relative width HIST_LOG_STEP (≤ 0.05 µm at 500 µm); the last bin is open.
+HIST_STEP_UM = 0.05
+HIST_LINEAR_UM = 500.0
+HIST_LOG_STEP = 1e-4
+HIST_BINS = 10_000 + 80_000
+
+# indices into the float state vector
+S_MAX, S_MAX_T, S_MAX_X, S_AIR, S_AIR_T, S_AIR_X, S_N_PART, S_N_AIR = 0, 1, 2, 5, 6, 7, 10, 11
+# indices into the int state vector
+I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG = range(10)
+
+
+@numba.njit(cache=True, nogil=True)
+def hist_bin(v_um):
+    if v_um < HIST_LINEAR_UM:
+        return int(v_um / HIST_STEP_UM)
+    b = 10_000 + int(math.log(v_um / HIST_LINEAR_UM) / math.log1p(HIST_LOG_STEP))
+    return min(b, HIST_BINS - 1)
+
+
+@numba.njit(cache=True, nogil=True)
+def _search_right(a, x):
+    lo, hi = 0, a.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if x < a[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+@numba.njit(cache=True, nogil=True)
+def _search_left(a, x):
+    lo, hi = 0, a.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if a[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True, nogil=True)
+def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_acc, t_cruise,
+              measured, fb, fa, ts, total, k_from, k_measure, k_end, lookback, margin, keep_mm,
+              y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i):
+    """Ticks k_from … k_end (inclusive) of a plan; ticks before k_measure only run the servo.
+
+    The servo state (y_hist: last two errors per axis, x_hist: last two tick velocities, prev: the
+    last set-point) and the lookback ring buffers are read and left for the next call. Measured
+    ticks update ``seg_max`` (per commanded segment, in the part), ``hist`` and ``fstate``/
+    ``istate``; ticks over ``keep_mm`` in the part are events, run-length merged while their
+    (segment, lookback, nearest, 0.1 mm bin, at-rest) key holds — the most demanding one
+    (smallest speed/√error) kept. Returns the tick to resume at (k_end + 1 when done; earlier
+    when ``ev_f`` is full: drain it and call again)."""
+    n = length.shape[0]
+    ring = s_ring.shape[0]
+    cap = ev_f.shape[0]
+    seg = istate[I_SEG]
+    for k in range(k_from, k_end + 1):
+        if istate[I_EV_N] >= cap:         # one free slot at each tick's start: resume here
+            istate[I_SEG] = seg
+            return k
+        t = min(k * ts, total)
+        while seg + 1 < n and t_start[seg + 1] <= t:
+            seg += 1
+        tau = t - t_start[seg]
+        v0 = v_entry[seg]
+        vp = v_peak[seg]
+        a = acc[seg]
+        ta = t_acc[seg]
+        tc = t_cruise[seg]
+        t1 = min(tau, ta)
+        d = v0 * t1 + 0.5 * a * t1 * t1
+        t2 = min(max(tau - ta, 0.0), tc)
+        d += vp * t2
+        t3 = max(tau - ta - tc, 0.0)
+        d += vp * t3 - 0.5 * a * t3 * t3
+        d = min(d, length[seg])
+        c0 = points[seg, 0] + unit[seg, 0] * d
+        c1 = points[seg, 1] + unit[seg, 1] * d
+        c2 = points[seg, 2] + unit[seg, 2] * d
+        s_cmd = s_vertex[seg] + math.sqrt(((c0 - points[seg, 0]) ** 2 + (c1 - points[seg, 1]) ** 2)
+                                          + (c2 - points[seg, 2]) ** 2)
+        # servo: e_k = (b1 v_k-1 + b2 v_k-2 − a1 e_k-1 − a2 e_k-2) / a0 (b0 = 0: strictly proper);
+        # a fresh start (istate[I_K0] == -1) is at rest on its first set-point
+        fresh = istate[I_K0] == -1
+        cmd = (c0, c1, c2)
+        e0 = e1 = e2 = 0.0
+        for j in range(3):
+            if fresh:
+                x_hist[j, 0] = x_hist[j, 1] = y_hist[j, 0] = y_hist[j, 1] = 0.0
+                ej = 0.0
+            else:
+                x_hist[j, 1] = x_hist[j, 0]
+                x_hist[j, 0] = (cmd[j] - prev[j]) / ts
+                ej = (fb[j, 1] * x_hist[j, 0] + fb[j, 2] * x_hist[j, 1]
+                      - fa[j, 1] * y_hist[j, 0] - fa[j, 2] * y_hist[j, 1]) / fa[j, 0]
+                y_hist[j, 1] = y_hist[j, 0]
+                y_hist[j, 0] = ej
+            prev[j] = cmd[j]
+            if j == 0:
+                e0 = ej
+            elif j == 1:
+                e1 = ej
+            else:
+                e2 = ej
+        if fresh:
+            istate[I_K0] = 0
+            speed = 0.0
+        else:
+            speed = (s_cmd - s_ring[(k - 1) % ring]) / ts
+        s_ring[k % ring] = s_cmd
+        seg_ring[k % ring] = seg
+        if k < k_measure or not measured[seg]:
+            continue
+        kb = max(k - lookback, 0)
+        s_back = s_ring[kb % ring]
+        seg_back = seg_ring[kb % ring]
+        q0, q1, q2 = c0 - e0, c1 - e1, c2 - e2
+        s_lo = s_back - margin
+        s_hi = s_cmd + margin
+        i_lo = min(max(_search_right(s_vertex, s_lo) - 1, 0), n - 1)
+        i_hi = min(max(_search_left(s_vertex, s_hi), i_lo + 1), n)
+        best_d2 = np.inf
+        best_j = i_lo
+        best_t = 0.0
+        for jj in range(i_lo, i_hi):
+            dx = points[jj + 1, 0] - points[jj, 0]
+            dy = points[jj + 1, 1] - points[jj, 1]
+            dz = points[jj + 1, 2] - points[jj, 2]
+            l2 = (dx * dx + dy * dy) + dz * dz
+            r0 = q0 - points[jj, 0]
+            r1 = q1 - points[jj, 1]
+            r2 = q2 - points[jj, 2]
+            tt = ((r0 * dx + r1 * dy) + r2 * dz) / l2
+            tt = min(max(tt, 0.0), 1.0)
+            o0 = r0 - dx * tt
+            o1 = r1 - dy * tt
+            o2 = r2 - dz * tt
+            d2 = (o0 * o0 + o1 * o1) + o2 * o2
+            if d2 < best_d2:
+                best_d2 = d2
+                best_j = jj
+                best_t = tt
+        dist = math.sqrt(best_d2)
+        f0 = points[best_j, 0] + (points[best_j + 1, 0] - points[best_j, 0]) * best_t
+        f1 = points[best_j, 1] + (points[best_j + 1, 1] - points[best_j, 1]) * best_t
+        f2 = points[best_j, 2] + (points[best_j + 1, 2] - points[best_j, 2]) * best_t
+        if not measured[best_j]:
+            # the tool is nearest a segment not measured (a rapid it lags behind): in the air
+            fstate[S_N_AIR] += 1.0
+            if dist > fstate[S_AIR]:
+                fstate[S_AIR] = dist
+                fstate[S_AIR_T] = t
+                fstate[S_AIR_X] = f0
+                fstate[S_AIR_X + 1] = f1
+                fstate[S_AIR_X + 2] = f2
+                istate[I_AIR_SEG] = seg
+                istate[I_AIR_NEAR] = best_j
+            continue
+        fstate[S_N_PART] += 1.0
+        hist[hist_bin(dist * 1e3)] += 1
+        if dist > seg_max[seg]:
+            seg_max[seg] = dist
+        if dist > fstate[S_MAX]:
+            fstate[S_MAX] = dist
+            fstate[S_MAX_T] = t
+            fstate[S_MAX_X] = f0
+            fstate[S_MAX_X + 1] = f1
+            fstate[S_MAX_X + 2] = f2
+            istate[I_MAX_SEG] = seg
+        if dist > keep_mm:
+            sbin = int(math.floor((s_vertex[best_j] + best_t * length[best_j]) / 0.1))
+            rest = 1 if speed <= 0.0 else 0
+            m = istate[I_EV_N]
+            same = (m > 0 and istate[I_K1] == seg_back and istate[I_K2] == best_j and istate[I_K3] == sbin
+                    and istate[I_K4] == rest and ev_i[m - 1, 0] == seg)
+            if same:
+                if speed * math.sqrt(ev_f[m - 1, 1]) < ev_f[m - 1, 2] * math.sqrt(dist):
+                    ev_f[m - 1, 0] = t
+                    ev_f[m - 1, 1] = dist
+                    ev_f[m - 1, 2] = speed
+                    ev_f[m - 1, 3] = f0
+                    ev_f[m - 1, 4] = f1
+                    ev_f[m - 1, 5] = f2
+            else:
+                ev_f[m, 0] = t
+                ev_f[m, 1] = dist
+                ev_f[m, 2] = speed
+                ev_f[m, 3] = f0
+                ev_f[m, 4] = f1
+                ev_f[m, 5] = f2
+                ev_i[m, 0] = seg
+                ev_i[m, 1] = best_j
+                ev_i[m, 2] = seg_back
+                istate[I_EV_N] = m + 1
+                istate[I_K1] = seg_back
+                istate[I_K2] = best_j
+                istate[I_K3] = sbin
+                istate[I_K4] = rest
+    istate[I_SEG] = seg
+    return k_end + 1

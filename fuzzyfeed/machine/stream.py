@@ -1,0 +1,212 @@
+"""A motion run on a machine tick by tick without keeping the ticks (issue 36, item 1).
+
+:func:`stream_plan` runs the ticks of a :class:`~fuzzyfeed.machine.planner.Plan` through the
+servo and the contour measure in one compiled pass (:mod:`fuzzyfeed.machine._ticks_jit`: the
+operations of :func:`~fuzzyfeed.machine.trace.trace_motion`, the whole-array reference, tick by
+tick), carrying the servo's state (its lag, through rapids) from tick to tick, and keeps only
+summaries (:class:`StreamRun`): the largest contour error per commanded segment and where the
+largest of all is, a fixed-resolution histogram (the p99), the largest error *in the air* (ticks
+commanded on a feed move while the tool is still nearest a rapid it lags behind) apart from the
+error *in the part*, and the ticks over a threshold merged into runs (what the limit reference and
+the value plot need). Memory: O(segments) + a 64k-event buffer, never O(ticks).
+
+**Windows.** ``windows`` runs only stretches of ticks [k_a, k_b]: each starts at rest
+:data:`WARMUP_TIME_CONSTANTS` servo time constants earlier, so its error at k_a differs from the
+whole run's by at most e^-16 ≈ 1e-7 of the largest lag (a first-order loop forgets its state as
+e^(−Kv·t); a second-order one as e^(−ζωn·t), its envelope). This is what lets the uniform slowdown
+and the limit reference re-run only the stretches around hot spots.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine.planner import Plan
+
+#: A window's warm-up, in servo time constants (its error from starting at rest: ≤ e^-16 of the lag).
+WARMUP_TIME_CONSTANTS = 16.0
+#: Events (merged ticks over the threshold) held before they are handed to Python.
+EVENT_CHUNK = 65_536
+
+
+@dataclass(frozen=True, eq=False)
+class StreamRun:
+    """Summaries of one run (all errors in mm): per commanded segment the largest error in the
+    part (``seg_max_mm``, 0 where none was measured); the histogram (sparse bins of
+    :func:`hist_edges`); the largest error in the part and in the air with where; the events
+    (ticks over the threshold, merged while segment, lookback segment, nearest segment and 0.1 mm
+    of path hold: the most demanding tick of each run, smallest speed/√error)."""
+
+    plan: Plan
+    seg_max_mm: np.ndarray
+    hist_bins: np.ndarray
+    hist_counts: np.ndarray
+    max_mm: float
+    max_time_s: float
+    max_segment: int
+    max_xyz: np.ndarray
+    air_max_mm: float
+    air_time_s: float
+    air_segment: int
+    air_nearest: int
+    air_xyz: np.ndarray
+    tick_time_s: np.ndarray
+    contour_mm: np.ndarray
+    speed_mm_s: np.ndarray
+    nearest_xyz: np.ndarray
+    tick_segment: np.ndarray
+    nearest_segment: np.ndarray
+    lookback_segment: np.ndarray
+
+
+def hist_edges() -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper edge (µm) of every histogram bin of the tick loop."""
+    from fuzzyfeed.machine import _ticks_jit as j
+
+    i = np.arange(j.HIST_BINS, dtype=float)
+    lin = i * j.HIST_STEP_UM
+    log = j.HIST_LINEAR_UM * np.exp((i - 10_000) * np.log1p(j.HIST_LOG_STEP))
+    lo = np.where(i < 10_000, lin, log)
+    hi = np.append(lo[1:], np.inf)
+    return lo, hi
+
+
+def percentile_um(bins: np.ndarray, counts: np.ndarray, q: float) -> float:
+    """The q-th percentile (numpy's linear rule) of the values a sparse histogram holds, each
+    value taken at its bin's middle (within half a bin: 0.025 µm below 500 µm)."""
+    n = int(counts.sum())
+    if n == 0:
+        return 0.0
+    lo, hi = hist_edges()
+    mid = np.where(np.isfinite(hi[bins]), 0.5 * (lo[bins] + hi[bins]), lo[bins])
+    order = np.argsort(bins)
+    cum = np.cumsum(counts[order])
+    rank = q / 100.0 * (n - 1)
+    i0, i1 = int(np.floor(rank)), int(np.ceil(rank))
+    v0 = mid[order][np.searchsorted(cum, i0, side="right")]
+    v1 = mid[order][np.searchsorted(cum, i1, side="right")]
+    return float(v0 + (rank - i0) * (v1 - v0))
+
+
+def servo_coefficients(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
+    """(b, a) of every axis's error filter (:meth:`ServoModel.error_filter`), padded to 3 taps."""
+    fb = np.zeros((3, 3))
+    fa = np.zeros((3, 3))
+    for j in range(3):
+        b, a = machine.servo.error_filter(j, machine.ts_s)
+        if abs(b[0]) > 1e-12 * max(np.abs(b).max(), 1e-300):
+            raise ValueError("servo filter: b0 != 0 (the error filter must be strictly proper)")
+        fb[j, :b.size] = b
+        fa[j, :a.size] = a
+    return fb, fa
+
+
+@cache
+def _kernel():
+    from fuzzyfeed.machine._ticks_jit import run_ticks
+
+    return run_ticks
+
+
+def tick_count(plan: Plan, ts_s: float) -> int:
+    """K: the ticks of a plan are t_k = min(k·Ts, T), k = 0 … K (as :meth:`Plan.sample`)."""
+    return int(np.ceil(plan.time_s / ts_s - 1e-9))
+
+
+def lookback_ticks(machine: Machine) -> int:
+    from fuzzyfeed.machine.trace import LOOKBACK_TIME_CONSTANTS
+
+    return int(np.ceil(LOOKBACK_TIME_CONSTANTS * machine.servo.time_constant_s / machine.ts_s))
+
+
+def warmup_ticks(machine: Machine) -> int:
+    return max(int(np.ceil(WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s / machine.ts_s)),
+               lookback_ticks(machine) + 1)
+
+
+def segment_windows(plan: Plan, machine: Machine, segments: np.ndarray) -> list[tuple[int, int]]:
+    """Tick windows [k_a, k_b] that hold every tick commanded on ``segments`` (indices), merged
+    where their warm-ups would overlap."""
+    seg = np.unique(np.asarray(segments, dtype=np.int64))
+    if seg.size == 0:
+        return []
+    ts = machine.ts_s
+    k_end = tick_count(plan, ts)
+    ka = np.clip(np.floor(plan.t_start[seg] / ts).astype(np.int64), 0, k_end)
+    kb = np.clip(np.ceil(plan.t_start[seg + 1] / ts).astype(np.int64), 0, k_end)
+    gap = warmup_ticks(machine)
+    out: list[tuple[int, int]] = []
+    for a, b in zip(ka.tolist(), kb.tolist()):
+        if out and a - gap <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None,
+                keep_mm: float | None = None, windows: list[tuple[int, int]] | None = None) -> StreamRun:
+    """Run ``plan`` on ``machine``'s servo tick by tick (module docstring): all ticks, or only
+    ``windows``; the contour error measured at the ticks commanded on ``measured`` segments
+    (default all); ticks over ``keep_mm`` (default the machine's tolerance) kept as events."""
+    motion = plan.motion
+    n = plan.length.size
+    meas = np.ones(n, bool) if measured is None else np.ascontiguousarray(measured, dtype=bool)
+    keep = machine.contour_tol_um * 1e-3 if keep_mm is None else float(keep_mm)
+    from fuzzyfeed.machine.trace import WINDOW_MARGIN_MM
+
+    ts = machine.ts_s
+    k_end = tick_count(plan, ts)
+    lookback = lookback_ticks(machine)
+    fb, fa = servo_coefficients(machine)
+    f64 = lambda a: np.array(a, dtype=np.float64, order="C")  # noqa: E731  writable C copies: one compilation
+    arrays = (f64(motion.points), f64(plan.unit), f64(plan.length), f64(plan.segment_arc_start()),
+              f64(plan.t_start), f64(plan.v_entry), f64(plan.v_peak), f64(plan.acc), f64(plan.t_acc),
+              f64(plan.t_cruise), np.array(meas, dtype=np.bool_), fb, fa)
+    seg_max = np.zeros(n)
+    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_SEG
+
+    hist = np.zeros(HIST_BINS, dtype=np.int64)
+    fstate = np.zeros(12)
+    fstate[[0, 5]] = -1.0
+    istate = np.full(10, -1, dtype=np.int64)
+    ev_f = np.zeros((EVENT_CHUNK, 6))
+    ev_i = np.zeros((EVENT_CHUNK, 3), dtype=np.int64)
+    parts_f, parts_i = [], []
+    run = _kernel()
+    spans = [(0, k_end)] if windows is None else windows
+    warm = warmup_ticks(machine)
+    for ka, kb in spans:
+        k_from = max(ka - warm, 0) if windows is not None else 0
+        y_hist, x_hist, prev = np.zeros((3, 2)), np.zeros((3, 2)), np.zeros(3)
+        s_ring = np.zeros(lookback + 1)
+        seg_ring = np.zeros(lookback + 1, dtype=np.int64)
+        istate[I_K0] = -1
+        istate[I_EV_N] = 0
+        istate[I_SEG] = min(max(int(np.searchsorted(plan.t_start, min(k_from * ts, plan.time_s),
+                                                     side="right")) - 1, 0), n - 1)
+        k = k_from
+        while k <= kb:
+            k = run(*arrays, ts, plan.time_s, k, ka, kb, lookback, WINDOW_MARGIN_MM, keep,
+                    y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i)
+            m = int(istate[I_EV_N])
+            if m:
+                parts_f.append(ev_f[:m].copy())
+                parts_i.append(ev_i[:m].copy())
+                istate[I_EV_N] = 0
+    ef = np.concatenate(parts_f) if parts_f else np.zeros((0, 6))
+    ei = np.concatenate(parts_i) if parts_i else np.zeros((0, 3), dtype=np.int64)
+    bins = np.flatnonzero(hist)
+    has_max, has_air = fstate[0] >= 0, fstate[5] >= 0
+    return StreamRun(plan=plan, seg_max_mm=seg_max, hist_bins=bins, hist_counts=hist[bins],
+                     max_mm=float(max(fstate[0], 0.0)), max_time_s=float(fstate[1]) if has_max else np.nan,
+                     max_segment=int(istate[0]) if has_max else -1, max_xyz=fstate[2:5].copy(),
+                     air_max_mm=float(max(fstate[5], 0.0)), air_time_s=float(fstate[6]) if has_air else np.nan,
+                     air_segment=int(istate[1]) if has_air else -1, air_nearest=int(istate[2]) if has_air else -1,
+                     air_xyz=fstate[7:10].copy(),
+                     tick_time_s=ef[:, 0], contour_mm=ef[:, 1], speed_mm_s=ef[:, 2], nearest_xyz=ef[:, 3:6],
+                     tick_segment=ei[:, 0], nearest_segment=ei[:, 1], lookback_segment=ei[:, 2])
