@@ -211,7 +211,9 @@ def read_linuxcnc_ini(text: str, path: str | Path = "<ini>", hal_text: str | Non
                  for e in ini.entries if id(e) in ini.used)
     ignored = tuple(Setting(ini.where(e), f"[{e.section}] {e.key}", e.value, _why_ignored(e, trivial))
                     for e in ini.entries if id(e) not in ini.used)
-    return Imported(machine=machine, used=used + tuple(hal_settings), ignored=ignored,
+    hal_ignored = tuple(Setting(h.where, h.key, h.value, h.note[9:]) for h in hal_settings if h.note.startswith("IGNORED: "))
+    hal_used = tuple(h for h in hal_settings if not h.note.startswith("IGNORED: "))
+    return Imported(machine=machine, used=used + hal_used, ignored=ignored + hal_ignored,
                     assumed=tuple(assumed))
 
 
@@ -299,7 +301,7 @@ def _servo(ini: _Ini, hal_text: str, hal_path: str, assumed: list[str]) -> tuple
         if not math.isfinite(v) or v < 0 or (pin == "Pgain" and v == 0) or (pin == "FF1gain" and v > 1):
             raise ImportSettingsError(f"{where}: setp {comp}.{pin} {value} (= {text_value}); {rule}")
         if joint is None or not trivial or joint >= len(letters) or letters[joint] not in AXES:
-            settings.append(Setting(where, f"setp {comp}.{pin}", value, "ignored: not a joint of X, Y or Z"))
+            settings.append(Setting(where, f"setp {comp}.{pin}", value, "IGNORED: names no joint of X, Y or Z"))
             continue
         gains[pin][joint] = v
         settings.append(Setting(where, f"setp {comp}.{pin}", text_value,
