@@ -13,9 +13,11 @@ Not part of the package: the tests (``tests/test_linuxcnc_sim.py``) and the benc
 How it runs. uspace's realtime refuses root, so LinuxCNC runs as the ordinary user
 :data:`SIM_USER` (``runuser -u``; created with ``useradd`` when missing and we are root). Its
 ``[DISPLAY] DISPLAY`` is :data:`DISPLAY_PROGRAM`, a small Debian-``python3`` program using the
-``linuxcnc`` module: machine on, AUTO, open the program, enable the sampler, run, wait until the
-interpreter is idle and the motion queue empty, disable the sampler, stop ``halsampler``, exit
-(LinuxCNC then shuts down). One LinuxCNC at a time on this computer (its shared memory keys and
+``linuxcnc`` module: machine on, AUTO, open the program, enable the sampler, run (resuming at once
+after an M0/M1 pause, noted in :attr:`SimRun.messages`; the pause's periods are recorded), wait
+until the interpreter is idle and the motion queue empty, disable the sampler, stop
+``halsampler``, exit (LinuxCNC then shuts down). A run past its time is aborted by the DISPLAY
+program, or else stopped from outside (the DISPLAY program, then the whole session). One LinuxCNC at a time on this computer (its shared memory keys and
 ``/tmp/linuxcnc.lock`` are global): runs are serialised by an ``flock`` on :data:`LOCK_PATH`.
 
 Real time on a shared, busy computer: uspace without privileges runs its servo thread as an
@@ -240,6 +242,7 @@ DISPLAY_PROGRAM = textwrap.dedent('''\
             sampler.kill()
         json.dump(status, open(os.path.join(folder, "status.json"), "w"))
         sys.exit(code)
+    open(os.path.join(folder, "display.pid"), "w").write(str(os.getpid()))
     s, c, err = linuxcnc.stat(), linuxcnc.command(), linuxcnc.error_channel()
     sampler = subprocess.Popen(["halsampler", "-t"], stdout=open(os.path.join(folder, "samples.txt"), "w"))
     try:
@@ -258,6 +261,10 @@ DISPLAY_PROGRAM = textwrap.dedent('''\
         while time.time() < deadline:
             time.sleep(0.02)
             s.poll(); note()
+            if s.paused:         # M0/M1 (or M60): the operator presses resume at once
+                status["texts"].append(f"resumed a pause at line {s.current_line}")
+                c.auto(linuxcnc.AUTO_RESUME)
+                continue
             if s.interp_state != linuxcnc.INTERP_IDLE:
                 started = True
             if started and s.interp_state == linuxcnc.INTERP_IDLE and s.queue == 0 and s.inpos:
@@ -265,6 +272,8 @@ DISPLAY_PROGRAM = textwrap.dedent('''\
                 break
             if status["errors"] and s.interp_state == linuxcnc.INTERP_IDLE:
                 break
+        if not status["done"]:
+            c.abort()
         time.sleep(0.1); note()
     except Exception as exc:
         status["errors"].append(f"display: {type(exc).__name__}: {exc}")
@@ -294,7 +303,9 @@ def write_config(machine, folder: Path, program: Path, timeout_s: float, tool_ta
     if tool_table is not None:
         shutil.copy(tool_table, folder / "tool_user.tbl")
         table = "tool_user.tbl"
-    (folder / "tool.tbl").write_text("")
+    # without a table of its own: tools 1-99 of no length and no diameter (a T1 M6 is accepted and
+    # G43 moves nothing)
+    (folder / "tool.tbl").write_text("".join(f"T{t} P{t} Z0 D0 ;\n" for t in range(1, 100)))
     (folder / "sim.var").write_text("")
     (folder / "sim.hal").write_text(hal_text())
     (folder / "display.py").write_text(DISPLAY_PROGRAM)
@@ -311,7 +322,8 @@ def run_program(machine, program: str | os.PathLike, *, timeout_s: float | None 
     """Run ``program`` (a G-code file) on ``machine``'s LinuxCNC and record every servo period.
 
     ``expected_s`` the program's rough duration (the run is given 3x that plus
-    :data:`OVERHEAD_S`; ``timeout_s`` overrides it); ``tool_table`` a LinuxCNC tool table;
+    :data:`OVERHEAD_S`; ``timeout_s`` overrides it); ``tool_table`` a LinuxCNC tool table (default:
+    tools 1-99 of length 0 and diameter 0);
     ``keep`` a folder to leave the INI, HAL and samples in (for a look by hand). Raises
     :class:`SimError` when LinuxCNC reports an error, does not finish, or a tick is lost."""
     reason = unavailable()
@@ -333,17 +345,17 @@ def run_program(machine, program: str | os.PathLike, *, timeout_s: float | None 
                "LOGNAME": SIM_USER, "LANG": "C.UTF-8"}
         home_logs = [Path(user.pw_dir) / "linuxcnc_debug.txt", Path(user.pw_dir) / "linuxcnc_print.txt"]
         with _one_linuxcnc():
+            _wait_for_other_linuxcnc()
             for path in home_logs:          # LinuxCNC copies its log there when it ends in an error
                 path.unlink(missing_ok=True)
+            command = ["runuser", "-u", SIM_USER, "--", "env", "-i", *[f"{k}={v}" for k, v in env.items()],
+                       "linuxcnc", str(folder / "sim.ini")]
+            proc = subprocess.Popen(command, cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                    stdin=subprocess.DEVNULL, text=True, start_new_session=True)
             try:
-                proc = subprocess.run(["runuser", "-u", SIM_USER, "--", "env", "-i",
-                                       *[f"{k}={v}" for k, v in env.items()], "linuxcnc", str(folder / "sim.ini")],
-                                      cwd=folder, capture_output=True, text=True, timeout=timeout_s + OVERHEAD_S,
-                                      stdin=subprocess.DEVNULL)
-                log = proc.stdout + proc.stderr
-            except subprocess.TimeoutExpired as exc:
-                log = f"timed out after {timeout_s + OVERHEAD_S:.0f} s\n" + _text(exc.stdout) + _text(exc.stderr)
-                _cleanup_after_timeout(env)
+                log, _ = proc.communicate(timeout=timeout_s + OVERHEAD_S)
+            except subprocess.TimeoutExpired:
+                log = f"timed out after {timeout_s + OVERHEAD_S:.0f} s\n" + _stop(proc, folder)
             for path in [folder / "log.txt", *home_logs]:
                 if path.exists():
                     log += path.read_text(errors="replace")
@@ -352,14 +364,34 @@ def run_program(machine, program: str | os.PathLike, *, timeout_s: float | None 
         return _parse(folder, machine.ts_s, log)
 
 
-def _text(data) -> str:
-    return data.decode(errors="replace") if isinstance(data, bytes) else (data or "")
+def _wait_for_other_linuxcnc(limit_s: float = OVERHEAD_S) -> None:
+    """Wait while another LinuxCNC is up (its /tmp/linuxcnc.lock: a run whose caller was killed
+    ends itself at its DISPLAY program's deadline); LinuxCNC would otherwise shut it down."""
+    deadline = time.time() + limit_s
+    while os.path.exists("/tmp/linuxcnc.lock") and time.time() < deadline:
+        time.sleep(0.5)
+    if os.path.exists("/tmp/linuxcnc.lock"):
+        raise SimError("another LinuxCNC has been running for over a minute (/tmp/linuxcnc.lock); "
+                       "not starting a second one")
 
 
-def _cleanup_after_timeout(env: dict) -> None:
-    """LinuxCNC's own cleanup of a run that did not end (its processes are the sim user's)."""
-    subprocess.run(["runuser", "-u", SIM_USER, "--", "env", "-i", *[f"{k}={v}" for k, v in env.items()],
-                    "halrun", "-U"], capture_output=True, timeout=60)
+def _stop(proc: subprocess.Popen, folder: Path) -> str:
+    """End a run that did not finish: its DISPLAY program first (LinuxCNC then shuts down in order),
+    then the whole session it started. Returns what it printed."""
+    import signal
+
+    try:
+        os.kill(int((folder / "display.pid").read_text()), signal.SIGTERM)
+        out, _ = proc.communicate(timeout=60)
+        return out or ""
+    except (OSError, ValueError, subprocess.TimeoutExpired):
+        pass
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except OSError:
+        pass
+    out, _ = proc.communicate()
+    return out or ""
 
 
 def _parse(folder: Path, ts_s: float, log: str) -> SimRun:

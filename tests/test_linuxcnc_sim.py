@@ -110,3 +110,9 @@ def test_circle_stays_on_its_radius_and_agrees_with_the_planner(tmp_path):
     assert closed + V_MM_S / A_MM_S2 <= arc_time <= closed + 4 * V_MM_S / A_MM_S2 + ENDS_TICKS * run.ts_s
     predicted = _fuzzyfeed_time(prog, MACHINE)
     assert predicted == pytest.approx(run.time_s, rel=PLANNER_REL), (predicted, run.time_s)
+
+
+def test_pause_is_resumed_and_noted(tmp_path):
+    prog, run = _run(tmp_path, "G21 G90 G61\nG0 X0 Y0 Z0\nG1 X5 F600\nM0\nG1 Y5\nM2\n")
+    np.testing.assert_allclose(run.joints_mm[-1], [5.0, 5.0, 0.0], atol=1e-9)
+    assert any("resumed a pause" in m for m in run.messages)
