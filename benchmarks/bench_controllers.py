@@ -3,13 +3,13 @@
 For each public program of benchmarks/library (its first --lines lines, so LinuxCNC, which runs in
 real time, takes seconds), as written and as advised (``evaluate_program``, what ``fuzzyfeed
 advise P --machine M --gcode A`` writes): fuzzyfeed's predicted time and largest contour error
-against LinuxCNC's planner (tests/linuxcnc_sim.py) — its time from first to last motion, and the
+against LinuxCNC's planner (tests/linuxcnc_sim.py) — its time (``SimRun.motion_time_s``), and the
 contour error of the machine's servo model (``following_errors``) on LinuxCNC's commanded joint
 positions, measured against the programmed path as fuzzyfeed builds it (``program_path`` chains,
 ``windowed_distance`` over the whole path), split into the ticks on feed moves (in the part) and
 on rapids (in the air).
 
-    python benchmarks/bench_controllers.py [--machine linuxcnc-mill] [--lines 120] [--markdown FILE]
+    python benchmarks/bench_controllers.py [--machine linuxcnc-mill] [--lines 120] [--max-s 25] [--markdown FILE]
 """
 
 from __future__ import annotations
@@ -29,11 +29,12 @@ sys.path.insert(0, str(ROOT))
 import linuxcnc_sim  # noqa: E402
 
 LIBRARY = ROOT / "benchmarks" / "library" / "programs"
-#: mm programs rs274 accepts, from ten sources (not only LinuxCNC's examples)
+#: mm programs rs274 accepts, from eleven sources (not only LinuxCNC's examples)
 PROGRAMS = ("cncjs/tball.gcode", "camotics/engrave.ngc", "camotics/wave.gcode", "ugs/electric_turtle.nc",
             "ugs/enclosure.nc", "linuxcnc/tort.ngc", "machinekit/splash.ngc", "gsender/demo.gcode",
-            "pycut/pycut_small_kasten_op.nc", "dxf2gcode/erin7.ngc", "fluidnc/arcs_arrows.nc",
-            "led_floor/1084_btn_18bit_first.nc")
+            "pycut/pycut_small_kasten_op.nc",
+            "pcb2gcode/Easy-SDR_outline.ngc", "fluidnc/arcs_arrows.nc",
+            "led_floor/1084_btn_18bit_first.nc", "gsender/longmill-line_M0.nc", "ugs/headrough.nc")
 
 
 def prefix(src: Path, lines: int, out: Path) -> Path:
@@ -47,42 +48,12 @@ def prefix(src: Path, lines: int, out: Path) -> Path:
     return out
 
 
-def linuxcnc_errors(run, machine, program_file: Path):
-    """Largest contour error (um) of the servo on LinuxCNC's commands: in the part, in the air."""
-    from fuzzyfeed.machine.contour import windowed_distance
-    from fuzzyfeed.machine.servo import following_errors
-    from fuzzyfeed.program.read import read_program
-    from fuzzyfeed.program.run import program_path
-
-    path = program_path(read_program(program_file), machine.chord_tol_mm)
-    pts, rapid = [], []
-    for chain in path.chains:
-        p = chain.motion.points
-        if pts and np.linalg.norm(p[0] - pts[-1]) > 0:      # a gap between chains: in the air
-            rapid.append(True)
-            pts.append(p[0])
-        elif not pts:
-            pts.append(p[0])
-        pts.extend(p[1:])
-        rapid.extend(chain.motion.rapid.tolist())
-    pts, rapid = np.array(pts), np.array(rapid)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-    actual = run.joints_mm - following_errors(machine.servo, run.joints_mm, run.ts_s)
-    k = actual.shape[0]
-    dist, nearest, _ = windowed_distance(pts, s, actual, np.full(k, -1.0), np.full(k, s[-1] + 1.0))
-    # fuzzyfeed's split (machine/trace.py): a tick is in the part when it is commanded on a feed
-    # move and the tool is nearest a feed segment; a tool still lagging on a rapid is in the air
-    feed = np.isin(run.motion_type, (linuxcnc_sim.FEED, linuxcnc_sim.ARC))
-    part = feed & ~rapid[nearest]
-    air = (run.motion_type == linuxcnc_sim.TRAVERSE) | (feed & rapid[nearest])
-    return (float(dist[part].max() * 1e3) if part.any() else 0.0,
-            float(dist[air].max() * 1e3) if air.any() else 0.0)
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--machine", default="linuxcnc-mill")
     ap.add_argument("--lines", type=int, default=120)
+    ap.add_argument("--max-s", type=float, default=25.0,
+                    help="halve a program's lines until fuzzyfeed predicts its advised run within this")
     ap.add_argument("--markdown", default=None, metavar="FILE")
     args = ap.parse_args()
     reason = linuxcnc_sim.unavailable()
@@ -98,17 +69,29 @@ def main() -> int:
     table = load_rule_table(DEFAULT_MACHINE_TABLE)
     tol = machine.contour_tol_um
     rows, delays = [], 0
-    head = (f"{'program':<34} {'run':<8} {'ff s':>7} {'lcnc s':>7} {'t err':>7} {'ff um':>7} "
+    head = (f"{'program [:lines]':<40} {'run':<8} {'ff s':>7} {'lcnc s':>7} {'t err':>7} {'ff um':>7} "
             f"{'part um':>8} {'air um':>7}")
     print(f"machine {machine.describe()}\n{head}")
     with tempfile.TemporaryDirectory() as tmp:
         for name in PROGRAMS:
             src = LIBRARY / name
-            p = prefix(src, args.lines, Path(tmp) / (src.stem + ".ngc"))
-            try:
-                ev = evaluate_program(read_program(p), machine, table, reference=False)
-            except Exception as exc:   # a prefix fuzzyfeed cannot advise: named, not counted
-                print(f"{name:<34} skipped: {type(exc).__name__}: {exc}")
+            lines, ev = args.lines, None
+            while lines >= 10:         # LinuxCNC runs in real time: the advised run within --max-s
+                p = prefix(src, lines, Path(tmp) / (src.stem + ".ngc"))
+                try:
+                    ev = evaluate_program(read_program(p), machine, table, reference=False)
+                except Exception as exc:   # a prefix fuzzyfeed cannot advise: named, not counted
+                    print(f"{name:<34} skipped: {type(exc).__name__}: {exc}")
+                    ev = None
+                    break
+                if ev.report.advised.time_s <= args.max_s:
+                    break
+                lines //= 2
+            if ev is None:
+                continue
+            if ev.report.advised.time_s > args.max_s:
+                print(f"{name:<40} skipped: its first {lines} lines advised take "
+                      f"{ev.report.advised.time_s:.0f} s > --max-s {args.max_s:g}")
                 continue
             a = Path(tmp) / (src.stem + "_advised.ngc")
             a.write_text(ev.text)
@@ -119,10 +102,10 @@ def main() -> int:
                     print(f"{name:<34} {label:<8} LinuxCNC: {str(exc)[:120]}")
                     continue
                 delays += run.realtime_delays
-                part, air = linuxcnc_errors(run, machine, f)
-                terr = row.time_s / run.time_s - 1.0
-                rows.append((name, label, row.time_s, run.time_s, terr, row.max_um, part, air))
-                print(f"{name:<34} {label:<8} {row.time_s:7.2f} {run.time_s:7.2f} {terr * 100:6.1f}% "
+                part, air = linuxcnc_sim.servo_contour_um(run, machine, f)
+                terr = row.time_s / run.motion_time_s - 1.0
+                rows.append((f"{name} [:{lines}]", label, row.time_s, run.motion_time_s, terr, row.max_um, part, air))
+                print(f"{name + f' [:{lines}]':<40} {label:<8} {row.time_s:7.2f} {run.motion_time_s:7.2f} {terr * 100:6.1f}% "
                       f"{row.max_um:7.1f} {part:8.1f} {air:7.1f}", flush=True)
     lines = []
     for label in ("written", "advised"):
@@ -137,10 +120,12 @@ def main() -> int:
     print("\n".join(lines))
     if args.markdown:
         md = ["# fuzzyfeed against LinuxCNC 2.9's planner (benchmarks/bench_controllers.py)", "",
-              f"`python benchmarks/bench_controllers.py --machine {args.machine} --lines {args.lines}`", "",
+              f"`python benchmarks/bench_controllers.py --machine {args.machine} --lines {args.lines} --max-s {args.max_s:g}`", "",
               f"Machine: {machine.describe()}", "",
-              "Each program's first lines after `G21 G90 G0 X0 Y0 Z0`, then M2. ff: fuzzyfeed's prediction "
-              "(time, largest contour error of its own planner + servo); lcnc: LinuxCNC's planner, its "
+              "Each program's first lines ([:N]) after `G21 G90 G0 X0 Y0 Z0`, then M2. ff: fuzzyfeed's prediction "
+              "(time, largest contour error of its own planner + servo); LinuxCNC: its planner's time (the "
+              "servo periods with a move in progress: waits for M-codes and tool changes left out, as "
+              "fuzzyfeed leaves them out), its "
               "commanded joints through the same servo model, contour error against the programmed path "
               "(ticks on feed moves = part, on rapids = air).", "",
               "| program | run | ff time s | LinuxCNC time s | time error | ff max um | LinuxCNC part um | LinuxCNC air um |",

@@ -131,6 +131,13 @@ class SimRun:
             return 0.0
         return float((moving[-1] - moving[0] + 1) * self.ts_s)
 
+    @property
+    def motion_time_s(self) -> float:
+        """The periods with a move in progress (motion.motion-type ≠ 0): :attr:`time_s` without the
+        waits between moves for M-codes and tool changes (the I/O handshakes), which fuzzyfeed's
+        planner does not time."""
+        return float(np.count_nonzero(self.motion_type != 0) * self.ts_s)
+
     def moving(self) -> "SimRun":
         """The run cut to its motion: from the last period at rest before the first move to the
         first at rest after the last (so positions start and end on the program's points)."""
@@ -248,6 +255,10 @@ DISPLAY_PROGRAM = textwrap.dedent('''\
     try:
         c.state(linuxcnc.STATE_ESTOP_RESET); c.wait_complete()
         c.state(linuxcnc.STATE_ON); c.wait_complete()
+        # the machine's modes (G64 P ...): RS274NGC_STARTUP_CODE alone is not in force when a
+        # program opened this way runs (measured: corners blended 1 mm wide under P0.01)
+        c.mode(linuxcnc.MODE_MDI); c.wait_complete()
+        c.mdi(job["startup"]); c.wait_complete()
         c.mode(linuxcnc.MODE_AUTO); c.wait_complete()
         c.program_open(job["program"]); c.wait_complete()
         time.sleep(0.2); note()
@@ -261,6 +272,13 @@ DISPLAY_PROGRAM = textwrap.dedent('''\
         while time.time() < deadline:
             time.sleep(0.02)
             s.poll(); note()
+            try:                 # the harness that started this run is gone: stop
+                os.kill(job["caller"], 0)
+            except ProcessLookupError:
+                status["errors"].append("the caller ended before the program did")
+                break
+            except PermissionError:
+                pass
             if s.paused:         # M0/M1 (or M60): the operator presses resume at once
                 status["texts"].append(f"resumed a pause at line {s.current_line}")
                 c.auto(linuxcnc.AUTO_RESUME)
@@ -310,7 +328,9 @@ def write_config(machine, folder: Path, program: Path, timeout_s: float, tool_ta
     (folder / "sim.hal").write_text(hal_text())
     (folder / "display.py").write_text(DISPLAY_PROGRAM)
     os.chmod(folder / "display.py", 0o755)
-    (folder / "job.json").write_text(json.dumps({"program": str(program), "timeout_s": timeout_s}))
+    (folder / "job.json").write_text(json.dumps({"program": str(program), "timeout_s": timeout_s,
+                                                    "caller": os.getpid(),
+                                                    "startup": startup_code(machine)}))
     ini = folder / "sim.ini"
     ini.write_text(ini_text(machine, folder, table))
     return ini
@@ -416,3 +436,41 @@ def _parse(folder: Path, ts_s: float, log: str) -> SimRun:
     return SimRun(ts_s=ts_s, joints_mm=data[:, 0:3] / POSITION_SCALE, line=data[:, 3].astype(np.int64),
                   motion_type=data[:, 4].astype(np.int64), speed_mm_s=data[:, 5].copy(),
                   realtime_delays=delays, messages=tuple(status["texts"]), log=log)
+
+
+def servo_contour_um(run: SimRun, machine, program_file: str | os.PathLike) -> tuple[float, float]:
+    """Largest contour error (um) of ``machine``'s servo model on LinuxCNC's commanded joints
+    (:func:`fuzzyfeed.machine.servo.following_errors` from rest at the run's first period), against
+    the programmed path as fuzzyfeed builds it (the chains of
+    :func:`fuzzyfeed.program.run.program_path`, nearest point over the whole path): (in the part,
+    in the air). A period is in the part when it is commanded on a feed move (G1/G2/G3) and the tool
+    is nearest a feed segment, as :func:`fuzzyfeed.machine.trace.trace_motion` measures; the others
+    are in the air. Pass ``run.moving()``."""
+    from fuzzyfeed.machine.contour import windowed_distance
+    from fuzzyfeed.machine.servo import following_errors
+    from fuzzyfeed.program.read import read_program
+    from fuzzyfeed.program.run import program_path
+
+    path = program_path(read_program(program_file), machine.chord_tol_mm)
+    pts, rapid = [], []
+    for chain in path.chains:
+        p = chain.motion.points
+        if pts and np.linalg.norm(p[0] - pts[-1]) > 0:      # a gap between chains: in the air
+            rapid.append(True)
+            pts.append(p[0])
+        elif not pts:
+            pts.append(p[0])
+        pts.extend(p[1:])
+        rapid.extend(chain.motion.rapid.tolist())
+    pts, rapid = np.array(pts), np.array(rapid)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    actual = run.joints_mm - following_errors(machine.servo, run.joints_mm, run.ts_s)
+    k = actual.shape[0]
+    dist, nearest, _ = windowed_distance(pts, s, actual, np.full(k, -1.0), np.full(k, s[-1] + 1.0))
+    # fuzzyfeed's split (machine/trace.py): a tick is in the part when it is commanded on a feed
+    # move and the tool is nearest a feed segment; a tool still lagging on a rapid is in the air
+    feed = np.isin(run.motion_type, (FEED, ARC))
+    part = feed & ~rapid[nearest]
+    air = (run.motion_type == TRAVERSE) | (feed & rapid[nearest])
+    return (float(dist[part].max() * 1e3) if part.any() else 0.0,
+            float(dist[air].max() * 1e3) if air.any() else 0.0)

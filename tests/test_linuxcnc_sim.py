@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine.servo import steady_circle_error_mm
 from fuzzyfeed.program.read import read_program
 from fuzzyfeed.program.run import program_path, run_program as run_on_machine
 
@@ -110,6 +111,11 @@ def test_circle_stays_on_its_radius_and_agrees_with_the_planner(tmp_path):
     assert closed + V_MM_S / A_MM_S2 <= arc_time <= closed + 4 * V_MM_S / A_MM_S2 + ENDS_TICKS * run.ts_s
     predicted = _fuzzyfeed_time(prog, MACHINE)
     assert predicted == pytest.approx(run.time_s, rel=PLANNER_REL), (predicted, run.time_s)
+    # the servo model on LinuxCNC's commands: the steady radial error r (1 - |G(j v/r)|) of the
+    # cruise; no rapid moves the tool along a different path, so nothing is in the air
+    part, air = linuxcnc_sim.servo_contour_um(run, MACHINE, prog)
+    assert part == pytest.approx(steady_circle_error_mm(MACHINE.servo, r, V_MM_S) * 1e3, rel=0.02)
+    assert air < 1e-3
 
 
 def test_pause_is_resumed_and_noted(tmp_path):
