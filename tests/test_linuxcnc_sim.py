@@ -100,9 +100,10 @@ def test_corner_blends_within_g64_and_agrees_with_the_planner(tmp_path):
 
 def test_circle_stays_on_its_radius_and_agrees_with_the_planner(tmp_path):
     r = 8.0
-    prog, run = _run(tmp_path, f"G21 G90 G61\nG0 X{r:g} Y0 Z0\nG64 P0.01\nG2 X{r:g} Y0 I{-r:g} J0 F{V_MM_S * 60:g}\nM2\n")
+    # from rest on the circle (centre (r, 0)): no rapid before it whose lag the servo still carries
+    prog, run = _run(tmp_path, f"G21 G90 G64 P0.01\nG0 X0 Y0 Z0\nG2 X0 Y0 I{r:g} J0 F{V_MM_S * 60:g}\nM2\n")
     arc = run.motion_type == linuxcnc_sim.ARC
-    radius = np.linalg.norm(run.joints_mm[arc, :2], axis=1)
+    radius = np.linalg.norm(run.joints_mm[arc, :2] - [r, 0.0], axis=1)
     np.testing.assert_allclose(radius, r, atol=1e-5)
     # cruise, plus v/a_t for the two ramps; LinuxCNC keeps at most half of A tangential on an arc
     # (the rest for the normal acceleration), and half of that on a move ending in a G64 blend
