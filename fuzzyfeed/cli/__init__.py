@@ -33,6 +33,8 @@ COMMANDS = {
     "schedule": "schedule a jerk-limited feed with the SLW look-ahead (seed 000)",
     "compare": "compare fuzzy advice, SLW schedule, constant feed and the bound",
     "tune": "tune a rule table's feed terms for cycle time under a contour tolerance",
+    "machines": "list or check machine files; import one from a LinuxCNC INI or GRBL $$ settings",
+    "filter": "a LinuxCNC [FILTER] program: the advised program on stdout, progress on stderr",
 }
 
 DESCRIPTION = """\
@@ -48,7 +50,8 @@ SHAPE is a shipped shape's name (see `fuzzyfeed shapes`) or a path to a shape fi
 OUTPUT_ARGS = (("output", "-o"), ("plot", "--plot"), ("gcode", "--gcode"), ("gcode_g52", "--gcode-g52"),
                ("report", "--report"), ("split_out", "--split-out"))
 INPUT_ARGS = (("shape", "SHAPE"), ("rules", "--rules"), ("table", "TABLE"), ("tables", "TABLE"),
-              ("machine", "--machine"), ("tool_table", "--tool-table"))
+              ("machine", "--machine"), ("tool_table", "--tool-table"), ("settings", "FILE"), ("hal", "--hal"),
+              ("program", "PROGRAM"))
 
 
 class ArgumentParser(argparse.ArgumentParser):
