@@ -9,6 +9,8 @@ imports numba at import time; import it lazily (inside the functions that need i
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -99,3 +101,56 @@ def travel_time(ds, v):
         if ds[i] > 0.0:
             t += 2.0 * ds[i] / m if m > 0.0 else np.inf
     return t
+
+
+# ---------------------------------------------------------------------- transitions (profile.py)
+# The same arithmetic as fuzzyfeed.slw.profile.transition_time / _bisect, compiled: the look-ahead
+# calls the bisections ~10⁴ times on a long program, each ~40 distances (2·10⁶ Python calls).
+@numba.njit(cache=True, nogil=True)
+def transition_time(v_s, v_e, acc, jerk, seven):
+    """Seven-phase ramp (``seven``) or seed 000's cosine, eq. (20): shortest T of v_s → v_e."""
+    dv = abs(v_e - v_s)
+    if dv < 1e-200:
+        return 0.0
+    if seven:
+        if dv * jerk >= acc * acc:
+            return dv / acc + acc / jerk
+        return 2.0 * math.sqrt(dv / jerk)
+    return max(math.pi * dv / (2.0 * acc), math.pi * math.sqrt(dv / (2.0 * jerk)))
+
+
+@numba.njit(cache=True, nogil=True)
+def transition_distance(v_s, v_e, acc, jerk, seven):
+    """(v_s + v_e)·T/2 (eq. (21))."""
+    return 0.5 * (v_s + v_e) * transition_time(v_s, v_e, acc, jerk, seven)
+
+
+@numba.njit(cache=True, nogil=True)
+def bisect_end(v_s, length, good, bad, acc, jerk, seven, steps):
+    """The speed nearest ``bad`` with transition_distance(v_s, v) ≤ length, by bisection from
+    ``good`` (holds) towards ``bad`` (fails), as profile._bisect."""
+    for _ in range(steps):
+        mid = 0.5 * (good + bad)
+        if transition_distance(v_s, mid, acc, jerk, seven) <= length:
+            good = mid
+        else:
+            bad = mid
+        if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
+            break
+    return good
+
+
+@numba.njit(cache=True, nogil=True)
+def bisect_peak(v_s, v_e, length, good, bad, acc, jerk, seven, steps):
+    """The peak v nearest ``bad`` with D(v_s, v) + D(v, v_e) ≤ length (Table 1, approach 2), by
+    bisection as profile._bisect."""
+    for _ in range(steps):
+        mid = 0.5 * (good + bad)
+        if (transition_distance(v_s, mid, acc, jerk, seven)
+                + transition_distance(mid, v_e, acc, jerk, seven)) <= length:
+            good = mid
+        else:
+            bad = mid
+        if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
+            break
+    return good
