@@ -154,3 +154,73 @@ def bisect_peak(v_s, v_e, length, good, bad, acc, jerk, seven, steps):
         if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
             break
     return good
+
+
+@numba.njit(cache=True, nogil=True)
+def sample_segments(v0, v1, dur, jerk, start, half_ts):
+    """A block's profile at ≥ 8 (≤ 20 000) even steps per segment of at most ``half_ts`` (each
+    segment's ends included): s (from ``start``), v, a and the segment's index per sample — the
+    cosine of seed 000 (eq. (17)-(18)) where jerk[k] is NaN, else the seven-phase ramp under that
+    jerk (profile._seven_phase_state); a cruise where v0 = v1 or the duration is 0."""
+    m = v0.size
+    counts = np.empty(m, np.int64)
+    total = 0
+    for k in range(m):
+        n = int(min(max(math.ceil(dur[k] / half_ts), 8), 20000))
+        counts[k] = n + 1
+        total += n + 1
+    s = np.empty(total)
+    v = np.empty(total)
+    a = np.empty(total)
+    seg = np.empty(total, np.int64)
+    at = 0
+    offset = start
+    for k in range(m):
+        n = counts[k] - 1
+        T = dur[k]
+        dv = v1[k] - v0[k]
+        step = T / n
+        seven = not math.isnan(jerk[k])
+        if seven and dv != 0.0 and T != 0.0:
+            sign = 1.0 if dv > 0 else -1.0
+            mag = abs(dv)
+            t_j = 0.5 * (T - math.sqrt(max(T * T - 4.0 * mag / jerk[k], 0.0)))
+            a_p = mag / (T - t_j)
+            jr = a_p / t_j
+            whole = 0.5 * (v0[k] + v1[k]) * T
+            v_j = v0[k] + sign * 0.5 * a_p * t_j
+            s_j = v0[k] * t_j + sign * jr * t_j ** 3 / 6.0
+        for i in range(n + 1):
+            tau = T if i == n else i * step
+            if dv == 0.0 or T == 0.0:
+                p, vel, acc = v0[k] * tau, v0[k], 0.0
+            elif seven:
+                tau = min(max(tau, 0.0), T)
+                r = T - tau
+                if tau < t_j:
+                    p = v0[k] * tau + sign * jr * tau ** 3 / 6.0
+                    vel = v0[k] + sign * 0.5 * jr * tau * tau
+                    acc = sign * jr * tau
+                elif r < t_j:
+                    p = whole - (v1[k] * r - sign * jr * r ** 3 / 6.0)
+                    vel = v1[k] - sign * 0.5 * jr * r * r
+                    acc = sign * jr * r
+                else:
+                    mm = tau - t_j
+                    p = s_j + v_j * mm + sign * 0.5 * a_p * mm * mm
+                    vel = v_j + sign * a_p * mm
+                    acc = sign * a_p
+            else:
+                w = math.pi / T
+                c = math.cos(w * tau)
+                sn = math.sin(w * tau)
+                vel = v0[k] + 0.5 * dv * (1.0 - c)
+                p = v0[k] * tau + 0.5 * dv * (tau - sn / w)
+                acc = 0.5 * dv * w * sn
+            s[at] = p + offset
+            v[at] = vel
+            a[at] = acc
+            seg[at] = k
+            at += 1
+        offset += 0.5 * (v0[k] + v1[k]) * T
+    return s, v, a, seg

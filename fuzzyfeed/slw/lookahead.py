@@ -29,7 +29,7 @@ from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
 from fuzzyfeed.slw.preprocess import Block, Reference, _evaluate, corner_plan, evaluate_reference, joins
 from fuzzyfeed.slw.profile import (COSINE, Segment, block_segments, check_shape, lowest_end_speed,
-                                   max_end_speed, max_start_speed, peak_acceleration, segment_state, stop_distance,
+                                   max_end_speed, max_start_speed, peak_acceleration, stop_distance,
                                    transition_distance)
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
@@ -91,6 +91,7 @@ class _WBlock:
     acc: float
     vmax: float
     checked: tuple | None = None
+    pending: tuple | None = None  # (key, samples …) of a check not yet judged (_sample)
 
     @property
     def s0(self) -> float:
@@ -262,47 +263,89 @@ class SlidingWindow:
         return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
                               self.approach, self.shape)
 
-    def _check(self, i: int) -> bool:
-        """Check block i; repair it and return False if it broke a limit."""
+    def _sample(self, i: int):
+        """Block i's profile sampled at half servo periods with the path's data interpolated from
+        its reference points: (key, segments, s, v, a, segment index, vlim, T, κN, near), where
+        ``near`` indexes the samples within EXACT_NEAR of a limit (read exactly before judging);
+        None when the block needs no check (already checked with this key, or crossed within a
+        small part of one servo period). Kept on the block with its key until judged."""
         b = self.blocks[i]
         key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length)
         if b.checked == key:
-            return True
+            return None
+        if b.pending is not None and b.pending[0] == key:
+            return b.pending
         if b.length < SUB_TICK * self.limits.feed_mm_s * self.limits.ts_s:
             b.checked = key  # crossed within a small part of one servo period: nothing to sample
-            return True
+            return None
         kind, segs = self._segments(i)
-        ts = self.limits.ts_s
-        parts = []
-        offset = b.s0
-        for k, seg in enumerate(segs):
-            n = int(min(max(math.ceil(seg.duration_s / (0.5 * ts)), 8), 20000))
-            tau = np.linspace(0.0, seg.duration_s, n + 1)
-            pos, vel, acc, _ = segment_state(seg, tau)
-            parts.append((pos + offset, vel, acc, np.full(tau.size, k)))
-            offset += seg.length_mm
-        if not parts:
+        if not segs:
             b.checked = key
-            return True
-        s = np.concatenate([p[0] for p in parts])
-        v = np.concatenate([p[1] for p in parts])
-        a = np.concatenate([p[2] for p in parts])
-        seg_id = np.concatenate([p[3] for p in parts])
+            return None
+        import fuzzyfeed.slw._kernels as kernels
+
+        seg_arr = np.array([(g.v0, g.v1, g.duration_s, math.nan if g.jerk_mm_s3 is None else g.jerk_mm_s3)
+                            for g in segs])
+        s, v, a, seg_id = kernels.sample_segments(seg_arr[:, 0], seg_arr[:, 1], seg_arr[:, 2], seg_arr[:, 3],
+                                                  b.s0, 0.5 * self.limits.ts_s)
         ref = b.ref
         vlim = np.interp(s, ref.s, ref.vlim)
         tan = np.stack([np.interp(s, ref.s, ref.tangent[:, j]) for j in range(3)], axis=1)
         kn = np.stack([np.interp(s, ref.s, ref.kn[:, j]) for j in range(3)], axis=1)
-        r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        r, _, _ = self._axis_ratio(v, a, tan, kn)
         near = np.flatnonzero((r > EXACT_NEAR) | ((v > EXACT_NEAR * vlim) & (vlim < self.limits.feed_mm_s)))
-        if near.size and self.curve is not None:
+        if self.curve is None:
+            near = near[:0]
+        b.pending = (key, segs, s, v, a, seg_id, vlim, tan, kn, near)
+        return b.pending
+
+    def _check_all(self, indices) -> bool:
+        """Check blocks ``indices`` in order, repairing the first that breaks a limit (False).
+        The samples within reach of a limit of every block still to judge are read from the path
+        in one evaluation (one call instead of one per block: the calls' overhead was half of
+        a long program's scheduling)."""
+        data = [(i, self._sample(i)) for i in indices]
+        todo = [d for _, d in data if d is not None and d[9].size]
+        if todo:
+            s_all = np.concatenate([d[2][d[9]] for d in todo])
+            u_all = np.concatenate([np.interp(d[2][d[9]], self.blocks[i].ref.s, self.blocks[i].ref.u)
+                                    for i, d in data if d is not None and d[9].size])
+            exact = _evaluate(self.curve, self.limits, s_all, self.cap, u_all)
+            at = 0
+            for i, d in data:
+                if d is None or not d[9].size:
+                    continue
+                near = d[9]
+                part = slice(at, at + near.size)
+                at += near.size
+                vlim, tan, kn = d[6].copy(), d[7].copy(), d[8].copy()
+                vlim[near] = np.minimum(vlim[near], exact.vlim[part])
+                tan[near], kn[near] = exact.tangent[part], exact.kn[part]
+                self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
+        for i, _ in data:
+            if not self._check(i):
+                return False
+        return True
+
+    def _check(self, i: int) -> bool:
+        """Check block i; repair it and return False if it broke a limit."""
+        d = self._sample(i)
+        if d is None:
+            return True
+        key, segs, s, v, a, seg_id, vlim, tan, kn, near = d
+        b = self.blocks[i]
+        b.pending = None
+        ref = b.ref
+        if near.size:
             # within reach of a limit: the path read at the samples themselves, not interpolated
             # between reference points (a product of interpolated T and κN missed a block's
             # peak: wm on a slow Y axis, 100.4 % of A_y between two points 0.1 mm apart)
             # (at u interpolated between the points: no arc-length inversion, second-order close)
             exact = _evaluate(self.curve, self.limits, s[near], self.cap, np.interp(s[near], ref.s, ref.u))
+            vlim, tan, kn = vlim.copy(), tan.copy(), kn.copy()
             vlim[near] = np.minimum(vlim[near], exact.vlim)
             tan[near], kn[near] = exact.tangent, exact.kn
-            r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
         kinks = self._kink_samples(s, v, a)
         if kinks is not None:  # a kink's tick, as one more sample (no feed limit of its own)
             s_k, v_k, a_k, tan_k, cen_k, at = kinks
@@ -444,14 +487,9 @@ class SlidingWindow:
         reach = self.blocks[0].s1 + 1.05 * self.stop if self.blocks and not full else math.inf
         for _ in range(MAX_SETTLE):
             self._plan(end_feed)
-            ok = True
-            for i in range(len(self.blocks)):
-                if i > FRONT_BLOCKS and self.blocks[i].s0 > reach:
-                    break
-                if not self._check(i):
-                    ok = False
-                    break
-            if ok:
+            n = len(self.blocks)
+            last = next((i for i in range(FRONT_BLOCKS + 1, n) if self.blocks[i].s0 > reach), n)
+            if self._check_all(range(last)):
                 return
         self.stats.unresolved += 1
         raise RuntimeError(f"{MAX_SETTLE} repairs in one look-ahead window at s = {self.blocks[0].s0:.6g} mm "
@@ -517,13 +555,12 @@ class SlidingWindow:
         # every block a full stop beyond the released ones: a repair there (a junction with zero
         # acceleration) could otherwise need a lower feed than the released one can reach
         reach = self.juncs[n_final].s + 1.05 * self.stop
-        for i in range(len(self.blocks)):
-            if i >= n_final and (self._front_checks >= MAX_REPAIRS
-                                 or (i >= n_final + FRONT_BLOCKS and self.blocks[i].s0 > reach)):
-                break
-            if not self._check(i):
-                self._front_checks += 1
-                return False
+        n = len(self.blocks)
+        last = n_final if self._front_checks >= MAX_REPAIRS else next(
+            (i for i in range(n_final + FRONT_BLOCKS, n) if self.blocks[i].s0 > reach), n)
+        if not self._check_all(range(min(max(last, n_final), n))):
+            self._front_checks += 1
+            return False
         self._front_checks = 0
         self._plan(0.0)
         return True
