@@ -93,3 +93,29 @@ def test_compiled_transitions_match_the_formulas_and_the_peak_is_tight(v_s, v_e,
     if v_p < 300.0:  # tight: 0.1 % faster does not fit
         up = v_p * 1.001 + 1e-9
         assert transition_distance(v_s, up, A, J, shape) + transition_distance(up, v_e, A, J, shape) > length
+
+
+@settings(deadline=None)
+@given(st.lists(st.tuples(st.floats(0, 200), st.floats(0, 200), st.sampled_from(["cosine", "seven-phase"]),
+                          st.floats(1.0, 3.0)), min_size=1, max_size=4), st.floats(-50, 50))
+def test_compiled_block_sampling_is_segment_state(pieces, start):
+    """The look-ahead's compiled sampling of a block equals segment_state on the same times."""
+    import fuzzyfeed.slw._kernels as kernels
+
+    segs = []
+    for v0, v1, shape, stretch in pieces:  # transitions at least as long as the shortest
+        T = transition_time(v0, v1, A, J, shape) * stretch if v0 != v1 else 0.01 * stretch
+        segs.append(Segment(v0, v1, T, J if shape == "seven-phase" else None))
+    arr = np.array([(g.v0, g.v1, g.duration_s, math.nan if g.jerk_mm_s3 is None else g.jerk_mm_s3) for g in segs])
+    s, v, a, which = kernels.sample_segments(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], start, 5e-4)
+    offset, at = start, 0
+    for k, g in enumerate(segs):
+        n = int(min(max(math.ceil(g.duration_s / 5e-4), 8), 20000))
+        pos, vel, acc, _ = segment_state(g, np.linspace(0.0, g.duration_s, n + 1))
+        part = slice(at, at + n + 1)
+        assert (which[part] == k).all()
+        assert np.allclose(s[part], pos + offset, rtol=1e-12, atol=1e-9)
+        assert np.allclose(v[part], vel, rtol=1e-12, atol=1e-9) and np.allclose(a[part], acc, rtol=1e-12, atol=1e-6)
+        offset += g.length_mm
+        at += n + 1
+    assert at == s.size
