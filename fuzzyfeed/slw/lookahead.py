@@ -73,6 +73,10 @@ EXACT_NEAR = 0.99
 KINK_MIN = 1e-9
 #: Blocks at the front of the window checked at the feeds of a continuing path before a release.
 FRONT_BLOCKS = 3
+#: A block is cut where the tangential acceleration its directions allow changes by this factor …
+DIRECTION_STEP = 0.6
+#: … into pieces no shorter than this share of a full stop from the command feed.
+DIRECTION_MIN = 0.1
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
 WINDOW_STOPS = 1.5
 
@@ -179,9 +183,12 @@ class SlidingWindow:
             return
         # a stretch with a zero limit everywhere (a micro-kink between two near-stationary
         # points) is crawled through at a tiny feed rather than being impassable
-        vmax = min(self.limits.feed_mm_s, max(block.peak_limit, CRAWL * self.limits.feed_mm_s))
-        self.blocks.append(_WBlock(block.ref, self._direction_acc(block.ref), vmax))
-        self.juncs.append(_Junction(block.s1, block.cap1, critical=True))
+        crawl = CRAWL * self.limits.feed_mm_s
+        for ref in self._by_direction(block.ref):
+            vmax = min(self.limits.feed_mm_s, max(float(ref.vlim.max()), crawl))
+            self.blocks.append(_WBlock(ref, self._direction_acc(ref), vmax))
+            self.juncs.append(_Junction(float(ref.s[-1]), float(ref.vlim[-1])))
+        self.juncs[-1].cap, self.juncs[-1].critical = block.cap1, True
         self.stats.max_window_blocks = max(self.stats.max_window_blocks, len(self.blocks))
         self.stats.max_window_mm = max(self.stats.max_window_mm, self.blocks[-1].s1 - self.blocks[0].s0)
 
@@ -217,6 +224,31 @@ class SlidingWindow:
         last.s, last.cap, last.v = block.s1, block.cap1, 0.0
         self.stats.merged += 1
         return True
+
+    def _by_direction(self, ref: Reference) -> list[Reference]:
+        """``ref`` cut where the tangential acceleration its directions allow changes by more than
+        DIRECTION_STEP (a block accelerates as its slowest direction allows: a 23 mm block of a
+        random curve on a slow-Y machine at a third of what most of it allows); pieces no
+        shorter than DIRECTION_MIN of a full stop."""
+        if len(ref) < 3 or ref.s[-1] - ref.s[0] < 2.0 * DIRECTION_MIN * self.stop:
+            return [ref]
+        t = np.abs(ref.tangent)
+        with np.errstate(divide="ignore"):
+            per_point = np.min(np.where(t > 0.0, self.axis_acc[None, :] / t, np.inf), axis=1)
+        per_point = np.clip(per_point, self.acc, float(self.axis_acc.max()))
+        if per_point.min() > DIRECTION_STEP * per_point.max():
+            return [ref]
+        level = np.floor(np.log(per_point / self.acc) / -np.log(DIRECTION_STEP))
+        cuts, last = [], 0
+        for k in np.flatnonzero(np.diff(level) != 0) + 1:
+            if k < len(ref) - 1 and ref.s[k] - ref.s[last] >= DIRECTION_MIN * self.stop \
+                    and ref.s[-1] - ref.s[k] >= DIRECTION_MIN * self.stop:
+                cuts.append(int(k))
+                last = int(k)
+        if not cuts:
+            return [ref]
+        bounds = [0, *cuts, len(ref) - 1]
+        return [ref.slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
 
     def _direction_acc(self, ref: Reference) -> float:
         """Tangential acceleration of a new block: the largest a with |a·T_j| ≤ A_j at each of its
