@@ -157,8 +157,12 @@ HEADER = (f"{'path / machine / transition':<34} {'length mm':>9} {'SLW s':>9} {'
           f"{'/floor':>7} {'worst':>8} {'limit':>8} {'crit':>6} {'cpu s':>7}")
 
 
-def cases(n_random: int, max_cuts: int):
-    """(name, curve, limits, feed cap or None) of every benchmark case."""
+def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None):
+    """(name, curve, limits, feed cap or None) of every benchmark case; with ``programs`` = (first,
+    end), only the programs whose path in the library is in [first, end) ("" = no end)."""
+    if programs is not None:
+        yield from _program_cases(max_cuts, programs)
+        return
     for name in shape_names():
         for mname, lim in MACHINES.items():
             yield f"{name}/{mname}", load_shape(name).curve, lim, None
@@ -175,8 +179,16 @@ def cases(n_random: int, max_cuts: int):
         curve, _ = slw_cases.random_nurbs(seed)
         for mname, lim in MACHINES.items():
             yield f"nurbs{seed} p{curve.degree} {curve.dim}-D/{mname}", curve, lim, None
+    yield from _program_cases(max_cuts, ("", ""))
+
+
+def _program_cases(max_cuts: int, programs: tuple[str, str]):
+    first, end = programs
     folder = LIBRARY if LIBRARY.is_dir() else ROOT / "tests" / "programs" / "corpus"
     for path in sorted(p for ext in ("ngc", "nc", "gcode") for p in folder.rglob(f"*.{ext}")):
+        rel = str(path.relative_to(folder))
+        if rel < first or (end and rel >= end):
+            continue
         try:
             shapes = load_shapes(path)
         except Exception as exc:  # noqa: BLE001 - a program the reader refuses is not a case
@@ -215,6 +227,9 @@ def main() -> None:
     ap.add_argument("--max-cuts", type=int, default=2, help="cuts of each program (default: %(default)s)")
     ap.add_argument("--corner-bound", nargs="+", metavar="NAME", help="only these cases (path/machine, as "
                     "printed): the proven corner-chain lower bound beside the floor and the SLW time")
+    ap.add_argument("--programs", nargs=2, metavar=("FIRST", "END"), help="only the programs whose path "
+                    "in the library is in [FIRST, END) ('' for no end), no other case: a run split across "
+                    "processes (the summary is then of those cases only)")
     args = ap.parse_args()
     if args.corner_bound:
         wanted = set(args.corner_bound)
@@ -235,7 +250,7 @@ def main() -> None:
     print(HEADER)
     print("-" * len(HEADER))
     results: dict[str, list[dict]] = {t: [] for t in transitions}
-    for name, curve, lim, cap in cases(args.random, args.max_cuts):
+    for name, curve, lim, cap in cases(args.random, args.max_cuts, args.programs and tuple(args.programs)):
         for t in transitions:
             r = run_case(f"{name}/{t}", curve, lim, t, cap)
             results[t].append(r)
