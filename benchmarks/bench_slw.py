@@ -18,6 +18,9 @@ the CPU time of ``schedule``. Anchor in the same run: the bound against toppra 0
 (DESIGN §6: 4.9008 s).
 
 Run: python benchmarks/bench_slw.py [--random N] [--transition both|seven-phase|cosine]
+``--corner-bound NAME ...`` prints, for the named cases only, a proven lower bound on the cycle time
+of any jerk-limited schedule through the path's true corners (:func:`corner_chain_bound`) beside
+the floor and the SLW time: where it is above the floor, no scheduler can reach the floor there.
 Last line: median_ratio_to_floor=M worst_ratio_to_floor=W worst_compute_s=C failed=F over_limit=V
 (of the default transition, over every case).
 """
@@ -74,7 +77,60 @@ def toppra_bound(curve, limits: MachineLimits, grid_points: int = 4000) -> float
     return None if traj is None else float(traj.duration)
 
 
-def run_case(name: str, curve, limits: MachineLimits, transition: str, cap=None) -> dict:
+def _max_distance(T: float, c1: float, c2: float, F: float, A: float, J: float, n: int = 40) -> float:
+    """An upper bound on the distance any motion with |j| ≤ J, |a| ≤ A, 0 ≤ v ≤ F can cover in T
+    seconds from v(0) ≤ c1 to v(T) ≤ c2 (accelerations at both ends free): an LP on n time steps
+    h in which each step's jerk integrals are only bounded (|Δa| ≤ Jh, |Δv − h·a| ≤ Jh²/2,
+    |Δs − h·v − h²a/2| ≤ Jh³/6) and the limits hold at the steps — a superset of the motions."""
+    from scipy.optimize import linprog
+    from scipy.sparse import lil_matrix
+
+    h, nv = T / n, n + 1
+    size = 2 * nv + 2 * n  # v_0…v_n, a_0…a_n, Δv − h·a per step, Δs − h·v − h²a/2 per step
+    a_ub, b_ub = lil_matrix((2 * n, size)), np.full(2 * n, J * h)
+    a_eq = lil_matrix((n, size))
+    cost = np.zeros(size)
+    for k in range(n):
+        a_ub[2 * k, nv + k + 1], a_ub[2 * k, nv + k] = 1.0, -1.0
+        a_ub[2 * k + 1, nv + k + 1], a_ub[2 * k + 1, nv + k] = -1.0, 1.0
+        a_eq[k, k + 1], a_eq[k, k], a_eq[k, nv + k], a_eq[k, 2 * nv + k] = 1.0, -1.0, -h, -1.0
+        cost[k] -= h
+        cost[nv + k] -= h * h / 2.0
+        cost[2 * nv + n + k] -= 1.0
+    bounds = ([(0.0, F)] * nv + [(-A, A)] * nv + [(-J * h * h / 2.0, J * h * h / 2.0)] * n
+              + [(-J * h ** 3 / 6.0, J * h ** 3 / 6.0)] * n)
+    bounds[0], bounds[n] = (0.0, min(c1, F)), (0.0, min(c2, F))
+    res = linprog(cost, A_ub=a_ub.tocsr(), b_ub=b_ub, A_eq=a_eq.tocsr(), b_eq=np.zeros(n), bounds=bounds,
+                  method="highs")
+    return -res.fun
+
+
+def corner_chain_bound(curve, limits: MachineLimits) -> float:
+    """A proven lower bound (s) on the cycle time of any schedule with tangential |j| ≤ J,
+    |a| ≤ ‖A_j‖₂ and v ≤ F that passes each true corner no faster than the corner rule allows
+    (fuzzyfeed.slw.preprocess.corners without its 10 % margin: cap/0.9 + J·Ts²/2). The path is cut
+    at its corners and every gap is run alone with free accelerations at its ends (a relaxation);
+    per gap, the least T whose :func:`_max_distance` covers the gap (bisection, from below)."""
+    from fuzzyfeed.slw.preprocess import corners
+
+    s_c, cap = corners(curve, limits)
+    F, J = limits.feed_mm_s, limits.jerk_mm_s3
+    A = float(np.linalg.norm(limits.axis_acc_mm_s2[:curve.dim]))
+    s = np.concatenate([[0.0], s_c, [curve.length]])
+    v = np.concatenate([[0.0], cap / 0.9 + J * limits.ts_s ** 2 / 2.0, [0.0]])
+    total = 0.0
+    for g, c1, c2 in zip(np.diff(s), v[:-1], v[1:]):
+        lo, hi = 0.0, max(g / F, 1e-4)
+        while _max_distance(hi, c1, c2, F, A, J) < g:
+            lo, hi = hi, 2.0 * hi
+        for _ in range(22):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if _max_distance(mid, c1, c2, F, A, J) >= g else (mid, hi)
+        total += lo
+    return total
+
+
+def run_case(name: str, curve, limits: MachineLimits, transition: str, cap=None, keep_curve: bool = False) -> dict:
     t0 = time.process_time()
     try:
         traj = schedule(curve, limits, transition=transition, feed_cap=cap)
@@ -87,7 +143,7 @@ def run_case(name: str, curve, limits: MachineLimits, transition: str, cap=None)
     return {"name": name, "length": traj.curve.length, "cpu": cpu, "time": traj.cycle_time_s,
             "bound": bound.time_s, "floor": floor, "ratio": traj.cycle_time_s / floor,
             "worst": max(m[k] for k in LIMITS), "limit": max(LIMITS, key=lambda k: m[k]),
-            "crit": traj.n_critical}
+            "crit": traj.n_critical, **({"curve": traj.curve} if keep_curve else {})}
 
 
 def line(r: dict) -> str:
@@ -101,8 +157,12 @@ HEADER = (f"{'path / machine / transition':<34} {'length mm':>9} {'SLW s':>9} {'
           f"{'/floor':>7} {'worst':>8} {'limit':>8} {'crit':>6} {'cpu s':>7}")
 
 
-def cases(n_random: int, max_cuts: int):
-    """(name, curve, limits, feed cap or None) of every benchmark case."""
+def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None):
+    """(name, curve, limits, feed cap or None) of every benchmark case; with ``programs`` = (first,
+    end), only the programs whose path in the library is in [first, end) ("" = no end)."""
+    if programs is not None:
+        yield from _program_cases(max_cuts, programs)
+        return
     for name in shape_names():
         for mname, lim in MACHINES.items():
             yield f"{name}/{mname}", load_shape(name).curve, lim, None
@@ -119,8 +179,16 @@ def cases(n_random: int, max_cuts: int):
         curve, _ = slw_cases.random_nurbs(seed)
         for mname, lim in MACHINES.items():
             yield f"nurbs{seed} p{curve.degree} {curve.dim}-D/{mname}", curve, lim, None
+    yield from _program_cases(max_cuts, ("", ""))
+
+
+def _program_cases(max_cuts: int, programs: tuple[str, str]):
+    first, end = programs
     folder = LIBRARY if LIBRARY.is_dir() else ROOT / "tests" / "programs" / "corpus"
     for path in sorted(p for ext in ("ngc", "nc", "gcode") for p in folder.rglob(f"*.{ext}")):
+        rel = str(path.relative_to(folder))
+        if rel < first or (end and rel >= end):
+            continue
         try:
             shapes = load_shapes(path)
         except Exception as exc:  # noqa: BLE001 - a program the reader refuses is not a case
@@ -157,14 +225,32 @@ def main() -> None:
                                                               "(default: %(default)s)")
     ap.add_argument("--transition", choices=("both", "seven-phase", "cosine"), default="both")
     ap.add_argument("--max-cuts", type=int, default=2, help="cuts of each program (default: %(default)s)")
+    ap.add_argument("--corner-bound", nargs="+", metavar="NAME", help="only these cases (path/machine, as "
+                    "printed): the proven corner-chain lower bound beside the floor and the SLW time")
+    ap.add_argument("--programs", nargs=2, metavar=("FIRST", "END"), help="only the programs whose path "
+                    "in the library is in [FIRST, END) ('' for no end), no other case: a run split across "
+                    "processes (the summary is then of those cases only)")
     args = ap.parse_args()
+    if args.corner_bound:
+        wanted = set(args.corner_bound)
+        for name, curve, lim, cap in cases(args.random, args.max_cuts):
+            if name not in wanted:
+                continue
+            r = run_case(name, curve, lim, "cosine", cap, keep_curve=True)
+            lb = corner_chain_bound(r["curve"], lim)
+            print(f"{name}: SLW {r['time']:.3f} s, floor {r['floor']:.3f} s ({r['ratio']:.4f}); proven corner-chain "
+                  f"bound {lb:.3f} s = {lb / r['floor']:.4f} x the floor; SLW / bound {r['time'] / lb:.4f}", flush=True)
+            wanted.discard(name)
+            if not wanted:
+                break
+        return
     transitions = ("cosine", "seven-phase") if args.transition == "both" else (args.transition,)
     schedule(load_shape("wm").curve, EQUAL)  # warm-up: numba caches
     print(f"machines: equal {EQUAL}\n          slow-y {SLOW_Y}")
     print(HEADER)
     print("-" * len(HEADER))
     results: dict[str, list[dict]] = {t: [] for t in transitions}
-    for name, curve, lim, cap in cases(args.random, args.max_cuts):
+    for name, curve, lim, cap in cases(args.random, args.max_cuts, args.programs and tuple(args.programs)):
         for t in transitions:
             r = run_case(f"{name}/{t}", curve, lim, t, cap)
             results[t].append(r)

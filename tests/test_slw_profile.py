@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed,
-                                   min_end_speed, segment_state, stop_distance, transition_distance,
+                                   min_end_speed, peak_speed, segment_state, stop_distance, transition_distance,
                                    transition_time)
 
 A, J = 1000.0, 10_000.0
@@ -37,6 +37,7 @@ def test_segment_respects_acc_and_jerk_and_distance(v0, v1, acc, jerk):
     assert np.allclose(np.gradient(s, tau), v, atol=1e-6 * max(v0, v1, 1))
 
 
+@settings(deadline=None)  # the first example loads the compiled bisections
 @given(st.floats(0, 200), st.floats(0.01, 50), st.floats(0, 200))
 def test_bisection_corrections_are_tight(v, length, cap):
     up = max_end_speed(v, length, cap, A, J)
@@ -74,3 +75,47 @@ def test_type4_is_refused_and_rest_to_rest_short_block_uses_a_peak():
     kind, segs = block_segments(0.5, 0.0, 0.0, 100.0, A, J)
     assert sum(s.length_mm for s in segs) == pytest.approx(0.5)
     assert max(s.v1 for s in segs) > 0
+
+
+@settings(deadline=None)
+@given(st.floats(0, 200), st.floats(0, 200), st.floats(0.01, 50), st.sampled_from(["cosine", "seven-phase"]))
+def test_compiled_transitions_match_the_formulas_and_the_peak_is_tight(v_s, v_e, length, shape):
+    import fuzzyfeed.slw._kernels as kernels
+
+    seven = shape == "seven-phase"
+    assert kernels.transition_time(v_s, v_e, A, J, seven) == transition_time(v_s, v_e, A, J, shape)
+    d_se = transition_distance(v_s, v_e, A, J, shape)
+    if d_se > length:
+        return
+    v_p = peak_speed(v_s, v_e, length, 300.0, A, J, shape)
+    used = transition_distance(v_s, v_p, A, J, shape) + transition_distance(v_p, v_e, A, J, shape)
+    assert v_p >= max(v_s, v_e) and used <= length * (1 + 1e-12)
+    if v_p < 300.0:  # tight: 0.1 % faster does not fit
+        up = v_p * 1.001 + 1e-9
+        assert transition_distance(v_s, up, A, J, shape) + transition_distance(up, v_e, A, J, shape) > length
+
+
+@settings(deadline=None)
+@given(st.lists(st.tuples(st.floats(0, 200), st.floats(0, 200), st.sampled_from(["cosine", "seven-phase"]),
+                          st.floats(1.0, 3.0)), min_size=1, max_size=4), st.floats(-50, 50))
+def test_compiled_block_sampling_is_segment_state(pieces, start):
+    """The look-ahead's compiled sampling of a block equals segment_state on the same times."""
+    import fuzzyfeed.slw._kernels as kernels
+
+    segs = []
+    for v0, v1, shape, stretch in pieces:  # transitions at least as long as the shortest
+        T = transition_time(v0, v1, A, J, shape) * stretch if v0 != v1 else 0.01 * stretch
+        segs.append(Segment(v0, v1, T, J if shape == "seven-phase" else None))
+    arr = np.array([(g.v0, g.v1, g.duration_s, math.nan if g.jerk_mm_s3 is None else g.jerk_mm_s3) for g in segs])
+    s, v, a, which = kernels.sample_segments(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], start, 5e-4)
+    offset, at = start, 0
+    for k, g in enumerate(segs):
+        n = int(min(max(math.ceil(g.duration_s / 5e-4), 8), 20000))
+        pos, vel, acc, _ = segment_state(g, np.linspace(0.0, g.duration_s, n + 1))
+        part = slice(at, at + n + 1)
+        assert (which[part] == k).all()
+        assert np.allclose(s[part], pos + offset, rtol=1e-12, atol=1e-9)
+        assert np.allclose(v[part], vel, rtol=1e-12, atol=1e-9) and np.allclose(a[part], acc, rtol=1e-12, atol=1e-6)
+        offset += g.length_mm
+        at += n + 1
+    assert at == s.size

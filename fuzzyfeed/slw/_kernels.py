@@ -9,6 +9,8 @@ imports numba at import time; import it lazily (inside the functions that need i
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -99,3 +101,126 @@ def travel_time(ds, v):
         if ds[i] > 0.0:
             t += 2.0 * ds[i] / m if m > 0.0 else np.inf
     return t
+
+
+# ---------------------------------------------------------------------- transitions (profile.py)
+# The same arithmetic as fuzzyfeed.slw.profile.transition_time / _bisect, compiled: the look-ahead
+# calls the bisections ~10⁴ times on a long program, each ~40 distances (2·10⁶ Python calls).
+@numba.njit(cache=True, nogil=True)
+def transition_time(v_s, v_e, acc, jerk, seven):
+    """Seven-phase ramp (``seven``) or seed 000's cosine, eq. (20): shortest T of v_s → v_e."""
+    dv = abs(v_e - v_s)
+    if dv < 1e-200:
+        return 0.0
+    if seven:
+        if dv * jerk >= acc * acc:
+            return dv / acc + acc / jerk
+        return 2.0 * math.sqrt(dv / jerk)
+    return max(math.pi * dv / (2.0 * acc), math.pi * math.sqrt(dv / (2.0 * jerk)))
+
+
+@numba.njit(cache=True, nogil=True)
+def transition_distance(v_s, v_e, acc, jerk, seven):
+    """(v_s + v_e)·T/2 (eq. (21))."""
+    return 0.5 * (v_s + v_e) * transition_time(v_s, v_e, acc, jerk, seven)
+
+
+@numba.njit(cache=True, nogil=True)
+def bisect_end(v_s, length, good, bad, acc, jerk, seven, steps):
+    """The speed nearest ``bad`` with transition_distance(v_s, v) ≤ length, by bisection from
+    ``good`` (holds) towards ``bad`` (fails), as profile._bisect."""
+    for _ in range(steps):
+        mid = 0.5 * (good + bad)
+        if transition_distance(v_s, mid, acc, jerk, seven) <= length:
+            good = mid
+        else:
+            bad = mid
+        if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
+            break
+    return good
+
+
+@numba.njit(cache=True, nogil=True)
+def bisect_peak(v_s, v_e, length, good, bad, acc, jerk, seven, steps):
+    """The peak v nearest ``bad`` with D(v_s, v) + D(v, v_e) ≤ length (Table 1, approach 2), by
+    bisection as profile._bisect."""
+    for _ in range(steps):
+        mid = 0.5 * (good + bad)
+        if (transition_distance(v_s, mid, acc, jerk, seven)
+                + transition_distance(mid, v_e, acc, jerk, seven)) <= length:
+            good = mid
+        else:
+            bad = mid
+        if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
+            break
+    return good
+
+
+@numba.njit(cache=True, nogil=True)
+def sample_segments(v0, v1, dur, jerk, start, half_ts):
+    """A block's profile at ≥ 8 (≤ 20 000) even steps per segment of at most ``half_ts`` (each
+    segment's ends included): s (from ``start``), v, a and the segment's index per sample — the
+    cosine of seed 000 (eq. (17)-(18)) where jerk[k] is NaN, else the seven-phase ramp under that
+    jerk (profile._seven_phase_state); a cruise where v0 = v1 or the duration is 0."""
+    m = v0.size
+    counts = np.empty(m, np.int64)
+    total = 0
+    for k in range(m):
+        n = int(min(max(math.ceil(dur[k] / half_ts), 8), 20000))
+        counts[k] = n + 1
+        total += n + 1
+    s = np.empty(total)
+    v = np.empty(total)
+    a = np.empty(total)
+    seg = np.empty(total, np.int64)
+    at = 0
+    offset = start
+    for k in range(m):
+        n = counts[k] - 1
+        T = dur[k]
+        dv = v1[k] - v0[k]
+        step = T / n
+        seven = not math.isnan(jerk[k])
+        if seven and dv != 0.0 and T != 0.0:
+            sign = 1.0 if dv > 0 else -1.0
+            mag = abs(dv)
+            t_j = 0.5 * (T - math.sqrt(max(T * T - 4.0 * mag / jerk[k], 0.0)))
+            a_p = mag / (T - t_j)
+            jr = a_p / t_j
+            whole = 0.5 * (v0[k] + v1[k]) * T
+            v_j = v0[k] + sign * 0.5 * a_p * t_j
+            s_j = v0[k] * t_j + sign * jr * t_j ** 3 / 6.0
+        for i in range(n + 1):
+            tau = T if i == n else i * step
+            if dv == 0.0 or T == 0.0:
+                p, vel, acc = v0[k] * tau, v0[k], 0.0
+            elif seven:
+                tau = min(max(tau, 0.0), T)
+                r = T - tau
+                if tau < t_j:
+                    p = v0[k] * tau + sign * jr * tau ** 3 / 6.0
+                    vel = v0[k] + sign * 0.5 * jr * tau * tau
+                    acc = sign * jr * tau
+                elif r < t_j:
+                    p = whole - (v1[k] * r - sign * jr * r ** 3 / 6.0)
+                    vel = v1[k] - sign * 0.5 * jr * r * r
+                    acc = sign * jr * r
+                else:
+                    mm = tau - t_j
+                    p = s_j + v_j * mm + sign * 0.5 * a_p * mm * mm
+                    vel = v_j + sign * a_p * mm
+                    acc = sign * a_p
+            else:
+                w = math.pi / T
+                c = math.cos(w * tau)
+                sn = math.sin(w * tau)
+                vel = v0[k] + 0.5 * dv * (1.0 - c)
+                p = v0[k] * tau + 0.5 * dv * (tau - sn / w)
+                acc = 0.5 * dv * w * sn
+            s[at] = p + offset
+            v[at] = vel
+            a[at] = acc
+            seg[at] = k
+            at += 1
+        offset += 0.5 * (v0[k] + v1[k]) * T
+    return s, v, a, seg

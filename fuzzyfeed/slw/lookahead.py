@@ -29,7 +29,7 @@ from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
 from fuzzyfeed.slw.preprocess import Block, Reference, _evaluate, corner_plan, evaluate_reference, joins
 from fuzzyfeed.slw.profile import (COSINE, Segment, block_segments, check_shape, lowest_end_speed,
-                                   max_end_speed, max_start_speed, peak_acceleration, segment_state, stop_distance,
+                                   max_end_speed, max_start_speed, peak_acceleration, stop_distance,
                                    transition_distance)
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
@@ -73,6 +73,10 @@ EXACT_NEAR = 0.99
 KINK_MIN = 1e-9
 #: Blocks at the front of the window checked at the feeds of a continuing path before a release.
 FRONT_BLOCKS = 3
+#: A block is cut where the tangential acceleration its directions allow changes by this factor …
+DIRECTION_STEP = 0.6
+#: … into pieces no shorter than this share of a full stop from the command feed.
+DIRECTION_MIN = 0.1
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
 WINDOW_STOPS = 1.5
 
@@ -91,6 +95,7 @@ class _WBlock:
     acc: float
     vmax: float
     checked: tuple | None = None
+    pending: tuple | None = None  # (key, samples …) of a check not yet judged (_sample)
 
     @property
     def s0(self) -> float:
@@ -178,9 +183,12 @@ class SlidingWindow:
             return
         # a stretch with a zero limit everywhere (a micro-kink between two near-stationary
         # points) is crawled through at a tiny feed rather than being impassable
-        vmax = min(self.limits.feed_mm_s, max(block.peak_limit, CRAWL * self.limits.feed_mm_s))
-        self.blocks.append(_WBlock(block.ref, self._direction_acc(block.ref), vmax))
-        self.juncs.append(_Junction(block.s1, block.cap1, critical=True))
+        crawl = CRAWL * self.limits.feed_mm_s
+        for ref in self._by_direction(block.ref):
+            vmax = min(self.limits.feed_mm_s, max(float(ref.vlim.max()), crawl))
+            self.blocks.append(_WBlock(ref, self._direction_acc(ref), vmax))
+            self.juncs.append(_Junction(float(ref.s[-1]), float(ref.vlim[-1])))
+        self.juncs[-1].cap, self.juncs[-1].critical = block.cap1, True
         self.stats.max_window_blocks = max(self.stats.max_window_blocks, len(self.blocks))
         self.stats.max_window_mm = max(self.stats.max_window_mm, self.blocks[-1].s1 - self.blocks[0].s0)
 
@@ -216,6 +224,31 @@ class SlidingWindow:
         last.s, last.cap, last.v = block.s1, block.cap1, 0.0
         self.stats.merged += 1
         return True
+
+    def _by_direction(self, ref: Reference) -> list[Reference]:
+        """``ref`` cut where the tangential acceleration its directions allow changes by more than
+        DIRECTION_STEP (a block accelerates as its slowest direction allows: a 23 mm block of a
+        random curve on a slow-Y machine at a third of what most of it allows); pieces no
+        shorter than DIRECTION_MIN of a full stop."""
+        if len(ref) < 3 or ref.s[-1] - ref.s[0] < 2.0 * DIRECTION_MIN * self.stop:
+            return [ref]
+        t = np.abs(ref.tangent)
+        with np.errstate(divide="ignore"):
+            per_point = np.min(np.where(t > 0.0, self.axis_acc[None, :] / t, np.inf), axis=1)
+        per_point = np.clip(per_point, self.acc, float(self.axis_acc.max()))
+        if per_point.min() > DIRECTION_STEP * per_point.max():
+            return [ref]
+        level = np.floor(np.log(per_point / self.acc) / -np.log(DIRECTION_STEP))
+        cuts, last = [], 0
+        for k in np.flatnonzero(np.diff(level) != 0) + 1:
+            if k < len(ref) - 1 and ref.s[k] - ref.s[last] >= DIRECTION_MIN * self.stop \
+                    and ref.s[-1] - ref.s[k] >= DIRECTION_MIN * self.stop:
+                cuts.append(int(k))
+                last = int(k)
+        if not cuts:
+            return [ref]
+        bounds = [0, *cuts, len(ref) - 1]
+        return [ref.slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
 
     def _direction_acc(self, ref: Reference) -> float:
         """Tangential acceleration of a new block: the largest a with |a·T_j| ≤ A_j at each of its
@@ -262,47 +295,89 @@ class SlidingWindow:
         return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
                               self.approach, self.shape)
 
-    def _check(self, i: int) -> bool:
-        """Check block i; repair it and return False if it broke a limit."""
+    def _sample(self, i: int):
+        """Block i's profile sampled at half servo periods with the path's data interpolated from
+        its reference points: (key, segments, s, v, a, segment index, vlim, T, κN, near), where
+        ``near`` indexes the samples within EXACT_NEAR of a limit (read exactly before judging);
+        None when the block needs no check (already checked with this key, or crossed within a
+        small part of one servo period). Kept on the block with its key until judged."""
         b = self.blocks[i]
         key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length)
         if b.checked == key:
-            return True
+            return None
+        if b.pending is not None and b.pending[0] == key:
+            return b.pending
         if b.length < SUB_TICK * self.limits.feed_mm_s * self.limits.ts_s:
             b.checked = key  # crossed within a small part of one servo period: nothing to sample
-            return True
+            return None
         kind, segs = self._segments(i)
-        ts = self.limits.ts_s
-        parts = []
-        offset = b.s0
-        for k, seg in enumerate(segs):
-            n = int(min(max(math.ceil(seg.duration_s / (0.5 * ts)), 8), 20000))
-            tau = np.linspace(0.0, seg.duration_s, n + 1)
-            pos, vel, acc, _ = segment_state(seg, tau)
-            parts.append((pos + offset, vel, acc, np.full(tau.size, k)))
-            offset += seg.length_mm
-        if not parts:
+        if not segs:
             b.checked = key
-            return True
-        s = np.concatenate([p[0] for p in parts])
-        v = np.concatenate([p[1] for p in parts])
-        a = np.concatenate([p[2] for p in parts])
-        seg_id = np.concatenate([p[3] for p in parts])
+            return None
+        import fuzzyfeed.slw._kernels as kernels
+
+        seg_arr = np.array([(g.v0, g.v1, g.duration_s, math.nan if g.jerk_mm_s3 is None else g.jerk_mm_s3)
+                            for g in segs])
+        s, v, a, seg_id = kernels.sample_segments(seg_arr[:, 0], seg_arr[:, 1], seg_arr[:, 2], seg_arr[:, 3],
+                                                  b.s0, 0.5 * self.limits.ts_s)
         ref = b.ref
         vlim = np.interp(s, ref.s, ref.vlim)
         tan = np.stack([np.interp(s, ref.s, ref.tangent[:, j]) for j in range(3)], axis=1)
         kn = np.stack([np.interp(s, ref.s, ref.kn[:, j]) for j in range(3)], axis=1)
-        r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        r, _, _ = self._axis_ratio(v, a, tan, kn)
         near = np.flatnonzero((r > EXACT_NEAR) | ((v > EXACT_NEAR * vlim) & (vlim < self.limits.feed_mm_s)))
-        if near.size and self.curve is not None:
+        if self.curve is None:
+            near = near[:0]
+        b.pending = (key, segs, s, v, a, seg_id, vlim, tan, kn, near)
+        return b.pending
+
+    def _check_all(self, indices) -> bool:
+        """Check blocks ``indices`` in order, repairing the first that breaks a limit (False).
+        The samples within reach of a limit of every block still to judge are read from the path
+        in one evaluation (one call instead of one per block: the calls' overhead was half of
+        a long program's scheduling)."""
+        data = [(i, self._sample(i)) for i in indices]
+        todo = [d for _, d in data if d is not None and d[9].size]
+        if todo:
+            s_all = np.concatenate([d[2][d[9]] for d in todo])
+            u_all = np.concatenate([np.interp(d[2][d[9]], self.blocks[i].ref.s, self.blocks[i].ref.u)
+                                    for i, d in data if d is not None and d[9].size])
+            exact = _evaluate(self.curve, self.limits, s_all, self.cap, u_all)
+            at = 0
+            for i, d in data:
+                if d is None or not d[9].size:
+                    continue
+                near = d[9]
+                part = slice(at, at + near.size)
+                at += near.size
+                vlim, tan, kn = d[6].copy(), d[7].copy(), d[8].copy()
+                vlim[near] = np.minimum(vlim[near], exact.vlim[part])
+                tan[near], kn[near] = exact.tangent[part], exact.kn[part]
+                self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
+        for i, _ in data:
+            if not self._check(i):
+                return False
+        return True
+
+    def _check(self, i: int) -> bool:
+        """Check block i; repair it and return False if it broke a limit."""
+        d = self._sample(i)
+        if d is None:
+            return True
+        key, segs, s, v, a, seg_id, vlim, tan, kn, near = d
+        b = self.blocks[i]
+        b.pending = None
+        ref = b.ref
+        if near.size:
             # within reach of a limit: the path read at the samples themselves, not interpolated
             # between reference points (a product of interpolated T and κN missed a block's
             # peak: wm on a slow Y axis, 100.4 % of A_y between two points 0.1 mm apart)
             # (at u interpolated between the points: no arc-length inversion, second-order close)
             exact = _evaluate(self.curve, self.limits, s[near], self.cap, np.interp(s[near], ref.s, ref.u))
+            vlim, tan, kn = vlim.copy(), tan.copy(), kn.copy()
             vlim[near] = np.minimum(vlim[near], exact.vlim)
             tan[near], kn[near] = exact.tangent, exact.kn
-            r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
         kinks = self._kink_samples(s, v, a)
         if kinks is not None:  # a kink's tick, as one more sample (no feed limit of its own)
             s_k, v_k, a_k, tan_k, cen_k, at = kinks
@@ -444,14 +519,9 @@ class SlidingWindow:
         reach = self.blocks[0].s1 + 1.05 * self.stop if self.blocks and not full else math.inf
         for _ in range(MAX_SETTLE):
             self._plan(end_feed)
-            ok = True
-            for i in range(len(self.blocks)):
-                if i > FRONT_BLOCKS and self.blocks[i].s0 > reach:
-                    break
-                if not self._check(i):
-                    ok = False
-                    break
-            if ok:
+            n = len(self.blocks)
+            last = next((i for i in range(FRONT_BLOCKS + 1, n) if self.blocks[i].s0 > reach), n)
+            if self._check_all(range(last)):
                 return
         self.stats.unresolved += 1
         raise RuntimeError(f"{MAX_SETTLE} repairs in one look-ahead window at s = {self.blocks[0].s0:.6g} mm "
@@ -517,13 +587,12 @@ class SlidingWindow:
         # every block a full stop beyond the released ones: a repair there (a junction with zero
         # acceleration) could otherwise need a lower feed than the released one can reach
         reach = self.juncs[n_final].s + 1.05 * self.stop
-        for i in range(len(self.blocks)):
-            if i >= n_final and (self._front_checks >= MAX_REPAIRS
-                                 or (i >= n_final + FRONT_BLOCKS and self.blocks[i].s0 > reach)):
-                break
-            if not self._check(i):
-                self._front_checks += 1
-                return False
+        n = len(self.blocks)
+        last = n_final if self._front_checks >= MAX_REPAIRS else next(
+            (i for i in range(n_final + FRONT_BLOCKS, n) if self.blocks[i].s0 > reach), n)
+        if not self._check_all(range(min(max(last, n_final), n))):
+            self._front_checks += 1
+            return False
         self._front_checks = 0
         self._plan(0.0)
         return True

@@ -23,7 +23,6 @@ A block of length S between two junctions is one of (approach 1 for types 2-3):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 #: Below this fraction of the block's peak feed, a short block uses approach 2 (a peak) instead of
@@ -64,20 +63,6 @@ def transition_distance(v_s: float, v_e: float, acc: float, jerk: float, shape: 
 def stop_distance(feed: float, acc: float, jerk: float, shape: str = COSINE) -> float:
     """Distance of a full stop from ``feed`` (seed 000, eq. (22)): the least look-ahead length."""
     return transition_distance(feed, 0.0, acc, jerk, shape)
-
-
-def _bisect(holds: Callable[[float], bool], good: float, bad: float) -> float:
-    """The speed nearest ``bad`` at which the monotone test ``holds`` is still true, by bisection
-    between ``good`` (where it holds) and ``bad`` (where it fails) — the correction of seed 000."""
-    for _ in range(BISECTION_STEPS):
-        mid = 0.5 * (good + bad)
-        if holds(mid):
-            good = mid
-        else:
-            bad = mid
-        if abs(bad - good) <= 1e-11 * max(good, bad, 1.0):
-            break
-    return good
 
 
 def _depressed_cubic(p: float, c: float) -> float:
@@ -130,7 +115,7 @@ def _bisect_speed(fixed: float, length: float, cap: float, acc: float, jerk: flo
         v = fixed + rise * (1.0 - shrink)
         if transition_distance(fixed, v, acc, jerk, shape) <= length:
             return v
-    return _bisect(lambda x: transition_distance(fixed, x, acc, jerk, shape) <= length, fixed, v)
+    return _bisect_end(fixed, length, fixed, v, acc, jerk, shape)
 
 
 def max_end_speed(v_s: float, length: float, cap: float, acc: float, jerk: float,
@@ -139,13 +124,27 @@ def max_end_speed(v_s: float, length: float, cap: float, acc: float, jerk: float
     return _bisect_speed(v_s, length, cap, acc, jerk, shape)
 
 
+def _k():
+    """The compiled transition kernels (numba is imported on first use, not with this module)."""
+    import fuzzyfeed.slw._kernels as kernels
+
+    return kernels
+
+
+def _bisect_end(v_s: float, length: float, good: float, bad: float, acc: float, jerk: float,
+                shape: str) -> float:
+    """_bisect of transition_distance(v_s, v) ≤ length, compiled (_kernels.bisect_end)."""
+    return float(_k().bisect_end(float(v_s), float(length), float(good), float(bad), float(acc),
+                                 float(jerk), shape == SEVEN_PHASE, BISECTION_STEPS))
+
+
 def min_end_speed(v_s: float, length: float, acc: float, jerk: float,
                   shape: str = COSINE) -> float:
     """Lowest end speed reachable from v_s within ``length`` (a deceleration can go no lower)."""
     if transition_distance(v_s, 0.0, acc, jerk, shape) <= length:
         return 0.0
     # D(v_s, v) decreases towards v = v_s, where it is 0
-    return _bisect(lambda v: transition_distance(v_s, v, acc, jerk, shape) <= length, v_s, 0.0)
+    return _bisect_end(v_s, length, v_s, 0.0, acc, jerk, shape)
 
 
 def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: float,
@@ -161,8 +160,8 @@ def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: 
     if floor >= v_s or transition_distance(v_s, floor, acc, jerk, shape) <= length:
         return min(floor, v_s)
     if transition_distance(v_s, 0.0, acc, jerk, shape) <= length:
-        return _bisect(lambda v: transition_distance(v_s, v, acc, jerk, shape) <= length, 0.0, floor)
-    return _bisect(lambda v: transition_distance(v_s, v, acc, jerk, shape) <= length, v_s, floor)
+        return _bisect_end(v_s, length, 0.0, floor, acc, jerk, shape)
+    return _bisect_end(v_s, length, v_s, floor, acc, jerk, shape)
 
 
 def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, jerk: float,
@@ -175,7 +174,8 @@ def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, je
 
     if cap <= lo or dist(cap) <= length:
         return max(cap, lo)
-    return _bisect(lambda v: dist(v) <= length, lo, cap)
+    return float(_k().bisect_peak(float(v_s), float(v_e), float(length), float(lo), float(cap), float(acc),
+                                  float(jerk), shape == SEVEN_PHASE, BISECTION_STEPS))
 
 
 def max_start_speed(v_e: float, length: float, cap: float, acc: float, jerk: float,
