@@ -43,6 +43,7 @@ import numpy as np
 from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
 from fuzzyfeed.program.compensation import comp_per_line, compensate
+from fuzzyfeed.program.expr import POLAR_LETTERS
 from fuzzyfeed.program.flow import execute, needs_execution
 from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
 from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
@@ -53,7 +54,10 @@ from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, 
 #: Largest number a word may hold (mm or inch): beyond, a coordinate leaves the ±1 km of
 #: MAX_COORDINATE_MM even in mm (checked again in mm on the positions).
 _MAX_WORD = 1e6
-_LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"]
+_LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"] + [POLAR_LETTERS["@"]]
+#: Epoch of an axis at the start of a program: the machine is wherever it is (not at 0), so a
+#: move that sets some axes from there starts from an unknown point (see _axis_positions).
+_START_EPOCH = -(2 ** 62)
 
 
 def _ffill(values: np.ndarray, has: np.ndarray, default):
@@ -79,8 +83,55 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     known = last >= 0
     li = np.maximum(last, 0)
     pos = np.where(known, base[li] + c - d[li], c)
-    epoch = np.where(known, epoch_evt[li], 0)
+    epoch = np.where(known, epoch_evt[li], _START_EPOCH)
     return pos, epoch
+
+
+def _polar_positions(fail, n, sets, incs, pre, post, polar, absolute, radius, angle):
+    """Positions and epochs after every line (as :func:`_axis_positions`) of a program with polar
+    words, line by line, as LinuxCNC's ``find_ends`` computes them: about the origin of the frame
+    in force, in G90 ``@`` is the radius and ``^`` the angle (degrees; the one not given is the
+    current point's), in G91 ``@`` adds to the radius and ``^`` to the angle. A polar move from a
+    point the frame leaves unknown ends at an unknown point."""
+    pos = np.zeros(3)
+    epoch = np.full(3, _START_EPOCH, dtype=np.int64)
+    pos_after = np.empty((n, 3))
+    epoch_after = np.empty((n, 3), dtype=np.int64)
+    cols = [(s[0].tolist(), s[1].tolist(), inc.tolist(), p.tolist(), q.tolist())
+            for s, inc, p, q in zip(sets, incs, pre, post)]
+    polar_l, absolute_l = polar.tolist(), absolute.tolist()
+    r_l, a_l = radius.tolist(), angle.tolist()
+    for i in range(n):
+        for k in range(3):
+            setv, is_set, inc, p, _ = (c[i] for c in cols[k])
+            if p:
+                pos[k], epoch[k] = 0.0, -(i + 1)
+            if is_set:
+                pos[k], epoch[k] = setv, 0
+            else:
+                pos[k] += inc
+        if polar_l[i]:
+            r_word, a_word = r_l[i], a_l[i]
+            has_r, has_a = r_word == r_word, a_word == a_word
+            known = epoch[0] == 0 and epoch[1] == 0
+            x, y = pos[0], pos[1]
+            if known and x == 0 and y == 0 and not (absolute_l[i] and has_r and has_a):
+                fail(i, "polar word (@ or ^) at the origin: the angle or radius it keeps is "
+                        "indeterminate (LinuxCNC refuses it)")
+            if absolute_l[i]:
+                r = r_word if has_r else float(np.hypot(x, y))
+                t = np.radians(a_word) if has_a else float(np.arctan2(y, x))
+                known = known or (has_r and has_a)
+            else:
+                r = float(np.hypot(x, y)) + (r_word if has_r else 0.0)
+                t = float(np.arctan2(y, x)) + (np.radians(a_word) if has_a else 0.0)
+            pos[0], pos[1] = r * np.cos(t), r * np.sin(t)
+            epoch[0] = epoch[1] = 0 if known else -(i + 1)
+        for k in range(3):
+            if cols[k][4][i]:
+                epoch[k] = -(i + 1)
+        pos_after[i], epoch_after[i] = pos, epoch
+    return pos_after, epoch_after
 
 
 def read_program(path: str | os.PathLike, text: str | None = None, tools: dict | None = None) -> Program:
@@ -157,15 +208,16 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
     letter = {ch: tc == ord(ch) - 65 for ch in LETTERS}
+    letter.update({ch: tc == code for ch, code in POLAR_LETTERS.items()})
     big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTHLETTERS)
     if big.any():
         k = int(np.argmax(big))
         text = f"{tv[k]:.6g}"
-        fail(tl[k], f"{chr(65 + int(tc[k]))}{text}: a number beyond ±{_MAX_WORD:g} (no machine moves "
+        fail(tl[k], f"{chr(65 + int(tc[k])) if tc[k] < 26 else '@'}{text}: a number beyond ±{_MAX_WORD:g} (no machine moves "
                     f"{_MAX_WORD:g} mm or inch; coordinates must lie within ±1 km)")
     # --- one column per letter (single-valued letters) ---
     cols = {}
-    for ch in "XYZABCUVWIJKRPQLFSTHDE":
+    for ch in "XYZABCUVWIJKRPQLFSTHDE@^":
         mask = letter[ch]
         if not mask.any():
             cols[ch] = None
@@ -281,6 +333,11 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     if gcol["feed_mode"] is not None:
         fm_change |= np.isin(gcol["feed_mode"], [940, 950])
     feed_value = _ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0)
+    # mm per unit of the F in force: LinuxCNC sets F (order of execution step 4) before it changes
+    # units (step 14), and its canonical layer converts F with the units then in force, so
+    # `G21` … `G20 F6` is 6 mm/min (issue 37): an F is read in the units of the line before
+    scale_before = np.concatenate([[1.0], scale[:-1]])
+    feed_scale = _ffill(np.where(has_f, scale_before, 1.0), has_f | fm_change, 1.0)
     if has_f.any() and (f_col[has_f] < 0).any():
         i = int(np.flatnonzero(has_f & (f_col < 0))[0])
         fail(i, f"F{f_col[i]:g}: a feed must be >= 0")
@@ -315,11 +372,12 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     nonmodal = gcol["nonmodal"]
     nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
     g10_l, g28, g30, g53 = nm(100), nm(280), nm(300), nm(530)
-    g92 = nm(920)
+    g92_set = nm(920)             # G92 with axis words: those axes take the given values
+    g92 = np.zeros(n, bool)       # G92.1/.2/.3: offsets cancelled or restored (values unknown)
     if gcol["g92_offsets"] is not None:
-        g92 = g92 | (gcol["g92_offsets"] >= 0)
+        g92 = gcol["g92_offsets"] >= 0
     g52_local = nm(520)
-    covets = g10_l | nm(920) | g52_local | g28 | g30   # LinuxCNC's mode_zero_covets_axes
+    covets = g10_l | g92_set | g52_local | g28 | g30   # LinuxCNC's mode_zero_covets_axes
     takes_axes = covets                                # axis words are not a target
     motion_here = gcol["motion"] >= 0 if gcol["motion"] is not None else np.zeros(n, bool)
     both = covets & motion_here & (gcol["motion"] != 800 if gcol["motion"] is not None else False)
@@ -365,8 +423,6 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     for k in range(3):
         p = pre_all | (pre_z if k == 2 else False)
         q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | probe_line
-        if k < 2:
-            q = q | (polar & moving)
         if k == 2:
             q = q | cycle_line
         else:
@@ -378,22 +434,29 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     updates = (moving | control_point) & ~g53 & ~tap_line
     pos_after = np.empty((n, 3))
     epoch_after = np.empty((n, 3), dtype=np.int64)
+    sets, incs = [], []
     for k, ch in enumerate("XYZ"):
         v = col(ch) * scale
         given = xyz_has[k] & updates
         if k == 2:
             given &= ~cycle_line
-        is_set = given & absolute
+        # G92 X…: the current point becomes the given value, whatever the mode and the offsets
+        is_set = (given & absolute) | (g92_set & xyz_has[k])
         inc = np.where(given & ~absolute, v, 0.0)
-        pos_after[:, k], epoch_after[:, k] = _axis_positions(n, np.where(is_set, v, 0.0), is_set,
-                                                             inc, pre[k], post[k])
+        sets.append((np.where(is_set, v, 0.0), is_set))
+        incs.append(inc)
+        pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k])
+    polar_moves = polar & updates & ~cycle_line
+    if polar_moves.any():    # the XY a polar word reaches depends on the point before: one by one
+        pos_after, epoch_after = _polar_positions(fail, n, sets, incs, pre, post, polar_moves, absolute,
+                                                  col("@") * scale, col("^"))
     far = np.abs(pos_after) > MAX_COORDINATE_MM
     if far.any():
         i, k = (int(v) for v in np.argwhere(far)[0])
         fail(i, f"{'XYZ'[k]} reaches {pos_after[i, k]:.6g} mm; coordinates must lie within "
                 f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
-    epoch_before = np.vstack([np.zeros((1, 3), dtype=np.int64), epoch_after[:-1]])
+    epoch_before = np.vstack([np.full((1, 3), _START_EPOCH, dtype=np.int64), epoch_after[:-1]])
     for k in range(3):
         epoch_before[:, k] = np.where(pre[k], -(np.arange(n) + 1), epoch_before[:, k])
     known = np.all(epoch_before == epoch_after, axis=1)
@@ -410,7 +473,6 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     kind[(mo == 20) | (mo == 30)] = ARC
     kind[np.isin(mo, list(CYCLES))] = CYCLE
     kind[np.isin(mo, [330, 331])] = SYNCED
-    kind[polar[move_rows] & (kind != CYCLE)] = KEPT
     hl = home_line[move_rows] | g53[move_rows]
     kind[hl & ((mo == 0) | home_line[move_rows])] = HOME
     kind[g53[move_rows] & (mo != 0)] = KEPT
@@ -420,8 +482,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     fmode = feed_mode[move_rows]
     kept = np.isin(kind, [LINE, ARC]) & (~known[move_rows] | abc_has[move_rows] | (fmode != 94))
     kind[kept & (kind == ARC) & ~known[move_rows]] = KEPT
-    feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * scale[move_rows])
-    no_split = m_stop[move_rows].copy()
+    feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * feed_scale[move_rows])
+    no_split = m_stop[move_rows] | polar[move_rows]     # a polar line takes no X or Y word
     stops = m_stop[move_rows].copy()
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
                                                        endp, col, inch, scale, ij_absolute)
@@ -474,7 +536,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     advisable &= ~abc_has[move_rows]
     if rows is not None:         # moves of another file's lines (a called NAME.ngc) are kept
         advisable &= rows.row_line[move_rows] >= 0
-    breaker_line = m_break | pre_all | pre_z | home_line | g53
+    breaker_line = m_break | pre_all | pre_z | home_line | g53 | g92_set
     bcum = np.concatenate([[0], np.cumsum(breaker_line)])   # bcum[i] = breakers on lines < i
     # a chain is broken by a move that is not advised (a rapid that moves, home, cycle, kept) and
     # by a line where the tool stops or the frame changes; rapids that do not move are transparent
