@@ -87,12 +87,30 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     return pos, epoch
 
 
-def _polar_positions(fail, n, sets, incs, pre, post, polar, absolute, radius, angle):
-    """Positions and epochs after every line (as :func:`_axis_positions`) of a program with polar
-    words, line by line, as LinuxCNC's ``find_ends`` computes them: about the origin of the frame
-    in force, in G90 ``@`` is the radius and ``^`` the angle (degrees; the one not given is the
-    current point's), in G91 ``@`` adds to the radius and ``^`` to the angle. A polar move from a
-    point the frame leaves unknown ends at an unknown point."""
+def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radius, angle, offsets=None):
+    """Positions and epochs after every line (as :func:`_axis_positions`), line by line, of a
+    program with polar words or with G52/G92.1/G92.2.
+
+    Polar words as LinuxCNC's ``find_ends`` computes them: about the origin of the frame in force,
+    in G90 ``@`` is the radius and ``^`` the angle (degrees; the one not given is the current
+    point's), in G91 ``@`` adds to the radius and ``^`` to the angle. A polar move from a point the
+    frame leaves unknown ends at an unknown point.
+
+    The axis offsets o (G92 and G52 share them; unknown at the start: LinuxCNC keeps them in its
+    parameter file) per axis: ``G92 X a`` makes the point a and o the point before + o - a;
+    ``G52 X b`` makes o = b, G92.1/G92.2 o = 0, G92.3 o = the offsets G92 or G92.1 saved last
+    (parameters 5211-5213), and the point becomes p + o_before - o_after: a shift when both are
+    known, an unknown point otherwise. ``offsets`` = (per line 1 G92, 2 G52, 3 G92.1, 4 G92.2,
+    5 G92.3; per axis the words in mm)."""
+    off = np.zeros(3)
+    off_known = np.zeros(3, bool)
+    saved = np.zeros(3)
+    saved_known = np.zeros(3, bool)
+    same = np.ones(3, bool)      # o is the saved value (at the start LinuxCNC restores them)
+    if offsets is not None:
+        off_code, off_words = offsets[0].tolist(), [w.tolist() for w in offsets[1]]
+    else:
+        off_code = [0] * n
     pos = np.zeros(3)
     epoch = np.full(3, _START_EPOCH, dtype=np.int64)
     pos_after = np.empty((n, 3))
@@ -102,6 +120,29 @@ def _polar_positions(fail, n, sets, incs, pre, post, polar, absolute, radius, an
     polar_l, absolute_l = polar.tolist(), absolute.tolist()
     r_l, a_l = radius.tolist(), angle.tolist()
     for i in range(n):
+        code = off_code[i]
+        if code:
+            for k in range(3):
+                word = off_words[k][i]
+                if code == 1:
+                    if word == word:
+                        off_known[k] = off_known[k] and epoch[k] == 0
+                        off[k] = pos[k] + off[k] - word
+                        pos[k], epoch[k] = word, 0
+                    saved[k], saved_known[k], same[k] = off[k], off_known[k], True
+                    continue
+                new, new_known = (0.0, True) if code in (3, 4) else (word, True) if code == 2 else \
+                    (saved[k], saved_known[k])
+                if new != new:          # G52 without this axis
+                    continue
+                if code == 3:
+                    saved[k], saved_known[k] = 0.0, True
+                if off_known[k] and new_known:
+                    pos[k] += off[k] - new
+                elif not (code == 5 and same[k]):     # G92.3 with the saved offsets in force: no change
+                    pos[k], epoch[k] = 0.0, -(i + 1)
+                off[k], off_known[k] = new, new_known
+                same[k] = code in (3, 5) or (off_known[k] and saved_known[k] and off[k] == saved[k])
         for k in range(3):
             setv, is_set, inc, p, _ = (c[i] for c in cols[k])
             if p:
@@ -373,9 +414,15 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
     g10_l, g28, g30, g53 = nm(100), nm(280), nm(300), nm(530)
     g92_set = nm(920)             # G92 with axis words: those axes take the given values
-    g92 = np.zeros(n, bool)       # G92.1/.2/.3: offsets cancelled or restored (values unknown)
+    g92 = np.zeros(n, bool)       # G92.1/.2/.3: offsets cancelled or restored
+    g92_zero = np.zeros(n, bool)  # G92.1/.2: the axis offsets become 0
+    g92_keep = np.zeros(n, bool)  # G92.1: ... and so do the saved ones
+    g92_restore = np.zeros(n, bool)  # G92.3: the saved offsets come back
     if gcol["g92_offsets"] is not None:
         g92 = gcol["g92_offsets"] >= 0
+        g92_zero = np.isin(gcol["g92_offsets"], [921, 922])
+        g92_keep = gcol["g92_offsets"] == 922
+        g92_restore = gcol["g92_offsets"] == 923
     g52_local = nm(520)
     covets = g10_l | g92_set | g52_local | g28 | g30   # LinuxCNC's mode_zero_covets_axes
     takes_axes = covets                                # axis words are not a target
@@ -414,7 +461,11 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     length_line = gany("length")
     l_col = col("L")
     tool_table = g10_l & np.isin(l_col, [1, 10, 11])
-    pre_all = coord_change | (g10_l & ~tool_table) | g92 | g52_local | (gline("length", 431) if gcol["length"] is not None else np.zeros(n, bool))
+    # G52 and G92.1/.2 set the axis offsets (shared with G92) to known values: followed line by
+    # line (a shift of the frame when the offsets before are known too, see _sequential_positions)
+    offset_lines = g52_local | g92_zero | g92_restore
+    follow_offsets = bool(offset_lines.any())
+    pre_all = coord_change | (g10_l & ~tool_table) | (g92 & ~offset_lines) | (gline("length", 431) if gcol["length"] is not None else np.zeros(n, bool))
     pre_z = length_line | tool_table
     home_line = g28 | g30
     post_named = g53 & moving
@@ -441,15 +492,20 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         if k == 2:
             given &= ~cycle_line
         # G92 X…: the current point becomes the given value, whatever the mode and the offsets
-        is_set = (given & absolute) | (g92_set & xyz_has[k])
+        is_set = (given & absolute) | (g92_set & xyz_has[k] & ~follow_offsets)
         inc = np.where(given & ~absolute, v, 0.0)
         sets.append((np.where(is_set, v, 0.0), is_set))
         incs.append(inc)
         pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k])
     polar_moves = polar & updates & ~cycle_line
-    if polar_moves.any():    # the XY a polar word reaches depends on the point before: one by one
-        pos_after, epoch_after = _polar_positions(fail, n, sets, incs, pre, post, polar_moves, absolute,
-                                                  col("@") * scale, col("^"))
+    if polar_moves.any() or follow_offsets:   # these depend on the point before: line by line
+        offsets = None
+        if follow_offsets:
+            code = (np.where(g92_set, 1, 0) + np.where(g52_local, 2, 0) + np.where(g92_zero & ~g92_keep, 3, 0)
+                    + np.where(g92_keep, 4, 0) + np.where(g92_restore, 5, 0))
+            offsets = (code, [col(ch) * scale for ch in "XYZ"])
+        pos_after, epoch_after = _sequential_positions(fail, n, sets, incs, pre, post, polar_moves,
+                                                       absolute, col("@") * scale, col("^"), offsets)
     far = np.abs(pos_after) > MAX_COORDINATE_MM
     if far.any():
         i, k = (int(v) for v in np.argwhere(far)[0])
