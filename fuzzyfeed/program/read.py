@@ -58,6 +58,9 @@ _LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"] + [POLAR_LETTERS["@"]]
 #: Epoch of an axis at the start of a program: the machine is wherever it is (not at 0), so a
 #: move that sets some axes from there starts from an unknown point (see _axis_positions).
 _START_EPOCH = -(2 ** 62)
+#: Epoch of a point known but for c times the axis offset the machine had at the start: _U_EPOCH + c
+#: (G92.2 ... G92.3, see _sequential_positions).
+_U_EPOCH = -(2 ** 61)
 
 
 def _ffill(values: np.ndarray, has: np.ndarray, default):
@@ -98,19 +101,23 @@ def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radiu
 
     The axis offsets o (G92 and G52 share them; unknown at the start: LinuxCNC keeps them in its
     parameter file) per axis: ``G92 X a`` makes the point a and o the point before + o - a;
-    ``G52 X b`` makes o = b, G92.1/G92.2 o = 0, G92.3 o = the offsets G92 or G92.1 saved last
-    (parameters 5211-5213), and the point becomes p + o_before - o_after: a shift when both are
+    ``G52 X b`` makes o = b, G92.1/G92.2 o = 0, G92.3 o = the offsets G92, G52 or G92.1 saved last
+    (parameters 5211-5213, ``convert_axis_offsets``), and the point becomes p + o_before - o_after: a shift when both are
     known, an unknown point otherwise. ``offsets`` = (per line 1 G92, 2 G52, 3 G92.1, 4 G92.2,
     5 G92.3; per axis the words in mm)."""
-    off = np.zeros(3)
-    off_known = np.zeros(3, bool)
-    saved = np.zeros(3)
-    saved_known = np.zeros(3, bool)
-    same = np.ones(3, bool)      # o is the saved value (at the start LinuxCNC restores them)
+    # an offset is a value plus u times the offset the machine had at the start (U, unknown;
+    # u = None: unknown otherwise); a point's epoch _U_EPOCH means its value plus U
+    off, off_u = np.zeros(3), [1, 1, 1]
+    saved, saved_u = np.zeros(3), [1, 1, 1]        # at the start LinuxCNC restores the saved ones
+    same = [True, True, True]                      # the offset in force is the saved one
     if offsets is not None:
         off_code, off_words = offsets[0].tolist(), [w.tolist() for w in offsets[1]]
     else:
         off_code = [0] * n
+
+    def u_of(e):
+        return 0 if e == 0 else int(e - _U_EPOCH) if abs(e - _U_EPOCH) <= 8 else None
+
     pos = np.zeros(3)
     epoch = np.full(3, _START_EPOCH, dtype=np.int64)
     pos_after = np.empty((n, 3))
@@ -124,25 +131,35 @@ def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radiu
         if code:
             for k in range(3):
                 word = off_words[k][i]
-                if code == 1:
+                if code == 1:                      # G92: the point becomes the word
                     if word == word:
-                        off_known[k] = off_known[k] and epoch[k] == 0
+                        pu = u_of(epoch[k])
+                        off_u[k] = None if pu is None or off_u[k] is None else pu + off_u[k]
                         off[k] = pos[k] + off[k] - word
                         pos[k], epoch[k] = word, 0
-                    saved[k], saved_known[k], same[k] = off[k], off_known[k], True
+                    saved[k], saved_u[k], same[k] = off[k], off_u[k], True
                     continue
-                new, new_known = (0.0, True) if code in (3, 4) else (word, True) if code == 2 else \
-                    (saved[k], saved_known[k])
-                if new != new:          # G52 without this axis
+                new, new_u = (0.0, 0) if code in (3, 4) else (word, 0) if code == 2 else (saved[k], saved_u[k])
+                if new != new:                     # G52 without this axis: only saved
+                    saved[k], saved_u[k], same[k] = off[k], off_u[k], True
                     continue
                 if code == 3:
-                    saved[k], saved_known[k] = 0.0, True
-                if off_known[k] and new_known:
+                    saved[k], saved_u[k] = 0.0, 0
+                pu = u_of(epoch[k])
+                shift_u = None if off_u[k] is None or new_u is None else off_u[k] - new_u
+                if code == 5 and same[k]:          # G92.3 of the offset in force: no change
+                    pass
+                elif shift_u == 0:                 # a known shift
                     pos[k] += off[k] - new
-                elif not (code == 5 and same[k]):     # G92.3 with the saved offsets in force: no change
+                elif shift_u is not None and pu is not None and abs(pu + shift_u) <= 8:
+                    pos[k] += off[k] - new
+                    epoch[k] = 0 if pu + shift_u == 0 else _U_EPOCH + pu + shift_u
+                else:
                     pos[k], epoch[k] = 0.0, -(i + 1)
-                off[k], off_known[k] = new, new_known
-                same[k] = code in (3, 5) or (off_known[k] and saved_known[k] and off[k] == saved[k])
+                off[k], off_u[k] = new, new_u
+                if code == 2:                      # G52 saves the offsets as G92 does
+                    saved[k], saved_u[k] = off[k], off_u[k]
+                same[k] = code != 4 or (saved_u[k] == 0 and saved[k] == 0.0)
         for k in range(3):
             setv, is_set, inc, p, _ = (c[i] for c in cols[k])
             if p:
