@@ -90,7 +90,19 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     return pos, epoch
 
 
-def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radius, angle, offsets=None):
+def _cycle_info(cycle_line, motion, r_mm, retract):
+    """Per line for :func:`_sequential_positions`: a G17 drilling cycle runs on it, the cycle's R
+    (mm; LinuxCNC keeps the last R), G99 in force (LinuxCNC's retract mode starts as R_PLANE,
+    zero-initialised: G99 until the program says G98), and a line that ends a run of cycles (a motion
+    mode that is not a cycle: the next cycle takes its initial level anew)."""
+    has_r = cycle_line & ~np.isnan(r_mm)
+    r = _ffill(np.where(has_r, r_mm, np.nan), has_r, np.nan)
+    ends_run = ~np.isin(motion, list(CYCLES))
+    return cycle_line.tolist(), r.tolist(), (retract == 990).tolist(), ends_run.tolist()
+
+
+def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radius, angle, offsets=None,
+                          cycles=None):
     """Positions and epochs after every line (as :func:`_axis_positions`), line by line, of a
     program with polar words or with G52/G92.1/G92.2.
 
@@ -104,7 +116,11 @@ def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radiu
     ``G52 X b`` makes o = b, G92.1/G92.2 o = 0, G92.3 o = the offsets G92, G52 or G92.1 saved last
     (parameters 5211-5213, ``convert_axis_offsets``), and the point becomes p + o_before - o_after: a shift when both are
     known, an unknown point otherwise. ``offsets`` = (per line 1 G92, 2 G52, 3 G92.1, 4 G92.2,
-    5 G92.3; per axis the words in mm)."""
+    5 G92.3; per axis the words in mm).
+
+    A G17 drilling cycle (``interp_cycles.cc`` convert_cycle_xy) ends at Z = R (G99) or at the
+    higher of R and the initial level (G98; the Z before the first cycle of a run), R in G91 being
+    relative to that level. ``cycles`` from :func:`_cycle_info`."""
     # an offset is a value plus u times the offset the machine had at the start (U, unknown;
     # u = None: unknown otherwise); a point's epoch _U_EPOCH means its value plus U
     off, off_u = np.zeros(3), [1, 1, 1]
@@ -120,6 +136,8 @@ def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radiu
 
     pos = np.zeros(3)
     epoch = np.full(3, _START_EPOCH, dtype=np.int64)
+    cyc, cyc_r, cyc_99, cyc_end = cycles if cycles is not None else ([False] * n, None, None, None)
+    level = None                                   # (value, epoch) of the initial level
     pos_after = np.empty((n, 3))
     epoch_after = np.empty((n, 3), dtype=np.int64)
     cols = [(s[0].tolist(), s[1].tolist(), inc.tolist(), p.tolist(), q.tolist())
@@ -160,6 +178,10 @@ def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radiu
                 if code == 2:                      # G52 saves the offsets as G92 does
                     saved[k], saved_u[k] = off[k], off_u[k]
                 same[k] = code != 4 or (saved_u[k] == 0 and saved[k] == 0.0)
+        if cyc[i] and level is None:
+            level = (pos[2], epoch[2])
+        elif cycles is not None and cyc_end[i]:
+            level = None
         for k in range(3):
             setv, is_set, inc, p, _ = (c[i] for c in cols[k])
             if p:
@@ -185,6 +207,18 @@ def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radiu
                 t = float(np.arctan2(y, x)) + (np.radians(a_word) if has_a else 0.0)
             pos[0], pos[1] = r * np.cos(t), r * np.sin(t)
             epoch[0] = epoch[1] = 0 if known else -(i + 1)
+        if cyc[i]:
+            r = cyc_r[i]
+            if r != r:
+                pos[2], epoch[2] = 0.0, -(i + 1)
+            elif absolute_l[i]:
+                if cyc_99[i] or level[1] == 0:
+                    pos[2] = r if cyc_99[i] else max(level[0], r)
+                    epoch[2] = 0
+                else:
+                    pos[2], epoch[2] = 0.0, -(i + 1)
+            else:
+                pos[2], epoch[2] = level[0] + (r if cyc_99[i] else max(r, 0.0)), level[1]
         for k in range(3):
             if cols[k][4][i]:
                 epoch[k] = -(i + 1)
@@ -486,13 +520,14 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     pre_z = length_line | tool_table
     home_line = g28 | g30
     post_named = g53 & moving
+    follow_cycles = bool((cycle_line & (plane == 17)).any()) and not (cycle_line & (plane != 17)).any()
     post = []
     pre = []
     for k in range(3):
         p = pre_all | (pre_z if k == 2 else False)
         q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | probe_line
         if k == 2:
-            q = q | cycle_line
+            q = q | (cycle_line & ~follow_cycles)
         else:
             q = q | (cycle_line & ~absolute)
         pre.append(p)
@@ -515,14 +550,17 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         incs.append(inc)
         pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k])
     polar_moves = polar & updates & ~cycle_line
-    if polar_moves.any() or follow_offsets:   # these depend on the point before: line by line
+    if polar_moves.any() or follow_offsets or follow_cycles:   # these depend on the point before
         offsets = None
         if follow_offsets:
             code = (np.where(g92_set, 1, 0) + np.where(g52_local, 2, 0) + np.where(g92_zero & ~g92_keep, 3, 0)
                     + np.where(g92_keep, 4, 0) + np.where(g92_restore, 5, 0))
             offsets = (code, [col(ch) * scale for ch in "XYZ"])
         pos_after, epoch_after = _sequential_positions(fail, n, sets, incs, pre, post, polar_moves,
-                                                       absolute, col("@") * scale, col("^"), offsets)
+                                                       absolute, col("@") * scale, col("^"), offsets,
+                                                       _cycle_info(cycle_line, motion, col("R") * scale,
+                                                                   modal("retract", 990))
+                                                       if follow_cycles else None)
     far = np.abs(pos_after) > MAX_COORDINATE_MM
     if far.any():
         i, k = (int(v) for v in np.argwhere(far)[0])
@@ -587,8 +625,14 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         if bad.any():
             fail(move_rows[np.argmax(bad)], "only G0, G1, G2 and G3 moves can run under cutter "
                                             "compensation (LinuxCNC refuses the others)")
+        resets = np.zeros((move_rows.size, 3), bool)     # a frame change since the move before
+        for k in range(3):
+            before = np.concatenate([[0], np.cumsum(pre[k])])     # resets on lines < i
+            prev_row = np.concatenate([[-1], move_rows[:-1]])
+            resets[:, k] = before[move_rows + 1] - before[prev_row + 1] > 0
         comp = compensate(kind, start, endp, centre, turns, side_m, comp_radius[move_rows] * 1.0,
-                          plane[move_rows], bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg))
+                          plane[move_rows], bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg),
+                          resets)
         src = comp.src
         remap = {int(old): k for k, old in enumerate(src) if int(old) in nurbs}
         nurbs = {remap[m]: c for m, c in nurbs.items()}
