@@ -320,7 +320,7 @@ def parity(program, events_a: list[Event], events_b: list[Event], tol_mm: float 
              SYNCED: ("STRAIGHT_FEED", "RIGID_TAP"),
              KEPT: ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED", "STRAIGHT_PROBE")}
     j = 0
-    probed = False
+    probed = ever_probed = False
     stats = {"moves": 0, "placed": 0, "not_placed": 0, "calls": len(events_a), "feeds": 0, "empty_calls": 0}
     lines = program.rows.line if program.rows is not None else None
     for m in range(program.kind.size):
@@ -348,7 +348,7 @@ def parity(program, events_a: list[Event], events_b: list[Event], tol_mm: float 
         determined = bool(np.all(np.abs(a.disp - b.disp) <= res))
         known = bool(program.known[m]) if program.known is not None else True
         if a.name == "STRAIGHT_PROBE":
-            probed = True                  # stand-alone rs274 ends a probe at its target; a machine
+            probed = ever_probed = True                 # stand-alone rs274 ends a probe at its target; a machine
         if known:                          # where the probe trips: unknown until the program sets it
             probed = False
         if (np.isnan(a.disp).any() or (probed and not known) or (kind == KEPT and not determined)
@@ -367,7 +367,7 @@ def parity(program, events_a: list[Event], events_b: list[Event], tol_mm: float 
             stats["placed"] += 1
             d = program.end[m] - program.start[m]
             assert np.all(np.abs(d - a.disp) <= res), f"{where}: displacement {d} != rs274's {a.disp}"
-            same = np.abs(a.end - b.end) <= res
+            same = (np.abs(a.end - b.end) <= res) & (not ever_probed)   # a probe's end is the machine's
             assert np.all(np.abs(program.end[m] - a.end)[same] <= res), \
                 f"{where}: end {program.end[m]} != rs274's {a.end}"
             if kind == ARC:
