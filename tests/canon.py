@@ -247,7 +247,7 @@ def canon_events(calls) -> list[Event]:
     printed in the units then in force; a change of G5x, G92/G52 or tool length offset moves the
     frame, not the tool; a RIGID_TAP comes back where it started), and the feed in mm/min as LinuxCNC's canonical layer converts it: with
     the units in force when SET_FEED_RATE is called (issue 37)."""
-    unit, feed, per_rev, synced, line, group = 1.0, 0.0, False, False, -1, -1
+    unit, feed, per_rev, synced, line, group, changed = 1.0, 0.0, False, False, -1, -1, -2
     plane = "CANON_PLANE_XY"
     here = np.zeros(3)
     offsets = {"g5x": np.zeros(3), "g92": np.zeros(3), "tool": np.zeros(3)}
@@ -255,6 +255,8 @@ def canon_events(calls) -> list[Event]:
     for name, args in calls:
         if name == "COMMENT" and args.startswith('"' + _MARK):
             line, group = int(args[len(_MARK) + 1:-1]), group + 1
+        elif name == "CHANGE_TOOL":
+            changed = group
         elif name == "USE_LENGTH_UNITS":
             unit = 25.4 if "INCHES" in args else 1.0
         elif name == "SET_FEED_RATE":
@@ -271,7 +273,10 @@ def canon_events(calls) -> list[Event]:
             v = _nums(args)
             key = {"SET_G5X_OFFSET": "g5x", "SET_G92_OFFSET": "g92", "USE_TOOL_LENGTH_OFFSET": "tool"}[name]
             new = (v[1:4] if key == "g5x" else v[:3]) * unit
-            here = here - (new - offsets[key])
+            if not (key == "tool" and changed == group):
+                # (rs274 keeps its coordinates when G43 stands on the line of the M6: seen with
+                # Debian's 2.9.0~pre1, T4 M6 G43 then G0 X0 keeps Z)
+                here = here - (new - offsets[key])
             offsets[key] = new
         elif name in _MOTION:
             e = Event()

@@ -89,7 +89,10 @@ def _run_batch(texts, workdir, seed):
             # the next program starts at an unknown point with unknown axis offsets (the machine
             # moved by other amounts in A and B, a G92 of other values)
             v = [rng.uniform(-9, 9) for _ in range(6)] if run else [1.0] * 6
-            parts.append(f"(FFLINE -1)\nG91 G0 X{v[0]:.3f} Y{v[1]:.3f} Z{v[2]:.3f}\nG90\n"
+            # and G54-G59.3 offsets of other values (a G10 L2 of the program before stays)
+            systems = "".join(f"G10 L2 P{p} X{rng.uniform(-9, 9) * run:.3f} Y{rng.uniform(-9, 9) * run:.3f} "
+                              f"Z{rng.uniform(-9, 9) * run:.3f}\n" for p in range(1, 10))
+            parts.append(f"(FFLINE -1)\nG91 G0 X{v[0]:.3f} Y{v[1]:.3f} Z{v[2]:.3f}\nG90\n{systems}"
                          f"G92 X{v[3]:.3f} Y{v[4]:.3f} Z{v[5]:.3f}")
             parts.append(marked("\n".join(body), base))
             ranges.append((base, base + len(body)))

@@ -45,6 +45,7 @@ from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
 from fuzzyfeed.program.compensation import comp_per_line, compensate
 from fuzzyfeed.program.expr import POLAR_LETTERS
 from fuzzyfeed.program.flow import execute, needs_execution
+from fuzzyfeed.program.frames import START_EPOCH, sequential_positions
 from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
 from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
@@ -57,10 +58,7 @@ _MAX_WORD = 1e6
 _LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"] + [POLAR_LETTERS["@"]]
 #: Epoch of an axis at the start of a program: the machine is wherever it is (not at 0), so a
 #: move that sets some axes from there starts from an unknown point (see _axis_positions).
-_START_EPOCH = -(2 ** 62)
-#: Epoch of a point known but for c times the axis offset the machine had at the start: _U_EPOCH + c
-#: (G92.2 ... G92.3, see _sequential_positions).
-_U_EPOCH = -(2 ** 61)
+_START_EPOCH = START_EPOCH
 
 
 def _ffill(values: np.ndarray, has: np.ndarray, default):
@@ -90,8 +88,21 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     return pos, epoch
 
 
+_SYSTEMS = (540, 550, 560, 570, 580, 590, 591, 592, 593)
+
+
+def _system_events(frame_lines, coord, g10_l2, p_col):
+    """Per line for :func:`sequential_positions`: (the coordinate system in force, 1-9, or 0 where
+    the line changes nothing, the system a G10 L2 sets (0 none))."""
+    system = np.searchsorted(np.array(_SYSTEMS), coord) + 1
+    active = np.where(frame_lines, system, 0)
+    p = np.nan_to_num(p_col).astype(np.int64)
+    target = np.where(g10_l2, np.where(p == 0, system, p), 0)
+    return active.tolist(), target.tolist()
+
+
 def _cycle_info(cycle_line, motion, r_mm, retract):
-    """Per line for :func:`_sequential_positions`: a G17 drilling cycle runs on it, the cycle's R
+    """Per line for :func:`sequential_positions`: a G17 drilling cycle runs on it, the cycle's R
     (mm; LinuxCNC keeps the last R), G99 in force (LinuxCNC's retract mode starts as R_PLANE,
     zero-initialised: G99 until the program says G98), and a line that ends a run of cycles (a motion
     mode that is not a cycle: the next cycle takes its initial level anew)."""
@@ -99,131 +110,6 @@ def _cycle_info(cycle_line, motion, r_mm, retract):
     r = _ffill(np.where(has_r, r_mm, np.nan), has_r, np.nan)
     ends_run = ~np.isin(motion, list(CYCLES))
     return cycle_line.tolist(), r.tolist(), (retract == 990).tolist(), ends_run.tolist()
-
-
-def _sequential_positions(fail, n, sets, incs, pre, post, polar, absolute, radius, angle, offsets=None,
-                          cycles=None):
-    """Positions and epochs after every line (as :func:`_axis_positions`), line by line, of a
-    program with polar words or with G52/G92.1/G92.2.
-
-    Polar words as LinuxCNC's ``find_ends`` computes them: about the origin of the frame in force,
-    in G90 ``@`` is the radius and ``^`` the angle (degrees; the one not given is the current
-    point's), in G91 ``@`` adds to the radius and ``^`` to the angle. A polar move from a point the
-    frame leaves unknown ends at an unknown point.
-
-    The axis offsets o (G92 and G52 share them; unknown at the start: LinuxCNC keeps them in its
-    parameter file) per axis: ``G92 X a`` makes the point a and o the point before + o - a;
-    ``G52 X b`` makes o = b, G92.1/G92.2 o = 0, G92.3 o = the offsets G92, G52 or G92.1 saved last
-    (parameters 5211-5213, ``convert_axis_offsets``), and the point becomes p + o_before - o_after: a shift when both are
-    known, an unknown point otherwise. ``offsets`` = (per line 1 G92, 2 G52, 3 G92.1, 4 G92.2,
-    5 G92.3; per axis the words in mm).
-
-    A G17 drilling cycle (``interp_cycles.cc`` convert_cycle_xy) ends at Z = R (G99) or at the
-    higher of R and the initial level (G98; the Z before the first cycle of a run), R in G91 being
-    relative to that level. ``cycles`` from :func:`_cycle_info`."""
-    # an offset is a value plus u times the offset the machine had at the start (U, unknown;
-    # u = None: unknown otherwise); a point's epoch _U_EPOCH means its value plus U
-    off, off_u = np.zeros(3), [1, 1, 1]
-    saved, saved_u = np.zeros(3), [1, 1, 1]        # at the start LinuxCNC restores the saved ones
-    same = [True, True, True]                      # the offset in force is the saved one
-    if offsets is not None:
-        off_code, off_words = offsets[0].tolist(), [w.tolist() for w in offsets[1]]
-    else:
-        off_code = [0] * n
-
-    def u_of(e):
-        return 0 if e == 0 else int(e - _U_EPOCH) if abs(e - _U_EPOCH) <= 8 else None
-
-    pos = np.zeros(3)
-    epoch = np.full(3, _START_EPOCH, dtype=np.int64)
-    cyc, cyc_r, cyc_99, cyc_end = cycles if cycles is not None else ([False] * n, None, None, None)
-    level = None                                   # (value, epoch) of the initial level
-    pos_after = np.empty((n, 3))
-    epoch_after = np.empty((n, 3), dtype=np.int64)
-    cols = [(s[0].tolist(), s[1].tolist(), inc.tolist(), p.tolist(), q.tolist())
-            for s, inc, p, q in zip(sets, incs, pre, post)]
-    polar_l, absolute_l = polar.tolist(), absolute.tolist()
-    r_l, a_l = radius.tolist(), angle.tolist()
-    for i in range(n):
-        code = off_code[i]
-        if code:
-            for k in range(3):
-                word = off_words[k][i]
-                if code == 1:                      # G92: the point becomes the word
-                    if word == word:
-                        pu = u_of(epoch[k])
-                        off_u[k] = None if pu is None or off_u[k] is None else pu + off_u[k]
-                        off[k] = pos[k] + off[k] - word
-                        pos[k], epoch[k] = word, 0
-                    saved[k], saved_u[k], same[k] = off[k], off_u[k], True
-                    continue
-                new, new_u = (0.0, 0) if code in (3, 4) else (word, 0) if code == 2 else (saved[k], saved_u[k])
-                if new != new:                     # G52 without this axis: only saved
-                    saved[k], saved_u[k], same[k] = off[k], off_u[k], True
-                    continue
-                if code == 3:
-                    saved[k], saved_u[k] = 0.0, 0
-                pu = u_of(epoch[k])
-                shift_u = None if off_u[k] is None or new_u is None else off_u[k] - new_u
-                if code == 5 and same[k]:          # G92.3 of the offset in force: no change
-                    pass
-                elif shift_u == 0:                 # a known shift
-                    pos[k] += off[k] - new
-                elif shift_u is not None and pu is not None and abs(pu + shift_u) <= 8:
-                    pos[k] += off[k] - new
-                    epoch[k] = 0 if pu + shift_u == 0 else _U_EPOCH + pu + shift_u
-                else:
-                    pos[k], epoch[k] = 0.0, -(i + 1)
-                off[k], off_u[k] = new, new_u
-                if code == 2:                      # G52 saves the offsets as G92 does
-                    saved[k], saved_u[k] = off[k], off_u[k]
-                same[k] = code != 4 or (saved_u[k] == 0 and saved[k] == 0.0)
-        if cyc[i] and level is None:
-            level = (pos[2], epoch[2])
-        elif cycles is not None and cyc_end[i]:
-            level = None
-        for k in range(3):
-            setv, is_set, inc, p, _ = (c[i] for c in cols[k])
-            if p:
-                pos[k], epoch[k] = 0.0, -(i + 1)
-            if is_set:
-                pos[k], epoch[k] = setv, 0
-            else:
-                pos[k] += inc
-        if polar_l[i]:
-            r_word, a_word = r_l[i], a_l[i]
-            has_r, has_a = r_word == r_word, a_word == a_word
-            known = epoch[0] == 0 and epoch[1] == 0
-            x, y = pos[0], pos[1]
-            if known and x == 0 and y == 0 and not (absolute_l[i] and has_r and has_a):
-                fail(i, "polar word (@ or ^) at the origin: the angle or radius it keeps is "
-                        "indeterminate (LinuxCNC refuses it)")
-            if absolute_l[i]:
-                r = r_word if has_r else float(np.hypot(x, y))
-                t = np.radians(a_word) if has_a else float(np.arctan2(y, x))
-                known = known or (has_r and has_a)
-            else:
-                r = float(np.hypot(x, y)) + (r_word if has_r else 0.0)
-                t = float(np.arctan2(y, x)) + (np.radians(a_word) if has_a else 0.0)
-            pos[0], pos[1] = r * np.cos(t), r * np.sin(t)
-            epoch[0] = epoch[1] = 0 if known else -(i + 1)
-        if cyc[i]:
-            r = cyc_r[i]
-            if r != r:
-                pos[2], epoch[2] = 0.0, -(i + 1)
-            elif absolute_l[i]:
-                if cyc_99[i] or level[1] == 0:
-                    pos[2] = r if cyc_99[i] else max(level[0], r)
-                    epoch[2] = 0
-                else:
-                    pos[2], epoch[2] = 0.0, -(i + 1)
-            else:
-                pos[2], epoch[2] = level[0] + (r if cyc_99[i] else max(r, 0.0)), level[1]
-        for k in range(3):
-            if cols[k][4][i]:
-                epoch[k] = -(i + 1)
-        pos_after[i], epoch_after[i] = pos, epoch
-    return pos_after, epoch_after
 
 
 def read_program(path: str | os.PathLike, text: str | None = None, tools: dict | None = None) -> Program:
@@ -513,10 +399,13 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     l_col = col("L")
     tool_table = g10_l & np.isin(l_col, [1, 10, 11])
     # G52 and G92.1/.2 set the axis offsets (shared with G92) to known values: followed line by
-    # line (a shift of the frame when the offsets before are known too, see _sequential_positions)
+    # line (a shift of the frame when the offsets before are known too, see sequential_positions)
     offset_lines = g52_local | g92_zero | g92_restore
-    follow_offsets = bool(offset_lines.any())
-    pre_all = coord_change | (g10_l & ~tool_table) | (g92 & ~offset_lines) | (gline("length", 431) if gcol["length"] is not None else np.zeros(n, bool))
+    # G10 L2 sets a coordinate system's offsets to known values: systems followed line by line too
+    g10_l2 = g10_l & (l_col == 2) & ~has("R")
+    frame_lines = coord_change | g10_l2
+    follow_offsets = bool(offset_lines.any() or frame_lines.any())
+    pre_all = (coord_change & ~frame_lines) | (g10_l & ~tool_table & ~g10_l2) | (g92 & ~offset_lines) | (gline("length", 431) if gcol["length"] is not None else np.zeros(n, bool))
     pre_z = length_line | tool_table
     home_line = g28 | g30
     post_named = g53 & moving
@@ -555,8 +444,9 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         if follow_offsets:
             code = (np.where(g92_set, 1, 0) + np.where(g52_local, 2, 0) + np.where(g92_zero & ~g92_keep, 3, 0)
                     + np.where(g92_keep, 4, 0) + np.where(g92_restore, 5, 0))
-            offsets = (code, [col(ch) * scale for ch in "XYZ"])
-        pos_after, epoch_after = _sequential_positions(fail, n, sets, incs, pre, post, polar_moves,
+            offsets = (code, [col(ch) * scale for ch in "XYZ"],
+                       _system_events(frame_lines, coord, g10_l2, col("P")))
+        pos_after, epoch_after = sequential_positions(fail, n, sets, incs, pre, post, polar_moves,
                                                        absolute, col("@") * scale, col("^"), offsets,
                                                        _cycle_info(cycle_line, motion, col("R") * scale,
                                                                    modal("retract", 990))

@@ -115,6 +115,8 @@ class _Gen:
 
     def offsets(self):
         r = self.rng
+        if r.random() < 0.2:
+            self.out.append(f"G10 L2 P{r.choice([0, 1, 2])} X{self.num(-9, 9)} Y{self.num(-9, 9)} Z{self.num(-9, 9)}")
         self.out.append(r.choice(["G55", "G54", "G59", "G92 X0 Y0", f"G92 Z{self.num(-5, 5)}", "G92.1",
                                   f"G52 X{self.num(-5, 5)} Y{self.num(-5, 5)}", "G52 X0 Y0 Z0",
                                   "G92 X1 Y2 Z3", "G92.2", "G92.3"]))
