@@ -354,7 +354,7 @@ def parity(program, events_a: list[Event], events_b: list[Event], tol_mm: float 
         known = bool(program.known[m]) if program.known is not None else True
         if a.name == "STRAIGHT_PROBE":
             probed = ever_probed = True                 # stand-alone rs274 ends a probe at its target; a machine
-        if known:                          # where the probe trips: unknown until the program sets it
+        elif known:                        # where the probe trips: unknown until the program sets it
             probed = False
         if (np.isnan(a.disp).any() or (probed and not known) or (kind == KEPT and not determined)
                 or a.name == "RIGID_TAP"):

@@ -414,7 +414,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     pre = []
     for k in range(3):
         p = pre_all | (pre_z if k == 2 else False)
-        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | probe_line
+        # a probe stops somewhere on its line: the axes it moves are unknown after it
+        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | (probe_line & xyz_has[k])
         if k == 2:
             q = q | (cycle_line & ~follow_cycles)
         else:
