@@ -483,12 +483,13 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     endp = pos_after[move_rows].copy()
     fmode = feed_mode[move_rows]
     kept = np.isin(kind, [LINE, ARC]) & (~known[move_rows] | abc_has[move_rows] | (fmode != 94))
-    kind[kept & (kind == ARC) & ~known[move_rows]] = KEPT
+    unplaced_arcs = kept & (kind == ARC) & ~known[move_rows]
+    kind[unplaced_arcs] = KEPT
     feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * feed_scale[move_rows])
     no_split = m_stop[move_rows] | polar[move_rows]     # a polar line takes no X or Y word
     stops = m_stop[move_rows].copy()
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
-                                                       endp, col, inch, scale, ij_absolute)
+                                                       endp, col, inch, scale, ij_absolute, unplaced_arcs)
     no_split |= multi_turn
     row_of = {int(r): k for k, r in enumerate(move_rows)}
     nurbs, nurbs_lines = nurbs_blocks(fail, blocks, row_of, known, col, any_xyz, xyz_has,
