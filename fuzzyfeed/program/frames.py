@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fuzzyfeed.program.modal import CYCLES
+
 #: Epoch of every axis at the start of a program (see fuzzyfeed.program.read).
 START_EPOCH = -(2 ** 62)
 #: Epochs of points known up to a combination of the start offsets: SYMBOLIC_EPOCH − index.
@@ -190,3 +192,29 @@ def sequential_positions(fail, n, sets, incs, pre, post, polar=None, absolute=No
                 reset(k, i)
         pos_after[i], epoch_after[i] = pos, epoch
     return pos_after, epoch_after
+
+
+_SYSTEMS = (540, 550, 560, 570, 580, 590, 591, 592, 593)
+
+
+def system_events(frame_lines, coord, g10_l2, p_col):
+    """Per line for :func:`sequential_positions`: (the coordinate system in force, 1-9, or 0 where
+    the line changes nothing, the system a G10 L2 sets (0 none))."""
+    system = np.searchsorted(np.array(_SYSTEMS), coord) + 1
+    active = np.where(frame_lines, system, 0)
+    p = np.nan_to_num(p_col).astype(np.int64)
+    target = np.where(g10_l2, np.where(p == 0, system, p), 0)
+    return active.tolist(), target.tolist()
+
+
+def cycle_info(cycle_line, motion, r_mm, retract):
+    """Per line for :func:`sequential_positions`: a G17 drilling cycle runs on it, the cycle's R
+    (mm; LinuxCNC keeps the last R), G99 in force (LinuxCNC's retract mode starts as R_PLANE,
+    zero-initialised: G99 until the program says G98), and a line that ends a run of cycles (a motion
+    mode that is not a cycle: the next cycle takes its initial level anew)."""
+    has_r = cycle_line & ~np.isnan(r_mm)
+    idx = np.where(has_r, np.arange(has_r.size), -1)
+    np.maximum.accumulate(idx, out=idx)
+    r = np.where(idx >= 0, r_mm[np.maximum(idx, 0)], np.nan)
+    ends_run = ~np.isin(motion, list(CYCLES))
+    return cycle_line.tolist(), r.tolist(), (retract == 990).tolist(), ends_run.tolist()

@@ -9,7 +9,7 @@ by one.
 Carried through unchanged (they do not change the programmed path): G43/G43.1/G43.2/G49 H,
 G54–G59.3, G10 L1/L2/L10/L11/L20, G20/G21, G90/G91 (.1), G93/G94/G95, G96/G97, G61/G61.1/G64,
 G40, G80, G98/G99, G4, G28/G30/G53 moves (rapids that end a cut), G28.1/G30.1, G92 family and
-G52 (offsets), G17/G18/G19, M0–M9, M30, M48–M53, M60–M66, M70–M73, M100–M199, T, S, H, D, N, E,
+G52 (offsets, followed by :mod:`fuzzyfeed.program.frames`), G17/G18/G19, M0–M9, M30, M48–M53, M60–M66, M70–M73, M100–M199, T, S, H, D, N, E,
 ``%``, ``/``, comments ``( )`` and ``;``. Canned cycles G73, G74, G81–G89 are moves of their
 own kind, kept as written. Arcs in any plane (I/J/K or R, helical, P turns) are exact.
 
@@ -27,7 +27,7 @@ axis words), and so are axis words with G80 or with G80 in force.
 
 Refused with ``file:line``: cutter compensation G41/G42 (.1) unless :mod:`fuzzyfeed.program.compensation`
 is given the tool (see there), G5/G5.1 splines, threading G33/G76, probing G38.x, lathe diameter
-mode G7, the UVW planes, polar words, and arcs whose end radius does not fit the start radius
+mode G7, the UVW planes, polar words outside G17 or beside X/Y, and arcs whose end radius does not fit the start radius
 (LinuxCNC's rule: more than 0.02 mm / 0.002 in *and* 0.1 %); coordinates beyond ±1 km (also a
 thousand-digit number).
 """
@@ -45,7 +45,7 @@ from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
 from fuzzyfeed.program.compensation import comp_per_line, compensate
 from fuzzyfeed.program.expr import POLAR_LETTERS
 from fuzzyfeed.program.flow import execute, needs_execution
-from fuzzyfeed.program.frames import START_EPOCH, sequential_positions
+from fuzzyfeed.program.frames import START_EPOCH, cycle_info, sequential_positions, system_events
 from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
 from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
@@ -86,30 +86,6 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     pos = np.where(known, base[li] + c - d[li], c)
     epoch = np.where(known, epoch_evt[li], _START_EPOCH)
     return pos, epoch
-
-
-_SYSTEMS = (540, 550, 560, 570, 580, 590, 591, 592, 593)
-
-
-def _system_events(frame_lines, coord, g10_l2, p_col):
-    """Per line for :func:`sequential_positions`: (the coordinate system in force, 1-9, or 0 where
-    the line changes nothing, the system a G10 L2 sets (0 none))."""
-    system = np.searchsorted(np.array(_SYSTEMS), coord) + 1
-    active = np.where(frame_lines, system, 0)
-    p = np.nan_to_num(p_col).astype(np.int64)
-    target = np.where(g10_l2, np.where(p == 0, system, p), 0)
-    return active.tolist(), target.tolist()
-
-
-def _cycle_info(cycle_line, motion, r_mm, retract):
-    """Per line for :func:`sequential_positions`: a G17 drilling cycle runs on it, the cycle's R
-    (mm; LinuxCNC keeps the last R), G99 in force (LinuxCNC's retract mode starts as R_PLANE,
-    zero-initialised: G99 until the program says G98), and a line that ends a run of cycles (a motion
-    mode that is not a cycle: the next cycle takes its initial level anew)."""
-    has_r = cycle_line & ~np.isnan(r_mm)
-    r = _ffill(np.where(has_r, r_mm, np.nan), has_r, np.nan)
-    ends_run = ~np.isin(motion, list(CYCLES))
-    return cycle_line.tolist(), r.tolist(), (retract == 990).tolist(), ends_run.tolist()
 
 
 def read_program(path: str | os.PathLike, text: str | None = None, tools: dict | None = None) -> Program:
@@ -446,10 +422,10 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
             code = (np.where(g92_set, 1, 0) + np.where(g52_local, 2, 0) + np.where(g92_zero & ~g92_keep, 3, 0)
                     + np.where(g92_keep, 4, 0) + np.where(g92_restore, 5, 0))
             offsets = (code, [col(ch) * scale for ch in "XYZ"],
-                       _system_events(frame_lines, coord, g10_l2, col("P")))
+                       system_events(frame_lines, coord, g10_l2, col("P")))
         pos_after, epoch_after = sequential_positions(fail, n, sets, incs, pre, post, polar_moves,
                                                        absolute, col("@") * scale, col("^"), offsets,
-                                                       _cycle_info(cycle_line, motion, col("R") * scale,
+                                                       cycle_info(cycle_line, motion, col("R") * scale,
                                                                    modal("retract", 990))
                                                        if follow_cycles else None)
     far = np.abs(pos_after) > MAX_COORDINATE_MM
