@@ -281,20 +281,27 @@ def test_advised_program_keeps_the_users_expressions(tmp_path, capsys):
     assert result.min_ratio < 0.5
 
 
-def test_polar_words_are_kept_and_the_position_after_them_unknown(tmp_path):
-    """``@``/``^`` move the tool to a point that depends on where it is: such a move, and the moves
-    after it until a rapid sets X and Y, are kept as written; the rest is advised and rs274 makes
-    the same moves from the program written back."""
+def test_polar_words_are_placed_as_linuxcnc_places_them(tmp_path):
+    """``@``/``^`` move the tool about the origin of the frame (``find_ends``): in G90 to radius
+    @ at angle ^, in G91 adding @ to the radius and ^ to the angle of the point before. Those moves
+    are read and advised like any other (their line stays one move: X or Y cannot join a polar
+    word), and rs274 makes the same moves from the program written back."""
     from canon import canon, compare
     from fuzzyfeed.cli import main
-    from fuzzyfeed.program.model import KEPT
+    from fuzzyfeed.program.model import LINE
 
     program = tmp_path / "polar.ngc"
-    program.write_text("G21 G90 G17 F300\nG0 X10 Y0\nG1 @10 ^30\nG1 X5 Y5\nG0 X0 Y0\nG1 X10\nG1 Y10\n"
-                       "G1 X0\nM2\n")
+    program.write_text("G21 G90 G17 F300\nG0 X10 Y0 Z0\nG1 @10 ^30\nG1 X5 Y5\nG91 G1 @2 ^15\nG1 ^15\n"
+                       "G90 G1 @4\nG0 X0 Y0\nG1 X10\nG1 Y10\nG1 X0\nM2\n")
     ours = read_program(program)
-    assert ours.kind[1] == KEPT and ours.cut[1:3].tolist() == [-1, -1]     # neither is advised
+    assert ours.kind[1] == LINE and ours.known[1:].all() and (ours.cut[1:6] >= 0).all()
+    r0, t0 = np.hypot(5, 5), np.arctan2(5, 5)
+    want = [(10 * np.cos(np.pi / 6), 10 * np.sin(np.pi / 6)), (5, 5),
+            ((r0 + 2) * np.cos(t0 + np.pi / 12), (r0 + 2) * np.sin(t0 + np.pi / 12)),
+            ((r0 + 2) * np.cos(t0 + np.pi / 6), (r0 + 2) * np.sin(t0 + np.pi / 6)),
+            (4 * np.cos(t0 + np.pi / 6), 4 * np.sin(t0 + np.pi / 6))]
+    np.testing.assert_allclose(ours.end[1:6, :2], want, atol=1e-12)
     out = tmp_path / "out.ngc"
     assert main(["advise", str(program), "-o", str(tmp_path / "a.csv"), "--gcode", str(out)]) == 0
-    assert "G1 @10 ^30\nG1 X5 Y5\n" in out.read_text()
+    assert all(" X" not in ln and " Y" not in ln for ln in out.read_text().splitlines() if "@" in ln or "^" in ln)
     assert compare(canon(program, tmp_path), canon(out, tmp_path)).min_ratio < 0.5

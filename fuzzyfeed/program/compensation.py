@@ -320,11 +320,13 @@ class _Compensator:
 
 def compensate(kind: np.ndarray, start: np.ndarray, end: np.ndarray, centre: np.ndarray,
                turns: np.ndarray, side: np.ndarray, radius_mm: np.ndarray, plane: np.ndarray, inch: bool,
-               fail) -> Compensated:
+               fail, resets: np.ndarray | None = None) -> Compensated:
     """The moves after compensation (see the module docstring). Per programmed move: ``side``
     +1 (G41, left), −1 (G42, right) or 0 (off), ``radius_mm`` the tool radius (used where side
     ≠ 0), ``plane`` 17 or 18 (XZ: the algorithm runs on (Z, X) as LinuxCNC's does);
-    ``fail(move, message)`` raises the caller's one-line error."""
+    ``fail(move, message)`` raises the caller's one-line error; ``resets`` (M, 3) marks the axes
+    whose frame changed (G43, G5x, ...) since the move before: a move that follows a compensated
+    one starts where the tool is but for those axes, which take the program's start."""
     comp = _Compensator(fail, inch)
     current = None
     programmed = None
@@ -389,6 +391,8 @@ def compensate(kind: np.ndarray, start: np.ndarray, end: np.ndarray, centre: np.
     for k, (mv, follows) in enumerate(order):
         # a compensated move starts where the last one ended; others where the program put them
         out_start[k] = prev if follows else start[mv.src]
+        if follows and resets is not None:
+            out_start[k] = np.where(resets[mv.src], start[mv.src], prev)
         prev = mv.end
     moves = [mv for mv, _ in order]
     return Compensated(src=np.array([mv.src for mv in moves], dtype=np.int64),

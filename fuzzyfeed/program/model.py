@@ -7,9 +7,18 @@ state in force after it (per-line arrays). Every line that moves the tool gives 
 F in force, and for arcs the exact circle. A *cut* is a chain of feed moves (lines, arcs, NURBS
 blocks) between rapids; ``cut`` numbers them from 0 (−1 for moves in no cut).
 
-Positions a program does not determine (after a change of work offset, tool length offset,
-G10, G92, a G28/G30/G53 move or a canned cycle) are tracked as *unknown*: a move from or to an
-unknown coordinate is kept as written (kind KEPT or its own kind) and never advised.
+Positions a program does not determine are tracked as *unknown*: the machine's start point (it is
+not assumed to be 0), after a change to offsets whose values the machine holds (G54-G59.3 not set
+by G10 L2, the G92/G52 offsets at the start, tool length offsets, G10 L1/L20), a G28/G30/G53 move,
+a probe (on the axes it moves), a drilling cycle in G91 or outside G17. The offsets the program
+sets are followed as LinuxCNC follows them (:mod:`fuzzyfeed.program.frames`: polar words, G92,
+G52, G92.1/.2/.3, G10 L2, changes of system, drilling cycles' retract). ``known`` is false for a
+move from an unknown point (its length is not known); such a move is kept as written (kind KEPT,
+or its own kind with ``known`` false) and never advised. The meanings of ``kind``, ``known``,
+``feed_mode``, ``rotary`` and ``stops`` are unchanged by issue 40 (no kind or field added):
+SYNCED is G33/G33.1, whose speed no F sets; G93/G95 moves have ``feed_mode`` 93/95.
+``feed_mm_min`` is the F in force converted with the units in force when the F was read (the
+units before its line's G20/G21: LinuxCNC's order of execution).
 """
 
 from __future__ import annotations

@@ -22,16 +22,19 @@ ARC_RELATIVE_TOLERANCE = 0.001
 R_TOLERANCE = {False: 0.00127, True: 0.00005}
 
 
-def arc_centres(fail, kind, move_rows, motion, plane, start, endp, col, inch, scale, ij_absolute):
+def arc_centres(fail, kind, move_rows, motion, plane, start, endp, col, inch, scale, ij_absolute,
+                words_only=None):
     """Centre (M, 3; NaN off the plane and for non-arcs), signed turns, plane code and a
-    multi-turn flag of every ARC move; refuses arcs that do not fit."""
+    multi-turn flag of every ARC move; refuses arcs that do not fit. Moves of ``words_only``
+    (arcs from a point not known) have their words checked only."""
     centre = np.full((move_rows.size, 3), np.nan)
     turns = np.zeros(move_rows.size, dtype=np.int64)
     arc_plane = np.zeros(move_rows.size, dtype=np.int64)
     multi = np.zeros(move_rows.size, bool)
     p_col, r_col = col("P"), col("R")
     ijk = [col(ch) for ch in "IJK"]
-    for m in np.flatnonzero(kind == ARC):
+    words_only = np.zeros(kind.size, bool) if words_only is None else words_only
+    for m in np.flatnonzero((kind == ARC) | words_only):
         i = int(move_rows[m])
         clockwise = motion[i] == 20
         name = "G2" if clockwise else "G3"
@@ -46,6 +49,10 @@ def arc_centres(fail, kind, move_rows, motion, plane, start, endp, col, inch, sc
         has_r = not np.isnan(r_col[i])
         if (has_c[0] or has_c[1]) and has_r:
             fail(i, f"{name} with both R and {letters_ab}")
+        if not (has_c[0] or has_c[1] or has_r):
+            fail(i, f"{name} needs {letters_ab} (centre) or R (radius)")
+        if words_only[m]:
+            continue
         tol = ARC_RADIUS_TOLERANCE[bool(inch[i])] * scale[i]
         if has_c[0] or has_c[1]:
             ci = np.nan_to_num(np.array([ijk[a][i], ijk[b][i]])) * scale[i]

@@ -9,7 +9,7 @@ by one.
 Carried through unchanged (they do not change the programmed path): G43/G43.1/G43.2/G49 H,
 G54–G59.3, G10 L1/L2/L10/L11/L20, G20/G21, G90/G91 (.1), G93/G94/G95, G96/G97, G61/G61.1/G64,
 G40, G80, G98/G99, G4, G28/G30/G53 moves (rapids that end a cut), G28.1/G30.1, G92 family and
-G52 (offsets), G17/G18/G19, M0–M9, M30, M48–M53, M60–M66, M70–M73, M100–M199, T, S, H, D, N, E,
+G52 (offsets, followed by :mod:`fuzzyfeed.program.frames`), G17/G18/G19, M0–M9, M30, M48–M53, M60–M66, M70–M73, M100–M199, T, S, H, D, N, E,
 ``%``, ``/``, comments ``( )`` and ``;``. Canned cycles G73, G74, G81–G89 are moves of their
 own kind, kept as written. Arcs in any plane (I/J/K or R, helical, P turns) are exact.
 
@@ -27,7 +27,7 @@ axis words), and so are axis words with G80 or with G80 in force.
 
 Refused with ``file:line``: cutter compensation G41/G42 (.1) unless :mod:`fuzzyfeed.program.compensation`
 is given the tool (see there), G5/G5.1 splines, threading G33/G76, probing G38.x, lathe diameter
-mode G7, the UVW planes, polar words, and arcs whose end radius does not fit the start radius
+mode G7, the UVW planes, polar words outside G17 or beside X/Y, and arcs whose end radius does not fit the start radius
 (LinuxCNC's rule: more than 0.02 mm / 0.002 in *and* 0.1 %); coordinates beyond ±1 km (also a
 thousand-digit number).
 """
@@ -43,7 +43,9 @@ import numpy as np
 from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
 from fuzzyfeed.program.compensation import comp_per_line, compensate
+from fuzzyfeed.program.expr import POLAR_LETTERS
 from fuzzyfeed.program.flow import execute, needs_execution
+from fuzzyfeed.program.frames import START_EPOCH, cycle_info, sequential_positions, system_events
 from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
 from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
@@ -53,7 +55,10 @@ from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, 
 #: Largest number a word may hold (mm or inch): beyond, a coordinate leaves the ±1 km of
 #: MAX_COORDINATE_MM even in mm (checked again in mm on the positions).
 _MAX_WORD = 1e6
-_LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"]
+_LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"] + [POLAR_LETTERS["@"]]
+#: Epoch of an axis at the start of a program: the machine is wherever it is (not at 0), so a
+#: move that sets some axes from there starts from an unknown point (see _axis_positions).
+_START_EPOCH = START_EPOCH
 
 
 def _ffill(values: np.ndarray, has: np.ndarray, default):
@@ -79,7 +84,7 @@ def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarra
     known = last >= 0
     li = np.maximum(last, 0)
     pos = np.where(known, base[li] + c - d[li], c)
-    epoch = np.where(known, epoch_evt[li], 0)
+    epoch = np.where(known, epoch_evt[li], _START_EPOCH)
     return pos, epoch
 
 
@@ -157,15 +162,16 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
     letter = {ch: tc == ord(ch) - 65 for ch in LETTERS}
+    letter.update({ch: tc == code for ch, code in POLAR_LETTERS.items()})
     big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTHLETTERS)
     if big.any():
         k = int(np.argmax(big))
         text = f"{tv[k]:.6g}"
-        fail(tl[k], f"{chr(65 + int(tc[k]))}{text}: a number beyond ±{_MAX_WORD:g} (no machine moves "
+        fail(tl[k], f"{chr(65 + int(tc[k])) if tc[k] < 26 else '@'}{text}: a number beyond ±{_MAX_WORD:g} (no machine moves "
                     f"{_MAX_WORD:g} mm or inch; coordinates must lie within ±1 km)")
     # --- one column per letter (single-valued letters) ---
     cols = {}
-    for ch in "XYZABCUVWIJKRPQLFSTHDE":
+    for ch in "XYZABCUVWIJKRPQLFSTHDE@^":
         mask = letter[ch]
         if not mask.any():
             cols[ch] = None
@@ -281,6 +287,11 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     if gcol["feed_mode"] is not None:
         fm_change |= np.isin(gcol["feed_mode"], [940, 950])
     feed_value = _ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0)
+    # mm per unit of the F in force: LinuxCNC sets F (order of execution step 4) before it changes
+    # units (step 14), and its canonical layer converts F with the units then in force, so
+    # `G21` … `G20 F6` is 6 mm/min (issue 37): an F is read in the units of the line before
+    scale_before = np.concatenate([[1.0], scale[:-1]])
+    feed_scale = _ffill(np.where(has_f, scale_before, 1.0), has_f | fm_change, 1.0)
     if has_f.any() and (f_col[has_f] < 0).any():
         i = int(np.flatnonzero(has_f & (f_col < 0))[0])
         fail(i, f"F{f_col[i]:g}: a feed must be >= 0")
@@ -315,11 +326,18 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     nonmodal = gcol["nonmodal"]
     nm = (lambda code: gline("nonmodal", code)) if nonmodal is not None else (lambda code: np.zeros(n, bool))
     g10_l, g28, g30, g53 = nm(100), nm(280), nm(300), nm(530)
-    g92 = nm(920)
+    g92_set = nm(920)             # G92 with axis words: those axes take the given values
+    g92 = np.zeros(n, bool)       # G92.1/.2/.3: offsets cancelled or restored
+    g92_zero = np.zeros(n, bool)  # G92.1/.2: the axis offsets become 0
+    g92_keep = np.zeros(n, bool)  # G92.1: ... and so do the saved ones
+    g92_restore = np.zeros(n, bool)  # G92.3: the saved offsets come back
     if gcol["g92_offsets"] is not None:
-        g92 = g92 | (gcol["g92_offsets"] >= 0)
+        g92 = gcol["g92_offsets"] >= 0
+        g92_zero = np.isin(gcol["g92_offsets"], [921, 922])
+        g92_keep = gcol["g92_offsets"] == 922
+        g92_restore = gcol["g92_offsets"] == 923
     g52_local = nm(520)
-    covets = g10_l | nm(920) | g52_local | g28 | g30   # LinuxCNC's mode_zero_covets_axes
+    covets = g10_l | g92_set | g52_local | g28 | g30   # LinuxCNC's mode_zero_covets_axes
     takes_axes = covets                                # axis words are not a target
     motion_here = gcol["motion"] >= 0 if gcol["motion"] is not None else np.zeros(n, bool)
     both = covets & motion_here & (gcol["motion"] != 800 if gcol["motion"] is not None else False)
@@ -356,19 +374,26 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     length_line = gany("length")
     l_col = col("L")
     tool_table = g10_l & np.isin(l_col, [1, 10, 11])
-    pre_all = coord_change | (g10_l & ~tool_table) | g92 | g52_local | (gline("length", 431) if gcol["length"] is not None else np.zeros(n, bool))
+    # G52 and G92.1/.2 set the axis offsets (shared with G92) to known values: followed line by
+    # line (a shift of the frame when the offsets before are known too, see sequential_positions)
+    offset_lines = g52_local | g92_zero | g92_restore
+    # G10 L2 sets a coordinate system's offsets to known values: systems followed line by line too
+    g10_l2 = g10_l & (l_col == 2) & ~has("R")
+    frame_lines = coord_change | g10_l2
+    follow_offsets = bool(offset_lines.any() or frame_lines.any())
+    pre_all = (coord_change & ~frame_lines) | (g10_l & ~tool_table & ~g10_l2) | (g92 & ~offset_lines) | (gline("length", 431) if gcol["length"] is not None else np.zeros(n, bool))
     pre_z = length_line | tool_table
     home_line = g28 | g30
     post_named = g53 & moving
+    follow_cycles = bool((cycle_line & (plane == 17)).any()) and not (cycle_line & (plane != 17)).any()
     post = []
     pre = []
     for k in range(3):
         p = pre_all | (pre_z if k == 2 else False)
-        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | probe_line
-        if k < 2:
-            q = q | (polar & moving)
+        # a probe stops somewhere on its line: the axes it moves are unknown after it
+        q = (home_line & (xyz_has[k] | ~any_xyz)) | (post_named & xyz_has[k]) | (probe_line & xyz_has[k])
         if k == 2:
-            q = q | cycle_line
+            q = q | (cycle_line & ~follow_cycles)
         else:
             q = q | (cycle_line & ~absolute)
         pre.append(p)
@@ -378,22 +403,38 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     updates = (moving | control_point) & ~g53 & ~tap_line
     pos_after = np.empty((n, 3))
     epoch_after = np.empty((n, 3), dtype=np.int64)
+    sets, incs = [], []
     for k, ch in enumerate("XYZ"):
         v = col(ch) * scale
         given = xyz_has[k] & updates
         if k == 2:
             given &= ~cycle_line
-        is_set = given & absolute
+        # G92 X…: the current point becomes the given value, whatever the mode and the offsets
+        is_set = (given & absolute) | (g92_set & xyz_has[k] & ~follow_offsets)
         inc = np.where(given & ~absolute, v, 0.0)
-        pos_after[:, k], epoch_after[:, k] = _axis_positions(n, np.where(is_set, v, 0.0), is_set,
-                                                             inc, pre[k], post[k])
+        sets.append((np.where(is_set, v, 0.0), is_set))
+        incs.append(inc)
+        pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k])
+    polar_moves = polar & updates & ~cycle_line
+    if polar_moves.any() or follow_offsets or follow_cycles:   # these depend on the point before
+        offsets = None
+        if follow_offsets:
+            code = (np.where(g92_set, 1, 0) + np.where(g52_local, 2, 0) + np.where(g92_zero & ~g92_keep, 3, 0)
+                    + np.where(g92_keep, 4, 0) + np.where(g92_restore, 5, 0))
+            offsets = (code, [col(ch) * scale for ch in "XYZ"],
+                       system_events(frame_lines, coord, g10_l2, col("P")))
+        pos_after, epoch_after = sequential_positions(fail, n, sets, incs, pre, post, polar_moves,
+                                                       absolute, col("@") * scale, col("^"), offsets,
+                                                       cycle_info(cycle_line, motion, col("R") * scale,
+                                                                   modal("retract", 990))
+                                                       if follow_cycles else None)
     far = np.abs(pos_after) > MAX_COORDINATE_MM
     if far.any():
         i, k = (int(v) for v in np.argwhere(far)[0])
         fail(i, f"{'XYZ'[k]} reaches {pos_after[i, k]:.6g} mm; coordinates must lie within "
                 f"±{MAX_COORDINATE_MM:g} mm (1 km)")
     pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
-    epoch_before = np.vstack([np.zeros((1, 3), dtype=np.int64), epoch_after[:-1]])
+    epoch_before = np.vstack([np.full((1, 3), _START_EPOCH, dtype=np.int64), epoch_after[:-1]])
     for k in range(3):
         epoch_before[:, k] = np.where(pre[k], -(np.arange(n) + 1), epoch_before[:, k])
     known = np.all(epoch_before == epoch_after, axis=1)
@@ -410,7 +451,6 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     kind[(mo == 20) | (mo == 30)] = ARC
     kind[np.isin(mo, list(CYCLES))] = CYCLE
     kind[np.isin(mo, [330, 331])] = SYNCED
-    kind[polar[move_rows] & (kind != CYCLE)] = KEPT
     hl = home_line[move_rows] | g53[move_rows]
     kind[hl & ((mo == 0) | home_line[move_rows])] = HOME
     kind[g53[move_rows] & (mo != 0)] = KEPT
@@ -419,12 +459,13 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     endp = pos_after[move_rows].copy()
     fmode = feed_mode[move_rows]
     kept = np.isin(kind, [LINE, ARC]) & (~known[move_rows] | abc_has[move_rows] | (fmode != 94))
-    kind[kept & (kind == ARC) & ~known[move_rows]] = KEPT
-    feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * scale[move_rows])
-    no_split = m_stop[move_rows].copy()
+    unplaced_arcs = kept & (kind == ARC) & ~known[move_rows]
+    kind[unplaced_arcs] = KEPT
+    feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * feed_scale[move_rows])
+    no_split = m_stop[move_rows] | polar[move_rows]     # a polar line takes no X or Y word
     stops = m_stop[move_rows].copy()
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
-                                                       endp, col, inch, scale, ij_absolute)
+                                                       endp, col, inch, scale, ij_absolute, unplaced_arcs)
     no_split |= multi_turn
     row_of = {int(r): k for k, r in enumerate(move_rows)}
     nurbs, nurbs_lines = nurbs_blocks(fail, blocks, row_of, known, col, any_xyz, xyz_has,
@@ -455,8 +496,14 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         if bad.any():
             fail(move_rows[np.argmax(bad)], "only G0, G1, G2 and G3 moves can run under cutter "
                                             "compensation (LinuxCNC refuses the others)")
+        resets = np.zeros((move_rows.size, 3), bool)     # a frame change since the move before
+        for k in range(3):
+            before = np.concatenate([[0], np.cumsum(pre[k])])     # resets on lines < i
+            prev_row = np.concatenate([[-1], move_rows[:-1]])
+            resets[:, k] = before[move_rows + 1] - before[prev_row + 1] > 0
         comp = compensate(kind, start, endp, centre, turns, side_m, comp_radius[move_rows] * 1.0,
-                          plane[move_rows], bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg))
+                          plane[move_rows], bool(inch[move_rows[0]]), lambda m, msg: fail(move_rows[m], msg),
+                          resets)
         src = comp.src
         remap = {int(old): k for k, old in enumerate(src) if int(old) in nurbs}
         nurbs = {remap[m]: c for m, c in nurbs.items()}
@@ -478,7 +525,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     advisable &= ~abc_has[move_rows]
     if rows is not None:         # moves of another file's lines (a called NAME.ngc) are kept
         advisable &= rows.row_line[move_rows] >= 0
-    breaker_line = m_break | pre_all | pre_z | home_line | g53
+    breaker_line = m_break | pre_all | pre_z | home_line | g53 | g92_set
     bcum = np.concatenate([[0], np.cumsum(breaker_line)])   # bcum[i] = breakers on lines < i
     # a chain is broken by a move that is not advised (a rapid that moves, home, cycle, kept) and
     # by a line where the tool stops or the frame changes; rapids that do not move are transparent
