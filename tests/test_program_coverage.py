@@ -34,7 +34,7 @@ def test_shares_follow_the_closed_form_time_and_length():
     """G1 X10 at F600 (10 mm, 1 s), G93 G1 X30 F60 (20 mm, 1/60 min = 1 s), G94 G95 G1 X40 F0.1
     (10 mm, time per revolution unknown): 1 of 3 moves judged, 10/40 of the length, 1/2 of the
     time known."""
-    text = "G21 G90 G94 F600\nG1 X10\nG93 G1 X30 F60\nG94\nG95 G1 X40 F0.1\nM2\n"
+    text = "G21 G90 G94 F600 G0 X0 Y0 Z0\nG1 X10\nG93 G1 X30 F60\nG94\nG95 G1 X40 F0.1\nM2\n"
     program = parse_program(text, Path("t.ngc"))
     cov = program_coverage(program)
     assert (cov.moves, cov.judged_moves) == (3, 1)
@@ -78,7 +78,8 @@ def test_every_feed_move_rs274_runs_is_counted(name, key, tmp_path):
     reasons = _reasons(program)
     if key is not None:
         assert reasons[key] == int((program.kind == 7).sum()) > 0     # SYNCED
-    kept = int(((program.kind == 5) | ~program.known).sum())           # KEPT or unknown
+    feed = ~np.isin(program.kind, (0, 6))                                # not RAPID, HOME
+    kept = int((((program.kind == 5) | ~program.known) & feed).sum())  # KEPT or unknown
     assert reasons.get("unknown", 0) == kept
     assert cov.complete == (not reasons)
 
