@@ -129,6 +129,8 @@ def run_program(args: argparse.Namespace) -> dict:
         flag = "--report" if args.report is not None else "--no-reference"
         raise MachineLimitsError(f"{flag}: the value report needs a machine (--machine FILE, or a "
                                  "machine flag such as --contour-tol-um)")
+    if not args.plot:       # in pieces: memory bounded by a piece, outputs written as they come
+        return _run_streamed(args, path, program, table, cuts, cap, step)
     pa = advise_program(program, table, cuts=cuts, step_mm=args.step_mm or DEFAULT_STEP_MM,
                         cap_mm_min=cap, feed_step_mm_min=step)
     text = rewrite_program(program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min) if args.gcode else None
@@ -163,6 +165,58 @@ def run_program(args: argparse.Namespace) -> dict:
         print(f"wrote {args.gcode}")
     return {"cuts": program.n_cuts, "cuts_advised": len(pa.cuts), "time_written_s": t_prog,
             "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean())}
+
+
+def _run_streamed(args: argparse.Namespace, path: Path, program, table, cuts, cap, step) -> dict:
+    """``advise PROGRAM`` without a machine or a plot: the advice in pieces
+    (:mod:`fuzzyfeed.program.stream`), the CSV written piece by piece, the program after."""
+    from fuzzyfeed.base.atomic import atomic_write
+    from fuzzyfeed.fuzzy.provenance import provenance
+    from fuzzyfeed.io.csv import ColumnStream, write_metadata
+    from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
+    from fuzzyfeed.program.feeds import pieces_times
+    from fuzzyfeed.program.rewrite import rewrite_chunks
+    from fuzzyfeed.program.stream import stream_program_advice
+
+    pm, pe, pf = [], [], []
+    count, total, lo, hi = 0, 0.0, np.inf, -np.inf
+    with atomic_write(args.output, "w", newline="") as handle:
+        out = ColumnStream(handle, args.output)
+        for piece in stream_program_advice(program, table, cuts=cuts, step_mm=args.step_mm or DEFAULT_STEP_MM,
+                                           cap_mm_min=cap, feed_step_mm_min=step):
+            out.write(piece.columns)
+            fr = piece.columns["feed_pct"]
+            count, total = count + fr.size, total + float(fr.sum())
+            lo, hi = min(lo, float(fr.min())), max(hi, float(fr.max()))
+            pm.append(piece.piece_move)
+            pe.append(piece.piece_end)
+            pf.append(piece.piece_feed_mm_min)
+    names = out.names
+    piece_move, piece_end, piece_feed = np.concatenate(pm), np.concatenate(pe), np.concatenate(pf)
+    feed_note = "the program's own F" + (f", capped at {cap:g} mm/min" if cap else "")
+    record = provenance(table, cap or 0.0, str(path), out.rows)
+    record["F_mm_min"] = feed_note
+    write_metadata(args.output, names, record)
+    if args.gcode:
+        with atomic_write(args.gcode, "w", newline="") as handle:
+            for chunk in rewrite_chunks(program, piece_move, piece_end, piece_feed):
+                handle.write(chunk)
+    t_prog, t_adv = pieces_times(program, piece_move, piece_end, piece_feed)
+    mean = total / count
+    n_advised = program.n_cuts if cuts is None else len(cuts)
+    n_split = int(np.sum(np.diff(piece_move) == 0))
+    print(f"{path.name}: {len(program.lines)} lines, {program.kind.size} moves, {program.n_cuts} "
+          f"cut(s), {n_advised} advised; rules {table.name!r}; F from the program"
+          + (f", capped at {cap:g} mm/min" if cap else ""))
+    print(f"advised fraction of the programmed F  min {lo:.2f} %  mean {mean:.2f} %  "
+          f"max {hi:.2f} %   (F rounded down to {step:g} mm/min steps)")
+    print(f"feed moves of the advised cuts: {t_prog:.3f} s at the programmed F, {t_adv:.3f} s at "
+          f"the advised F (no acceleration); {n_split} split points")
+    print(f"wrote {args.output}")
+    if args.gcode:
+        print(f"wrote {args.gcode}")
+    return {"cuts": program.n_cuts, "cuts_advised": n_advised, "time_written_s": t_prog,
+            "time_advised_s": t_adv, "feed_pct_min": lo, "feed_pct_mean": mean}
 
 
 #: The CSV columns of a program's advice (fuzzyfeed.program.feeds.advice_columns), written as

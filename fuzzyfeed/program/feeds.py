@@ -215,13 +215,18 @@ def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:
 def program_times(pa: ProgramAdvice) -> tuple[float, float]:
     """Time (s) of the advised cuts' feed moves at the programmed feeds and at the written
     (advised, rounded) feeds, ignoring acceleration."""
-    program = pa.program
+    return pieces_times(pa.program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+
+
+def pieces_times(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
+                 piece_feed_mm_min: np.ndarray) -> tuple[float, float]:
+    """:func:`program_times` from the pieces alone."""
     lengths = program.move_lengths()
-    moves = np.unique(pa.piece_move)
+    moves = np.unique(piece_move)
     t_prog = float(np.sum(lengths[moves] / program.feed_mm_min[moves])) * 60.0
-    starts = np.concatenate([[0.0], pa.piece_end[:-1]])
-    same = np.concatenate([[False], pa.piece_move[1:] == pa.piece_move[:-1]])
+    starts = np.concatenate([[0.0], piece_end[:-1]])
+    same = np.concatenate([[False], piece_move[1:] == piece_move[:-1]])
     starts = np.where(same, starts, 0.0)
-    frac = pa.piece_end - starts
-    t_adv = float(np.sum(lengths[pa.piece_move] * frac / pa.piece_feed_mm_min)) * 60.0
+    frac = piece_end - starts
+    t_adv = float(np.sum(lengths[piece_move] * frac / piece_feed_mm_min)) * 60.0
     return t_prog, t_adv
