@@ -114,6 +114,9 @@ def run_program(args: argparse.Namespace) -> dict:
         from fuzzyfeed.program.tools import read_tool_table
 
         tools = read_tool_table(args.tool_table, args.tool_units)
+    from fuzzyfeed.base.memory import fix_mmap_threshold
+
+    fix_mmap_threshold()               # large programs: freed columns go back to the system
     program = read_program(path, tools=tools)
     if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
         return _pass_through(args, path, program)
