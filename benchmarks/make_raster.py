@@ -9,7 +9,7 @@ per cut. ``--cuts N`` splits the rows into N bands, each its own zig-zag, left a
 a retract to the safe height, a rapid and a plunge at the plunge feed. Header and footer as a post
 writes them: G21 G90 G94 G17, T1 M6, G43 H1, S M3, safe Z, rapids, plunge, M5, M30. Coordinates to
 4 decimals; F written on the first cutting move after each plunge (modal afterwards). The same
-arguments give the same bytes. ``--lines`` is the approximate number of lines of the program.
+arguments give the same bytes. ``--lines`` is the least number of feed moves (rows are added until it is reached).
 """
 
 from __future__ import annotations
@@ -38,15 +38,7 @@ def surface(x: np.ndarray, y: np.ndarray, rng_seed: int) -> np.ndarray:
     return z - 6.0     # below the stock top
 
 
-def rows_for(lines: int) -> tuple[int, float]:
-    """Rows needed for about ``lines`` moves (a row's step is uniform in [0.05, 0.2] mm: E[1/step] =
-    ln(4) / 0.15 per mm)."""
-    per_row = WIDTH_MM * np.log(MAX_STEP_MM / MIN_STEP_MM) / (MAX_STEP_MM - MIN_STEP_MM) + 1
-    return max(2, int(round(lines / per_row))), per_row
-
-
-def row_x(rng: np.random.Generator) -> np.ndarray:
-    step = rng.uniform(MIN_STEP_MM, MAX_STEP_MM)
+def row_x(step: float) -> np.ndarray:
     n = int(np.floor(WIDTH_MM / step))
     x = np.arange(n + 1) * step
     if WIDTH_MM - x[-1] > 1e-9:
@@ -62,9 +54,13 @@ def write_raster(out, lines: int = 1_000_000, cuts: int = 1, seed: int = 1) -> d
     """Write the raster to the text handle ``out``; return its figures (moves, rows, cuts)."""
     if lines < 10 or cuts < 1:
         raise ValueError("lines must be >= 10 and cuts >= 1")
-    n_rows, _ = rows_for(lines)
-    cuts = min(cuts, n_rows)
     rng = np.random.default_rng(seed)
+    steps, total = [], 0
+    while total < lines - 20 or len(steps) < 2:      # rows until the moves reach ``lines``
+        steps.append(rng.uniform(MIN_STEP_MM, MAX_STEP_MM))
+        total += row_x(steps[-1]).size
+    n_rows = len(steps)
+    cuts = min(cuts, n_rows)
     w = out.write
     w("%\n(fuzzyfeed benchmark raster: 3D finishing, ball end mill 6 mm)\n")
     w(f"(seed {seed}, {n_rows} rows, {cuts} cuts, stepover {STEPOVER_MM} mm)\n")
@@ -77,7 +73,7 @@ def write_raster(out, lines: int = 1_000_000, cuts: int = 1, seed: int = 1) -> d
         direction = 1 if band[0] % 2 == 0 else -1
         for r in band:
             y = r * STEPOVER_MM
-            x = row_x(rng)[::direction]
+            x = row_x(steps[r])[::direction]
             z = surface(x, np.full(x.size, y), seed)
             xs, ys, zs = fmt(x), f"{y:.4f}", fmt(z)
             if first:
