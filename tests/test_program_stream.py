@@ -200,3 +200,40 @@ def test_corner_cap_on_a_piece_needs_the_paths_lowest_peak():
     assert np.array_equal(carried, whole[100:])
     alone = corner_cap(at[100:], x[100:], 0.5, 25.0, span)
     assert not np.array_equal(alone, whole[100:])
+
+
+def test_advise_file_in_pieces_is_the_whole_advice(tmp_path, monkeypatch):
+    """The Python API's program result (advice/program.py) advised in pieces: its frame, text,
+    summary figures and written files are the whole-cut advice's."""
+    import fuzzyfeed.program.stream as stream
+    from fuzzyfeed.advice.pipeline import advise_file
+    from fuzzyfeed.program.feeds import program_times
+    from fuzzyfeed.program.rewrite import rewrite_program
+
+    src = tmp_path / "r.ngc"
+    src.write_text(raster_text(3000, 2))
+    program = read_program(src)
+    table = load_rule_table()
+    ref = advise_program(program, table, feed_step_mm_min=10.0)
+    ref_cols = advice_columns(ref)
+    ref_text = rewrite_program(program, ref.piece_move, ref.piece_end, ref.piece_feed_mm_min)
+    monkeypatch.setattr(stream, "MAX_POINTS", 700)
+    assert len(list(stream_program_advice(program, table))) >= 4         # really in pieces
+    result = advise_file(src)
+    out, ngc = tmp_path / "a.csv", tmp_path / "a.ngc"
+    result.write(csv=out, gcode=ngc)
+    assert ngc.read_text() == ref_text == result.text
+    frame = result.frame()
+    assert list(frame.columns) == list(ref_cols)
+    for name, col in ref_cols.items():
+        assert np.array_equal(frame[name].to_numpy(), col), name
+    import csv
+    with open(out) as handle:
+        rows = list(csv.reader(handle))
+    assert np.array_equal(np.array(rows[1:], dtype=float)[:, list(ref_cols).index("feed_mm_min")],
+                          ref_cols["feed_mm_min"])
+    fig = result.figures()
+    fr = ref_cols["feed_pct"]
+    assert (fig["feed_pct_min"], fig["feed_pct_mean"]) == (float(fr.min()), float(fr.mean()))
+    assert (fig["time_written_s"], fig["time_advised_s"]) == program_times(ref)
+    assert fig["cuts_advised"] == 2 and result.summary()[3].startswith("judged:")
