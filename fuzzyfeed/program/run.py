@@ -4,7 +4,8 @@ a machine: is it worth having?").
 :func:`program_path` turns a :class:`~fuzzyfeed.program.model.Program` into *chains*: runs of
 moves the controller plans in one look-ahead, from rest to rest — rapids and feed moves (lines;
 arcs and G5.2 blocks as chords within the machine's chord tolerance) whose positions follow on.
-A chain ends where the tool stops or the position is not known: a move of unknown position, a
+A chain ends where the tool stops or the position is not known: a move of unknown position (or
+from an unknown start: its lag is not known either; the next chain starts from rest), a
 canned cycle, a move in G93/G95 or with rotary axes, a stop code (M0/M1/M2/M6/M30/M60), a frame
 change. Those moves are left out of the time. :func:`run_program` plans every chain
 (:func:`fuzzyfeed.machine.planner.plan_motion`) and runs it tick by tick through the servo,
@@ -85,6 +86,11 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
     runnable = np.isin(kinds, [RAPID, HOME, LINE, ARC, NURBS])
     feed_move = np.isin(kinds, [LINE, ARC, NURBS])
     runnable &= ~feed_move | ((feed_mode == 94) & (program.feed_mm_min > 0))
+    if program.known is not None:
+        # a move from a point the reader cannot place (the machine's position at the start, after
+        # G28/G53, ...) is not run: its start, direction and length are not known, so neither is
+        # the servo's lag it leaves; the chain restarts at its end, from rest
+        runnable &= program.known
     # a line with a stop code stops the tool after its motion
     stops = program.stops if program.stops is not None else program.no_split & ~(kinds == ARC)
     chains: list[Chain] = []
