@@ -562,7 +562,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         per_line["feed_reset"] = lines_of_rows(fm_change, rows.row_line, len(lines), False)
         move_line = rows.row_line[move_rows]
         row_info = Rows(line=rows.row_line, feed_mode=feed_mode, has_f=has_f, feed_value=feed_value,
-                        feed_reset=fm_change, move_row=move_rows, feed_inch=scale_before != 1.0)
+                        feed_reset=fm_change, move_row=move_rows, feed_inch=scale_before != 1.0,
+                        call_line=rows.row_call)
         runs = np.bincount(rows.row_line[rows.row_line >= 0], minlength=len(lines))
         no_split |= (move_line < 0) | (runs[np.maximum(move_line, 0)] > 1)
     return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line, **per_line,
