@@ -444,6 +444,12 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     for a, _ in blocks:
         nurbs_first[a] = True
     move_rows = np.flatnonzero(moving | home_line | nurbs_first)
+    units_col = gcol["units"]
+    if move_rows.size and (units_col is None or not (units_col[:move_rows[0] + 1] >= 0).any()):
+        i = int(move_rows[0])
+        _notice(f"{path}:{int(rows.where(i)[1]) if rows is not None else i + 1}: no G20/G21 before the "
+                "first move: read in mm, as GRBL and a metric LinuxCNC start (a machine that starts in "
+                "inches reads it 25.4 x larger); put G21 or G20 at the top to say which")
     kind = np.full(move_rows.size, KEPT, dtype=np.int8)
     mo = motion[move_rows]
     kind[mo == 0] = RAPID
