@@ -40,6 +40,7 @@ import numpy as np
 
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine.linuxcnc_tp import linuxcnc_limits
 
 #: Cosine of the junction angle beyond which two segments count as one straight line (GRBL: 0.999999).
 STRAIGHT_COS = 0.999999
@@ -159,13 +160,21 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         i = int(np.argmax(~(length > 0)))
         raise InputError(f"motion segment {i} has length 0; drop repeated points first")
     unit = delta / length[:, None]
-    acc = machine.move_acceleration(unit)
     vmax = machine.move_velocity(unit)
+    lcnc = machine.corner == "path-tolerance"
+    if lcnc:
+        acc, arc_cap, w_lcnc = linuxcnc_limits(unit, length, motion.arc_radius_mm, machine)
+        vmax = np.minimum(vmax, arc_cap)
+    else:
+        acc = machine.move_acceleration(unit)
     nominal = np.where(motion.rapid, vmax, np.minimum(motion.feed_mm_s, vmax))
     n = length.size
     cap = np.empty(n + 1)
     cap[0] = cap[-1] = 0.0
-    if n > 1:
+    if n > 1 and lcnc:
+        cap[1:-1] = np.minimum(w_lcnc, np.minimum(nominal[:-1], nominal[1:]) ** 2)
+        cap[1:-1] = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, cap[1:-1])
+    elif n > 1:
         r = junction_radius(unit, machine, motion.arc_radius_mm)
         j_dir = unit[1:] - unit[:-1]
         j_norm = np.linalg.norm(j_dir, axis=1)
@@ -174,8 +183,6 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         j_acc = machine.move_acceleration(j_unit)
         w_corner = j_acc * r
         cap[1:-1] = np.minimum(w_corner, np.minimum(nominal[:-1], nominal[1:]) ** 2)
-        if machine.corner == "path-tolerance":
-            cap[1:-1] = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, cap[1:-1])
     reach = 2.0 * acc * length                       # Δ(v²) a segment allows
     if machine.lookahead_moves:
         csum = np.concatenate([[0.0], np.cumsum(reach)])
