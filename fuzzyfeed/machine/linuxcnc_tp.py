@@ -36,6 +36,8 @@ ACC_RATIO_NORMAL = float(np.sqrt(1.0 - ACC_RATIO_TANGENTIAL ** 2))
 PARABOLIC_SCALE = 0.5
 #: tc.c tcFindBlendTolerance: a blend consumes at most this share of a move's length as tolerance.
 TOLERANCE_RATIO = 0.25
+#: tp.c tpGetTangentKinkRatio: [TRAJ] ARC_BLEND_KINK_RATIO, 0.1 by default.
+KINK_RATIO = 0.1
 
 
 def inscribed_bound(bounds: np.ndarray, normal: np.ndarray) -> np.ndarray:
@@ -66,53 +68,83 @@ def moves(arc_radius_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return move, seg_r
 
 
-def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndarray,
+def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndarray, nominal: np.ndarray,
                     machine: Machine) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """LinuxCNC 2.9's limits on a chain's polyline (see the module docstring): per segment the
     tangential acceleration (n,) and the speed cap of its move (n,) (inf on a line), and per inner
     vertex (n − 1,) the squared speed of its corner (inf inside an arc or on a straight junction:
-    the segments' caps rule there)."""
+    the segments' caps rule there). ``nominal`` (n,): each segment's requested speed."""
     acc_axes = np.asarray(machine.axis_acc_mm_s2, dtype=float)
     vel_axes = np.asarray(machine.axis_vel_mm_s, dtype=float)
     n = length.size
     move, seg_r = moves(arc_radius_mm)
-    last = move == move[-1]                                  # the chain's last move: parabolic end
-    scale = np.where(last, PARABOLIC_SCALE, 1.0)
-    acc = machine._along(acc_axes, unit, None) * scale
-    cap = np.full(n, np.inf)
+    n_moves = int(move[-1]) + 1
     arc = np.isfinite(seg_r)
+    # the arc's plane from its chords' turn (a one-chord arc: the XY plane)
+    normal = np.tile([0.0, 0.0, 1.0], (n, 1))
+    if n > 1:
+        inner = _plane_normal(unit[:-1], unit[1:])
+        same = (move[:-1] == move[1:])[:, None]
+        normal[:-1] = np.where(same, inner, normal[:-1])
+        normal[1:] = np.where(same, inner, normal[1:])
+    a_full = machine._along(acc_axes, unit, None)           # tc->maxaccel of a line
+    a_arc = inscribed_bound(acc_axes, normal)              # ... of an arc (ARC_FEED)
+    a_full = np.where(arc, a_arc, a_full)
+    halve = np.zeros(n_moves, bool)
+    halve[-1] = True                                       # the chain's last move: parabolic end
+    kink = np.zeros(n_moves)
+    w = np.full(max(n - 1, 0), np.inf)
+    if n > 1:
+        u_in, u_out = unit[:-1], unit[1:]
+        corner = move[:-1] != move[1:]
+        m_in, m_out = move[:-1], move[1:]
+        cos_in = np.einsum("ij,ij->i", u_in, u_out)
+        sin_t = np.sqrt(np.clip(0.5 * (1.0 + cos_in), 0.0, 1.0))   # θ: half the angle of −u_in, u_out
+        cos_t = np.sqrt(np.clip(0.5 * (1.0 - cos_in), 0.0, 1.0))
+        move_len = np.bincount(move, weights=length)
+        tol = np.minimum(machine.corner_mm, TOLERANCE_RATIO * np.minimum(move_len[m_in], move_len[m_out]))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            radius = tol * sin_t / (1.0 - sin_t)
+        a_plane = inscribed_bound(acc_axes, _plane_normal(u_in, u_out))
+        w_arc = ACC_RATIO_NORMAL * a_plane * radius                     # blend arc
+        # tpSetupTangent: the acceleration a direction change takes at once, against the axes
+        v_max = np.minimum(nominal[:-1], nominal[1:])
+        a_inst = v_max / machine.ts_s + a_full[1:]
+        scale_max = np.max(np.abs(a_inst[:, None] * (u_out - u_in)) / acc_axes[None, :], axis=1)
+        with_arc = arc[:-1] | arc[1:]
+        scale_max = np.where(with_arc, scale_max / ACC_RATIO_TANGENTIAL, scale_max)
+        tangent = corner & (scale_max < KINK_RATIO)
+        # an arc's blend arc is not made past a right angle (arcs_arrows.nc's cusps): the better
+        # of a parabolic blend (half acceleration on both moves) and a kink at reduced speed
+        fails = corner & ~tangent & with_arc & (cos_in < 0.0)
+        a_t = 0.5 * a_full[:-1] * np.where(arc[:-1], ACC_RATIO_TANGENTIAL, 1.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v_par = np.minimum(v_max, 2.0 * np.sqrt(a_t * tol / np.maximum(cos_t, 1e-9)))
+            kink_vel = v_max * KINK_RATIO / scale_max
+        parabolic = fails & (sin_t * v_par / 2.0 >= kink_vel)
+        kinked = fails & ~parabolic
+        np.maximum.at(kink, m_in[tangent], scale_max[tangent])
+        np.maximum.at(kink, m_out[tangent], scale_max[tangent])
+        np.maximum.at(kink, m_in[kinked], KINK_RATIO)
+        np.maximum.at(kink, m_out[kinked], KINK_RATIO)
+        halve[m_in[parabolic]] = True
+        halve[m_out[parabolic]] = True
+        w_corner = np.where(parabolic, v_par ** 2, np.where(kinked, kink_vel ** 2, w_arc))
+        w_corner = np.where(tangent | (cos_in > 0.999999), np.inf, w_corner)   # straight on
+        w_corner = np.where(cos_in < -0.999999, 0.0, w_corner)               # a reversal stops
+        w = np.where(corner, w_corner, np.inf)
+    scale = (1.0 - kink[move]) * np.where(halve[move], PARABOLIC_SCALE, 1.0)
+    acc = a_full * scale
+    cap = np.full(n, np.inf)
     if arc.any():
-        # the arc's plane from its chords' turn (a one-chord arc: the XY plane)
-        normal = np.tile([0.0, 0.0, 1.0], (n, 1))
-        if n > 1:
-            inner = _plane_normal(unit[:-1], unit[1:])
-            same = move[:-1] == move[1:]
-            normal[:-1] = np.where(same[:, None], inner, normal[:-1])
-            normal[1:] = np.where(same[:, None], inner, normal[1:])
-        a_max = inscribed_bound(acc_axes, normal[arc])
+        a_max = a_arc[arc]
         v_axes = inscribed_bound(vel_axes, normal[arc])
         r = seg_r[arc]
         v_ini = np.minimum(v_axes, np.sqrt(ACC_RATIO_NORMAL * a_max * r))
-        a_o = a_max * scale[arc]
+        a_o = acc[arc]
         a_n = v_ini ** 2 / r
         cut = a_n > ACC_RATIO_NORMAL * a_o
         ratio = np.where(cut, ACC_RATIO_TANGENTIAL, np.sqrt(np.clip(1.0 - (a_n / a_o) ** 2, 0.0, 1.0)))
         acc[arc] = a_o * ratio
         cap[arc] = np.where(cut, np.sqrt(ACC_RATIO_NORMAL * a_o * r), v_ini)
-    w = np.full(max(n - 1, 0), np.inf)
-    if n > 1:
-        u_in, u_out = unit[:-1], unit[1:]
-        corner = move[:-1] != move[1:]
-        cos_in = np.einsum("ij,ij->i", u_in, u_out)
-        # θ half the angle between −u_in and u_out: sin²θ = (1 + u_in·u_out)/2
-        sin_t = np.sqrt(np.clip(0.5 * (1.0 + cos_in), 0.0, 1.0))
-        move_len = np.bincount(move, weights=length)
-        tol = np.minimum(machine.corner_mm, TOLERANCE_RATIO * np.minimum(move_len[move[:-1]], move_len[move[1:]]))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            radius = tol * sin_t / (1.0 - sin_t)
-        a_plane = inscribed_bound(acc_axes, _plane_normal(u_in, u_out))
-        w_corner = ACC_RATIO_NORMAL * a_plane * radius
-        w_corner = np.where(cos_in > 0.999999, np.inf, w_corner)          # straight on
-        w_corner = np.where(cos_in < -0.999999, 0.0, w_corner)            # a reversal stops
-        w = np.where(corner, w_corner, np.inf)
     return acc, cap, w

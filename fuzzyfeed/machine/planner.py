@@ -163,7 +163,8 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
     vmax = machine.move_velocity(unit)
     lcnc = machine.corner == "path-tolerance"
     if lcnc:
-        acc, arc_cap, w_lcnc = linuxcnc_limits(unit, length, motion.arc_radius_mm, machine)
+        requested = np.where(motion.rapid, vmax, np.minimum(motion.feed_mm_s, vmax))
+        acc, arc_cap, w_lcnc = linuxcnc_limits(unit, length, motion.arc_radius_mm, requested, machine)
         vmax = np.minimum(vmax, arc_cap)
     else:
         acc = machine.move_acceleration(unit)
