@@ -180,7 +180,7 @@ def test_rapid_lag_decays_into_the_next_feed_move_in_the_part():
     # first-order loop), which decays as e^(-Kv t) while y starts. The tool is nearest the rapid
     # (in the air) until its y passes its x lag, then nearest the G1 (in the part): the largest
     # error in the part is e0 e^(-Kv t*) at that crossing, y(t*) the first-order response to the
-    # G1's trapezoid (a, v).
+    # G1's trapezoid (a/2, v).
     kv, a, v_r, v = 30.0, 1000.0, 100.0, 10.0
     machine = Machine(corner="path-tolerance", servo=ServoModel(kv_1_s=kv), axis_vel_mm_s=v_r,
                       axis_acc_mm_s2=a)
@@ -189,8 +189,11 @@ def test_rapid_lag_decays_into_the_next_feed_move_in_the_part():
     run = run_program(program_path(program, machine.chord_tol_mm), machine)
     e0 = a / kv**2 * (1 - math.exp(-kv * v_r / a))
     t = np.linspace(0.0, 0.3, 300_001)
-    t_acc = v / a
-    y_cmd = np.where(t < t_acc, 0.5 * a * t * t, 0.5 * a * t_acc**2 + v * (t - t_acc))
+    # the G1 is the program's last move: LinuxCNC runs it at half its acceleration (its end is a
+    # parabolic blend, tc.c tcGetOverallMaxAccel); the rapid ends in a stop, at the full a
+    a_g1 = a / 2
+    t_acc = v / a_g1
+    y_cmd = np.where(t < t_acc, 0.5 * a_g1 * t * t, 0.5 * a_g1 * t_acc**2 + v * (t - t_acc))
     # first-order response to y_cmd: y' = Kv (y_cmd - y), y(0) = 0 (exact for piecewise-linear steps)
     dt = t[1] - t[0]
     decay = math.exp(-kv * dt)
