@@ -16,8 +16,9 @@ checked against its uspace sim (tests/test_linuxcnc_sim.py).
   runs dry (the end of a chain: a stop code, the program's end) — runs at half its acceleration
   (``tcGetOverallMaxAccel``: "acceleration is scaled down by 1/2").
 - A corner between moves is a blend arc (``blendComputeParameters``): tolerance
-  T = min(P, L_in/4, L_out/4) (``tcFindBlendTolerance``, L the moves' lengths), radius
-  R = T·sin θ/(1 − sin θ) (θ half the angle between −u_in and u_out), speed √(a_n·R) with
+  T = min(P, L_in/4, L_out/4) (``tcFindBlendTolerance``, L the moves' lengths), reach along each
+  move d = min(T·cos θ/(1 − sin θ), L_in/2, L_out/2), radius R = d·tan θ (θ half the angle
+  between −u_in and u_out; R = T·sin θ/(1 − sin θ) on long moves), speed √(a_n·R) with
   a_n = √3/2 · the acceleration bound of the corner's plane (``calculateInscribedDiameter``:
   min_j A_j / |e_j projected on the plane|).
 """
@@ -36,6 +37,8 @@ ACC_RATIO_NORMAL = float(np.sqrt(1.0 - ACC_RATIO_TANGENTIAL ** 2))
 PARABOLIC_SCALE = 0.5
 #: tc.c tcFindBlendTolerance: a blend consumes at most this share of a move's length as tolerance.
 TOLERANCE_RATIO = 0.25
+#: tc_types.h: a blend arc takes at most this share of a move's length.
+BLEND_DIST_FRACTION = 0.5
 #: tp.c tpGetTangentKinkRatio: [TRAJ] ARC_BLEND_KINK_RATIO, 0.1 by default.
 KINK_RATIO = 0.1
 
@@ -69,11 +72,13 @@ def moves(arc_radius_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndarray, nominal: np.ndarray,
-                    machine: Machine) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    machine: Machine) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """LinuxCNC 2.9's limits on a chain's polyline (see the module docstring): per segment the
     tangential acceleration (n,) and the speed cap of its move (n,) (inf on a line), and per inner
     vertex (n − 1,) the squared speed of its corner (inf inside an arc or on a straight junction:
-    the segments' caps rule there). ``nominal`` (n,): each segment's requested speed."""
+    the segments' caps rule there) and the length its blend arc takes from each of the two moves
+    (0 where there is none: the moves can change speed only on what is left of them).
+    ``nominal`` (n,): each segment's requested speed."""
     acc_axes = np.asarray(machine.axis_acc_mm_s2, dtype=float)
     vel_axes = np.asarray(machine.axis_vel_mm_s, dtype=float)
     n = length.size
@@ -94,6 +99,7 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
     halve[-1] = True                                       # the chain's last move: parabolic end
     kink = np.zeros(n_moves)
     w = np.full(max(n - 1, 0), np.inf)
+    trim = np.zeros(max(n - 1, 0))
     if n > 1:
         u_in, u_out = unit[:-1], unit[1:]
         corner = move[:-1] != move[1:]
@@ -104,7 +110,11 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
         move_len = np.bincount(move, weights=length)
         tol = np.minimum(machine.corner_mm, TOLERANCE_RATIO * np.minimum(move_len[m_in], move_len[m_out]))
         with np.errstate(divide="ignore", invalid="ignore"):
-            radius = tol * sin_t / (1.0 - sin_t)
+            # blendComputeParameters: the blend reaches along each move at most d_tol (the
+            # tolerance) and half the move (BLEND_DIST_FRACTION), its radius R = tan θ · d
+            d_tol = cos_t * tol / (1.0 - sin_t)
+            d_geom = np.minimum(d_tol, BLEND_DIST_FRACTION * np.minimum(move_len[m_in], move_len[m_out]))
+            radius = sin_t / cos_t * d_geom
         a_plane = inscribed_bound(acc_axes, _plane_normal(u_in, u_out))
         w_arc = ACC_RATIO_NORMAL * a_plane * radius                     # blend arc
         # tpSetupTangent: the acceleration a direction change takes at once, against the axes
@@ -133,6 +143,17 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
         w_corner = np.where(tangent | (cos_in > 0.999999), np.inf, w_corner)   # straight on
         w_corner = np.where(cos_in < -0.999999, 0.0, w_corner)               # a reversal stops
         w = np.where(corner, w_corner, np.inf)
+        # the blend arc's reach into each move (blendComputeParameters: R_plan, d_plan)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a_n = ACC_RATIO_NORMAL * a_plane
+            v_plan = np.minimum(np.sqrt(w_arc), np.maximum(nominal[:-1], nominal[1:]))
+            a_par = 0.5 * a_plane
+            t_blend = np.minimum(np.sqrt(2.0 * a_par * d_geom), v_plan) / a_par
+            phi = np.arccos(np.clip(cos_in, -1.0, 1.0))
+            r_blend = np.minimum(t_blend * v_plan / phi, radius)
+            d_plan = np.maximum(v_plan ** 2 / a_n, r_blend) * cos_t / sin_t
+        blended = corner & np.isfinite(w_corner) & (w_corner > 0) & ~parabolic & ~kinked
+        trim = np.where(blended & np.isfinite(d_plan), d_plan, 0.0)
     scale = (1.0 - kink[move]) * np.where(halve[move], PARABOLIC_SCALE, 1.0)
     acc = a_full * scale
     cap = np.full(n, np.inf)
@@ -147,4 +168,4 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
         ratio = np.where(cut, ACC_RATIO_TANGENTIAL, np.sqrt(np.clip(1.0 - (a_n / a_o) ** 2, 0.0, 1.0)))
         acc[arc] = a_o * ratio
         cap[arc] = np.where(cut, np.sqrt(ACC_RATIO_NORMAL * a_o * r), v_ini)
-    return acc, cap, w
+    return acc, cap, w, trim

@@ -164,7 +164,7 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
     lcnc = machine.corner == "path-tolerance"
     if lcnc:
         requested = np.where(motion.rapid, vmax, np.minimum(motion.feed_mm_s, vmax))
-        acc, arc_cap, w_lcnc = linuxcnc_limits(unit, length, motion.arc_radius_mm, requested, machine)
+        acc, arc_cap, w_lcnc, trim = linuxcnc_limits(unit, length, motion.arc_radius_mm, requested, machine)
         vmax = np.minimum(vmax, arc_cap)
     else:
         acc = machine.move_acceleration(unit)
@@ -185,6 +185,9 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         w_corner = j_acc * r
         cap[1:-1] = np.minimum(w_corner, np.minimum(nominal[:-1], nominal[1:]) ** 2)
     reach = 2.0 * acc * length                       # Δ(v²) a segment allows
+    if lcnc and n > 1:                               # less what LinuxCNC's blend arcs take
+        free = length - np.concatenate([[0.0], trim]) - np.concatenate([trim, [0.0]])
+        reach = 2.0 * acc * np.maximum(free, 0.0)
     if machine.lookahead_moves:
         csum = np.concatenate([[0.0], np.cumsum(reach)])
         end = np.minimum(np.arange(n + 1) + machine.lookahead_moves - 1, n)
