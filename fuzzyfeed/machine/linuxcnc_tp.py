@@ -15,6 +15,8 @@ checked against its uspace sim (tests/test_linuxcnc_sim.py).
 - A move whose end condition stays a parabolic blend — under G64 the last move before the queue
   runs dry (the end of a chain: a stop code, the program's end) — runs at half its acceleration
   (``tcGetOverallMaxAccel``: "acceleration is scaled down by 1/2").
+- A move lasts at least 1.02 servo periods (``tcClampVelocityByLength``, ``TP_MIN_SEGMENT_CYCLES``):
+  speed ≤ L/(1.02·Ts).
 - A corner between moves is a blend arc (``blendComputeParameters``): tolerance
   T = min(P, L_in/4, L_out/4) (``tcFindBlendTolerance``, L the moves' lengths), reach along each
   move d = min(T·cos θ/(1 − sin θ), L_in/2, L_out/2), radius R = d·tan θ (θ half the angle
@@ -39,6 +41,8 @@ PARABOLIC_SCALE = 0.5
 TOLERANCE_RATIO = 0.25
 #: tc_types.h: a blend arc takes at most this share of a move's length.
 BLEND_DIST_FRACTION = 0.5
+#: tp_types.h: the fewest servo periods a move may last.
+MIN_SEGMENT_CYCLES = 1.02
 #: tp.c tpGetTangentKinkRatio: [TRAJ] ARC_BLEND_KINK_RATIO, 0.1 by default.
 KINK_RATIO = 0.1
 
@@ -101,7 +105,13 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
     w = np.full(max(n - 1, 0), np.inf)
     trim = np.zeros(max(n - 1, 0))
     if n > 1:
-        u_in, u_out = unit[:-1], unit[1:]
+        # at a move's end LinuxCNC turns from the arc's tangent, not its chord's: the chord turned
+        # by half its angle δ = asin(c/2r) about the arc's normal (a one-chord arc kept as is)
+        one = arc & (np.bincount(move, minlength=n_moves)[move] == 1)
+        half = np.where(arc & ~one, np.arcsin(np.clip(length / (2.0 * np.where(arc, seg_r, 1.0)), 0.0, 1.0)), 0.0)
+        side = np.cross(normal, unit) * np.sin(half)[:, None]
+        along = unit * np.cos(half)[:, None]
+        u_in, u_out = (along + side)[:-1], (along - side)[1:]
         corner = move[:-1] != move[1:]
         m_in, m_out = move[:-1], move[1:]
         cos_in = np.einsum("ij,ij->i", u_in, u_out)
@@ -156,7 +166,9 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
         trim = np.where(blended & np.isfinite(d_plan), d_plan, 0.0)
     scale = (1.0 - kink[move]) * np.where(halve[move], PARABOLIC_SCALE, 1.0)
     acc = a_full * scale
-    cap = np.full(n, np.inf)
+    # tcClampVelocityByLength, tpComputeOptimalVelocity: a move lasts at least
+    # TP_MIN_SEGMENT_CYCLES servo periods
+    cap = (np.bincount(move, weights=length, minlength=n_moves) / (MIN_SEGMENT_CYCLES * machine.ts_s))[move]
     if arc.any():
         a_max = a_arc[arc]
         v_axes = inscribed_bound(vel_axes, normal[arc])
@@ -167,5 +179,5 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
         cut = a_n > ACC_RATIO_NORMAL * a_o
         ratio = np.where(cut, ACC_RATIO_TANGENTIAL, np.sqrt(np.clip(1.0 - (a_n / a_o) ** 2, 0.0, 1.0)))
         acc[arc] = a_o * ratio
-        cap[arc] = np.where(cut, np.sqrt(ACC_RATIO_NORMAL * a_o * r), v_ini)
+        cap[arc] = np.minimum(cap[arc], np.where(cut, np.sqrt(ACC_RATIO_NORMAL * a_o * r), v_ini))
     return acc, cap, w, trim
