@@ -17,7 +17,11 @@ checked against its uspace sim (tests/test_linuxcnc_sim.py).
   (``tcGetOverallMaxAccel``: "acceleration is scaled down by 1/2").
 - A move lasts at least 1.02 servo periods (``tcClampVelocityByLength``, ``TP_MIN_SEGMENT_CYCLES``):
   speed ≤ L/(1.02·Ts).
-- A corner between moves is a blend arc (``blendComputeParameters``): tolerance
+- Between two arcs past a right angle the blend is parabolic (half acceleration on both moves,
+  speed 2·√(a_t·T/cos θ), ``tpComputeBlendVelocity``) unless a kink is faster; a near-tangent
+  junction (``tpSetupTangent``: the direction change at v/Ts + a within ARC_BLEND_KINK_RATIO of
+  the axes' limits, doubled next to an arc) keeps its speed and loses that share of acceleration.
+- Any other corner between moves is a blend arc (``blendComputeParameters``): tolerance
   T = min(P, L_in/4, L_out/4) (``tcFindBlendTolerance``, L the moves' lengths), reach along each
   move d = min(T·cos θ/(1 − sin θ), L_in/2, L_out/2), radius R = d·tan θ (θ half the angle
   between −u_in and u_out; R = T·sin θ/(1 − sin θ) on long moves), speed √(a_n·R) with
@@ -134,9 +138,10 @@ def linuxcnc_limits(unit: np.ndarray, length: np.ndarray, arc_radius_mm: np.ndar
         with_arc = arc[:-1] | arc[1:]
         scale_max = np.where(with_arc, scale_max / ACC_RATIO_TANGENTIAL, scale_max)
         tangent = corner & (scale_max < KINK_RATIO)
-        # an arc's blend arc is not made past a right angle (arcs_arrows.nc's cusps): the better
-        # of a parabolic blend (half acceleration on both moves) and a kink at reduced speed
-        fails = corner & ~tangent & with_arc & (cos_in < 0.0)
+        # between two arcs no blend arc is made past a right angle (tpCreateArcArcBlend fails on
+        # arcs_arrows.nc's cusps; a line and an arc blend there): the better of a parabolic blend
+        # (half acceleration on both moves, tpChooseBestBlend) and a kink at reduced speed
+        fails = corner & ~tangent & arc[:-1] & arc[1:] & (cos_in < 0.0)
         a_t = 0.5 * a_full[:-1] * np.where(arc[:-1], ACC_RATIO_TANGENTIAL, 1.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             v_par = np.minimum(v_max, 2.0 * np.sqrt(a_t * tol / np.maximum(cos_t, 1e-9)))
