@@ -22,6 +22,11 @@ cap of its speed. The plan, like GRBL's planner (``planner.c``):
   ``tpCheckCanonType``: "Can't blend between rapid and feed move"), the command stops there, and it
   does not wait for the axes to be in position, so the servo's lag from the rapid still decays
   while the feed move starts (issue 37, defect 3). GRBL's planner blends them like any junction;
+- with ``corner = "path-tolerance"`` the accelerations, speed caps and corner speeds are LinuxCNC
+  2.9's own (:mod:`fuzzyfeed.machine.linuxcnc_tp`: axes-only acceleration, arcs' reduced
+  tangential acceleration, half acceleration at a parabolic end, blend arcs limited by the moves'
+  lengths, kinks, a move of at least 1.02 servo periods), and a segment changes speed only on what
+  the blend arcs leave of it;
 - the squared speed at every vertex is the largest that allows reaching the next and the previous
   cap with the acceleration: w_k = min_j (c_j + |D_k − D_j|), D the running sum of 2·a·L (one
   forward and one backward pass, each a running minimum); the program starts and ends at rest;
