@@ -191,6 +191,7 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         cap[1:-1] = np.minimum(w_corner, np.minimum(nominal[:-1], nominal[1:]) ** 2)
     reach = 2.0 * acc * length                       # Δ(v²) a segment allows
     if lcnc and n > 1:                               # less what LinuxCNC's blend arcs take
+        trim = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, trim)   # a stop: no blend
         free = length - np.concatenate([[0.0], trim]) - np.concatenate([trim, [0.0]])
         reach = 2.0 * acc * np.maximum(free, 0.0)
     if machine.lookahead_moves:
