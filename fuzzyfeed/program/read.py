@@ -470,6 +470,17 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * feed_scale[move_rows])
     no_split = m_stop[move_rows] | polar[move_rows]     # a polar line takes no X or Y word
     stops = m_stop[move_rows].copy()
+    # LinuxCNC's task waits for the motion queue to empty before a spindle, coolant or tool-change
+    # command (M3-M9, an S word) and a dwell (emctaskmain.cc, emcTaskCheckPreconditions:
+    # WAITING_FOR_MOTION), executed before the motion of their line: the tool stops after the
+    # move before them (issue 37). GRBL 1.1 syncs its buffer the same way (protocol_buffer_synchronize
+    # for M3-M5, M7-M9, G4), but on an S word only when the speed changes with the spindle on
+    m_drain = np.zeros(n, bool)
+    m_drain[m_line[np.isin(m_int, [3, 4, 5, 6, 7, 8, 9])]] = True
+    drain = m_drain | has("S") | nm(40)
+    if move_rows.size > 1:
+        dcum = np.concatenate([[0], np.cumsum(drain)])       # dcum[i] = drains on rows < i
+        stops[:-1] |= (dcum[move_rows[1:] + 1] - dcum[move_rows[:-1] + 1]) > 0
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
                                                        endp, col, inch, scale, ij_absolute, unplaced_arcs)
     no_split |= multi_turn
