@@ -16,6 +16,7 @@ run keeps summaries (largest error per segment, a histogram, the ticks over the 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -88,60 +89,72 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
     # a line with a stop code stops the tool after its motion
     stops = program.stops if program.stops is not None else program.no_split & ~(kinds == ARC)
     chains: list[Chain] = []
-    pts: list[np.ndarray] = []
+    # per move as Python lists: a line is one point, handled with floats (no array per move)
+    run_l, kind_l, stop_l = runnable.tolist(), kinds.tolist(), np.asarray(stops, bool).tolist()
+    start_l, end_l = program.start.tolist(), program.end.tolist()
+    feed_l, cut_l = program.feed_mm_min.tolist(), program.cut.tolist()
+    rows: list[list[float]] = []
     feed: list[float] = []
     rapid: list[bool] = []
     radius: list[float] = []
     seg_move: list[int] = []
     measured: list[bool] = []
-    last_end: np.ndarray | None = None
+    last_end: list[float] | None = None
 
     def close() -> None:
-        nonlocal pts, feed, rapid, radius, seg_move, measured, last_end
+        nonlocal rows, feed, rapid, radius, seg_move, measured, last_end
         if feed:
-            p = np.vstack(pts)
-            r = np.array(radius)
-            chains.append(Chain(Motion(p, np.array(feed), np.array(rapid), r),
-                                np.array(seg_move), np.array(measured)))
-        pts, feed, rapid, radius, seg_move, measured, last_end = [], [], [], [], [], [], None
+            chains.append(Chain(Motion(np.array(rows, dtype=float), np.array(feed), np.array(rapid),
+                                       np.array(radius)), np.array(seg_move), np.array(measured)))
+        rows, feed, rapid, radius, seg_move, measured, last_end = [], [], [], [], [], [], None
 
-    for m in range(kinds.size):
-        if not runnable[m]:
+    for m in range(len(kind_l)):
+        if not run_l[m]:
             close()
             continue
-        start, end = program.start[m], program.end[m]
-        if last_end is not None and not np.array_equal(start, last_end):
+        start, end = start_l[m], end_l[m]
+        if last_end is not None and start != last_end:
             close()
-        kind = int(kinds[m])
-        if kind == ARC:
-            new, r = _arc_chords(program, m, chord_tol_mm)
-            rads = [r] * (new.shape[0] - 1) + [np.nan]
-        elif kind == NURBS:
-            new = _nurbs_chords(program, m, chord_tol_mm)
-            rads = [np.nan] * new.shape[0]
-        else:
-            new = end[None, :]
-            rads = [np.nan]
-        if not pts:
-            pts.append(start[None, :])
+        kind = kind_l[m]
+        if not rows:
+            rows.append(start)
             radius.append(np.nan)
-        prev = pts[-1][-1]
-        steps = np.linalg.norm(np.diff(np.vstack([prev[None, :], new]), axis=0), axis=1)
-        keep = steps > 1e-9
-        if keep.any():
-            new = new[keep]
-            rads = [r for r, k in zip(rads, keep) if k]
-            rads[-1] = np.nan
-            is_rapid = kind in (RAPID, HOME)
-            pts.append(new)
-            radius.extend(rads)
-            f = np.nan if is_rapid else float(program.feed_mm_min[m]) / 60.0
-            feed.extend([f] * new.shape[0])
-            rapid.extend([is_rapid] * new.shape[0])
-            seg_move.extend([m] * new.shape[0])
-            measured.extend([(not is_rapid) and program.cut[m] >= 0] * new.shape[0])
+        is_rapid = kind in (RAPID, HOME)
+        f = np.nan if is_rapid else feed_l[m] / 60.0
+        meas = (not is_rapid) and cut_l[m] >= 0
+        if kind == ARC or kind == NURBS:
+            if kind == ARC:
+                new, r = _arc_chords(program, m, chord_tol_mm)
+                rads = [r] * (new.shape[0] - 1) + [np.nan]
+            else:
+                new = _nurbs_chords(program, m, chord_tol_mm)
+                rads = [np.nan] * new.shape[0]
+            prev = np.array(rows[-1], dtype=float)
+            steps = np.linalg.norm(np.diff(np.vstack([prev[None, :], new]), axis=0), axis=1)
+            keep = steps > 1e-9
+            if keep.any():
+                new = new[keep]
+                rads = [r for r, k in zip(rads, keep) if k]
+                rads[-1] = np.nan
+                n = new.shape[0]
+                rows.extend(new.tolist())
+                radius.extend(rads)
+                feed.extend([f] * n)
+                rapid.extend([is_rapid] * n)
+                seg_move.extend([m] * n)
+                measured.extend([meas] * n)
+        else:
+            px, py, pz = rows[-1]
+            dx, dy, dz = end[0] - px, end[1] - py, end[2] - pz
+            if math.sqrt(dx * dx + dy * dy + dz * dz) > 1e-9:
+                rows.append(end)
+                radius.append(np.nan)
+                feed.append(f)
+                rapid.append(is_rapid)
+                seg_move.append(m)
+                measured.append(meas)
         last_end = end
-        if stops[m]:
+        if stop_l[m]:
             close()
     close()
     return ProgramPath(program=program, chains=tuple(chains), chord_tol_mm=chord_tol_mm)
