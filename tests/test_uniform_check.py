@@ -1,6 +1,7 @@
-"""The uniform slowdown's checking run left to the report (issue 36): ``advise --machine`` prints
-the factor the hot stretches hold, marked unchecked; ``--report`` (and ``.value``) runs the check
-and gives what the search with its check gives."""
+"""The uniform slowdown's checking run and the limit reference left to the report (issue 36):
+``advise --machine`` prints the factor the hot stretches hold, marked unchecked, and says the limit
+reference was not run; ``--report`` (and ``.value``) runs both and gives what the evaluation at once
+gives."""
 
 from __future__ import annotations
 
@@ -78,9 +79,12 @@ def test_evaluation_checked_gives_the_checked_report(grbl02):
     ev = evaluate_program(program, machine, table, check_uniform=False)
     assert ev.report.uniform.label.endswith(UNCHECKED) and ev.report.uniform.p99_um != ev.report.uniform.p99_um
     assert any(line.lstrip().startswith(UNCHECKED + " uniform") for line in ev.report.lines())
+    assert ev.report.reference is None and ev.report.reference_deferred
+    assert "limit reference: not run (--report runs it)" in "\n".join(ev.report.lines())
     done = ev.checked().report
     assert done.uniform == at_once.uniform and done.uniform_factor == at_once.uniform_factor
-    assert done.lines() == at_once.lines()
+    assert done.lines() == at_once.lines() and done.reference == at_once.reference
+    assert not done.reference_deferred and ev.checked().checked() is not None
     assert ev.report.written == done.written and ev.report.advised == done.advised
 
 
@@ -88,9 +92,11 @@ def test_cli_marks_the_uniform_row_unchecked_without_report(tmp_path, capsys):
     assert main(["advise", str(GRBL02), "-o", str(tmp_path / "a.csv"), "--machine", "reference"]) == 0
     plain = capsys.readouterr().out
     assert "uniform x" in plain and f"{UNCHECKED} uniform:" in plain and "--report runs it" in plain
+    assert "limit reference: not run" in plain
     assert main(["advise", str(GRBL02), "-o", str(tmp_path / "b.csv"), "--machine", "reference",
                  "--report", str(tmp_path / "r.csv")]) == 0
     full = capsys.readouterr().out
-    assert f"{UNCHECKED} uniform:" not in full
+    assert f"{UNCHECKED} uniform:" not in full and "limit reference: not run" not in full
+    assert any(line.strip().startswith("limit reference") for line in full.splitlines())
     row = next(line for line in full.splitlines() if line.strip().startswith("uniform x"))
     assert not row.split()[1].endswith(UNCHECKED) and "nan" not in row

@@ -79,6 +79,7 @@ class ValueReport:
     coverage: Coverage | None = None     # the judged part (issue 40): no verdict beyond it
     verification: Verification | None = None   # what rs274 said of the rewrite (--verify-rs274)
     worst_air: tuple[int, tuple[float, float, float]] | None = None
+    reference_deferred: bool = False     # the limit reference left to the report (Evaluation.checked)
 
     @property
     def partial(self) -> bool:
@@ -111,6 +112,8 @@ class ValueReport:
         air = self.air_line()
         if air:
             out.append("  " + air)
+        if self.reference_deferred:
+            out.append("  limit reference: not run (--report runs it)")
         if self.uniform.label.endswith(UNCHECKED):
             out.append(f"  {UNCHECKED} uniform: the factor the stretches over the tolerance hold (time from the "
                        "planner, max of those stretches, no p99); not checked by a run of the whole program "
@@ -221,14 +224,19 @@ class Evaluation:
 
     def checked(self) -> Evaluation:
         """This evaluation with the uniform slowdown checked by a whole run
-        (:func:`~fuzzyfeed.program.reference.check_uniform`; itself when it is)."""
-        u = self.uniform
-        if u is None or u.checked:
+        (:func:`~fuzzyfeed.program.reference.check_uniform`) and the limit reference run, where
+        :func:`evaluate_program` left them (``check_uniform=False``); itself when nothing is left."""
+        u, r = self.uniform, self.report
+        if self.path is None:
             return self
-        r = self.report
-        c = check_uniform(self.path, r.machine, u)
-        report = replace(r, uniform=uniform_row(c), uniform_factor=c.factor)
-        return replace(self, report=report, uniform=c, path=None)
+        if u is not None and not u.checked:
+            u = check_uniform(self.path, r.machine, u)
+            r = replace(r, uniform=uniform_row(u), uniform_factor=u.factor)
+        if r.reference_deferred:
+            ref = limit_reference(self.path, r.machine)
+            r = replace(r, reference=ValueRow.of("limit reference", ref.run), reference_converged=ref.converged,
+                        reference_deferred=False)
+        return replace(self, report=r, uniform=u, path=None)
 
     def columns(self) -> dict[str, np.ndarray]:
         """The CSV columns (:func:`~fuzzyfeed.program.feeds.advice_columns`) plus ``advised``: 1 on
@@ -256,8 +264,10 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     ``tools``: the tool table the program was read with (the advised text is read with it too, so
     its compensated moves are the tool centre's path as the written program's are).
     ``check_uniform=False`` leaves the uniform slowdown's checking run (a whole run at the factor,
-    1/factor times the program's time: the longest of all) to :meth:`Evaluation.checked`; its row
-    is then marked :data:`UNCHECKED` (time from the planner, max of the hot stretches, no p99)."""
+    1/factor times the program's time: the longest of all) and the limit reference (``reference``)
+    to :meth:`Evaluation.checked` (what ``advise --machine`` does without ``--report``): the uniform
+    row is then marked :data:`UNCHECKED` (time from the planner, max of the hot stretches, no p99)
+    and the report has no limit reference row, saying so."""
     step = progress or (lambda _name: None)
     tol = machine.contour_tol_um
     step("as written")
@@ -290,7 +300,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
                              **({} if max_ticks is None else {"max_ticks": max_ticks}))
         uniform_factor, u_row = u.factor, uniform_row(u)
         ref_row, converged = None, True
-        if reference:
+        if reference and check_uniform:
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
@@ -305,8 +315,9 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
         trace=feed_trace(path, written, advised_path, tol), coverage=program_coverage(program),
-        verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])))
-    pending = u is not None and not u.checked
+        verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
+        reference_deferred=bool(over) and reference and not check_uniform)
+    pending = (u is not None and not u.checked) or report.reference_deferred
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report,
                       uniform=u if pending else None, path=path if pending else None)
 
