@@ -219,8 +219,8 @@ class MachineProgramResult(AdviceResult):
     """A program on a machine: run as written, the cuts that break the tolerance advised, the
     value report (``.value``). The uniform slowdown's checking run (a whole run at its factor) and
     the limit reference are made when the report is asked for: ``.value``, ``figures()`` or
-    ``--report`` (not for the plot); the summary printed without them marks the uniform row as not checked (:data:`~fuzzyfeed.report.value.UNCHECKED`)
-    and says the limit reference was not run."""
+    ``--report`` (not for the plot); the summary printed without them marks the uniform row as not
+    checked (:data:`~fuzzyfeed.report.value.UNCHECKED`) and says the limit reference was not run."""
 
     kind = "program on a machine"
 
