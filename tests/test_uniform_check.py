@@ -100,3 +100,22 @@ def test_cli_marks_the_uniform_row_unchecked_without_report(tmp_path, capsys):
     assert any(line.strip().startswith("limit reference") for line in full.splitlines())
     row = next(line for line in full.splitlines() if line.strip().startswith("uniform x"))
     assert not row.split()[1].endswith(UNCHECKED) and "nan" not in row
+
+
+def test_an_early_bound_is_true_and_the_check_searches_on():
+    # gSender's KB-35: the lag of a rapid at a plunge, which no F changes; without the check the
+    # search stops at the first factor (half or less) whose error stayed flat, a true bound (that
+    # factor breaks the tolerance); check_uniform searches on to what the search with its check gives
+    machine = load_machine("reference")
+    library = Path(__file__).parent.parent / "benchmarks" / "library" / "programs"
+    path = program_path(read_program(library / "gsender" / "KB-35 test.nc"), machine.chord_tol_mm)
+    written = run_program(path, machine)
+    early = reference.uniform_slowdown(path, machine, written, check=False)
+    assert early.bounded and not early.checked and early.factor <= 0.5
+    slower = run_program(path, machine, feed_scale=early.factor)          # the bound is true
+    assert slower.max_um > machine.contour_tol_um
+    at_once = reference.uniform_slowdown(path, machine, written)
+    later = reference.check_uniform(path, machine, early)
+    assert later.bounded and later.checked and at_once.bounded
+    assert later.factor == at_once.factor and later.runs == at_once.runs and later.time_s == at_once.time_s
+    assert later.factor < early.factor

@@ -14,7 +14,7 @@ controller and servo model (:mod:`fuzzyfeed.program.run`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -31,6 +31,11 @@ MAX_TICKS = 2e8
 HOT_MAX_TICKS = 4e7
 #: Whole runs checking a uniform factor found on the hot stretches, at most.
 UNIFORM_CHECKS = 8
+#: Without the check (``uniform_slowdown(check=False)``), a trial at half the factor or less whose
+#: largest error is still above this fraction of the last one ends the search with a bound: the
+#: error does not come down with the feed there (a rapid's lag), the bound is true (that factor
+#: breaks the tolerance) if weaker than the one the search on ever longer stretches would reach.
+NO_PROGRESS = 0.9
 #: The uniform factor is searched to this relative step.
 UNIFORM_RTOL = 0.01
 #: A piece's new feed is this fraction of the √(tol/error) estimate (the estimate's own margin).
@@ -55,7 +60,9 @@ class Uniform:
     bounded: bool = False   # no factor found within the tick budget: ``factor`` the lowest tried
                             # (it breaks the tolerance), ``time_s`` the planner's time there
     checked: bool = True    # False: found on the hot stretches only, no whole run at the factor
-                            # (``time_s`` the planner's, ``max_um`` the stretches'; check_uniform)
+                            # (``time_s`` the planner's, ``max_um`` the stretches'; check_uniform),
+                            # or a bound the search stopped at early (NO_PROGRESS)
+    resume: tuple | None = field(default=None, repr=False)   # an early bound's search state
 
 
 def _scaled_plans(path: ProgramPath, machine: Machine, scale: float) -> list[Plan]:
@@ -112,7 +119,8 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
     on below (after :data:`UNIFORM_CHECKS` such misses, on whole runs). Without ``check`` the
     factor of the hot stretches is returned unchecked (:attr:`Uniform.checked` False, no run: the
     checking run is the longest of all, 1/c times the program's time; :func:`check_uniform` does it
-    later). When the hot stretches at a factor would pass ``max_ticks`` servo periods (the error
+    later), and a trial whose error does not come down with the feed ends the search with a bound
+    (:data:`NO_PROGRESS`). When the hot stretches at a factor would pass ``max_ticks`` servo periods (the error
     does not come down with the feed: a rapid's lag at a plunge) the result is a bound
     (:attr:`Uniform.bounded`)."""
     tol = machine.contour_tol_um if tol_um is None else tol_um
@@ -133,6 +141,9 @@ def check_uniform(path: ProgramPath, machine: Machine, u: Uniform, tol_um: float
     if u.checked:
         return u
     tol = machine.contour_tol_um if tol_um is None else tol_um
+    if u.bounded:           # a bound the search stopped at early: the search goes on
+        hi, hi_max, hot, runs, c, checks_left = u.resume
+        return _search(path, machine, tol, hi, hi_max, hot, runs, max_ticks, checks_left, True, c)
     return _verify(path, machine, tol, u.factor, u.max_um, u.runs, max_ticks, UNIFORM_CHECKS - 1)
 
 
@@ -151,12 +162,13 @@ def _verify(path, machine, tol, lo, lo_max, runs, max_ticks, checks_left) -> Uni
     return _search(path, machine, tol, lo, run.max_um, _hot(run, tol * 1e-3), runs, max_ticks, checks_left, True)
 
 
-def _search(path, machine, tol, hi, hi_max, hot, runs, max_ticks, checks_left, check) -> Uniform:
+def _search(path, machine, tol, hi, hi_max, hot, runs, max_ticks, checks_left, check, c=None) -> Uniform:
     """The hot-stretch search below ``hi`` (whose max was ``hi_max`` µm, ``hot`` its segments over
-    the tolerance per chain), then :func:`_verify` with ``check``."""
+    the tolerance per chain) from the factor ``c``, then :func:`_verify` with ``check``."""
     tol_mm = tol * 1e-3
     lo, lo_max = None, 0.0
-    c = min(hi, hi * tol / hi_max)          # the error grows at least linearly with the feed
+    if c is None:
+        c = min(hi, hi * tol / hi_max)          # the error grows at least linearly with the feed
     while lo is None:
         trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
         if trial is None:      # no factor within the budget (a lag no feed changes, e.g.)
@@ -166,8 +178,11 @@ def _search(path, machine, tol, hi, hi_max, hot, runs, max_ticks, checks_left, c
         if m <= tol:
             lo, lo_max = c, m
         else:
-            hi, hot = c, h
-            c *= max(0.1, min(0.7, tol / m))
+            c_next = c * max(0.1, min(0.7, tol / m))
+            if not check and c <= 0.5 * hi and m >= NO_PROGRESS * hi_max:
+                return Uniform(c, None, runs, _planned_time(path, machine, c), bounded=True, checked=False,
+                               resume=(c, m, h, runs, c_next, checks_left))
+            hi, hi_max, hot, c = c, m, h, c_next
     while hi / lo > 1.0 + UNIFORM_RTOL:
         c = math.sqrt(lo * hi)
         trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))

@@ -118,6 +118,10 @@ class ValueReport:
             out.append(f"  {UNCHECKED} uniform: the factor the stretches over the tolerance hold (time from the "
                        "planner, max of those stretches, no p99); not checked by a run of the whole program "
                        "at that factor (--report runs it)")
+        elif self.uniform.label.endswith(UNCHECKED + " (at least)"):
+            out.append(f"  {UNCHECKED} uniform: the error does not come down with the feed there (at half the "
+                       "factor it stayed above 0.9 of itself): the search stopped at this bound (--report "
+                       "searches on)")
         return out
 
     def air_line(self) -> str:
@@ -201,7 +205,8 @@ def uniform_row(u: Uniform) -> ValueRow:
     """The uniform slowdown's row: checked by a whole run, or a bound, or from the hot stretches
     (no p99; marked :data:`UNCHECKED` when no whole run checked it)."""
     if u.bounded:
-        return ValueRow(f"uniform x<{_factor(u.factor)} (at least)", u.time_s, float("nan"), float("nan"))
+        mark = "" if u.checked else UNCHECKED
+        return ValueRow(f"uniform x<{_factor(u.factor)}{mark} (at least)", u.time_s, float("nan"), float("nan"))
     if u.run is None:
         mark = "" if u.checked else UNCHECKED
         return ValueRow(f"uniform x{_factor(u.factor)}{mark}", u.time_s, u.max_um, float("nan"))
