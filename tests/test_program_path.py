@@ -26,6 +26,8 @@ def reference_program_path(program: Program, chord_tol_mm: float) -> ProgramPath
     runnable = np.isin(kinds, [RAPID, HOME, LINE, ARC, NURBS])
     feed_move = np.isin(kinds, [LINE, ARC, NURBS])
     runnable &= ~feed_move | ((feed_mode == 94) & (program.feed_mm_min > 0))
+    if program.known is not None:
+        runnable &= program.known           # a move from an unknown start is not run
     # a line with a stop code stops the tool after its motion
     stops = program.stops if program.stops is not None else program.no_split & ~(kinds == ARC)
     chains: list[Chain] = []
