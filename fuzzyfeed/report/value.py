@@ -103,7 +103,8 @@ class ValueReport:
                f"  {'':24s} {'time (s)':>10s} {'max (um)':>10s} {'p99 (um)':>10s}"]
         for r in self.rows:
             flag = "  over" if r.max_um > tol * (1 + 1e-9) else ""
-            out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {r.p99_um:10.1f}{flag}")
+            p99 = f"{r.p99_um:10.1f}" if np.isfinite(r.p99_um) else f"{'-':>10s}"
+            out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {p99}{flag}")
         if self.coverage is not None:
             out.append("  " + self.coverage.summary())
         if self.verification is not None:
