@@ -203,3 +203,15 @@ def test_pass_through_header_is_the_advice_header(tmp_path, capsys):
     code, out_csv, _ = run(tmp_path, write(tmp_path, PROGRAM))
     assert code == 0
     assert out_csv.read_text().splitlines()[0] == ",".join(ADVICE_COLUMNS)
+
+
+def test_a_program_without_units_is_read_in_mm_and_says_so(tmp_path, capsys):
+    # LinuxCNC starts in the machine's units (an inch machine reads this 25.4 x larger): no silent guess
+    prog = tmp_path / "nounits.ngc"
+    prog.write_text("G90\nG0 X0 Y0 Z1\nG1 Z0 F100\nG1 X10\nG1 Y10\nM2\n")
+    assert main(["advise", str(prog), "-o", str(tmp_path / "a.csv")]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("fuzzyfeed: notice: ") and "nounits.ngc:2: no G20/G21 before the first move: read in mm" in err
+    prog.write_text("G21 G90\nG0 X0 Y0 Z1\nG1 Z0 F100\nG1 X10\nG1 Y10\nM2\n")
+    assert main(["advise", str(prog), "-o", str(tmp_path / "b.csv")]) == 0
+    assert "G20/G21" not in capsys.readouterr().err

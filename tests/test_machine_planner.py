@@ -180,7 +180,7 @@ def test_rapid_lag_decays_into_the_next_feed_move_in_the_part():
     # first-order loop), which decays as e^(-Kv t) while y starts. The tool is nearest the rapid
     # (in the air) until its y passes its x lag, then nearest the G1 (in the part): the largest
     # error in the part is e0 e^(-Kv t*) at that crossing, y(t*) the first-order response to the
-    # G1's trapezoid (a, v).
+    # G1's trapezoid (a/2, v).
     kv, a, v_r, v = 30.0, 1000.0, 100.0, 10.0
     machine = Machine(corner="path-tolerance", servo=ServoModel(kv_1_s=kv), axis_vel_mm_s=v_r,
                       axis_acc_mm_s2=a)
@@ -189,8 +189,11 @@ def test_rapid_lag_decays_into_the_next_feed_move_in_the_part():
     run = run_program(program_path(program, machine.chord_tol_mm), machine)
     e0 = a / kv**2 * (1 - math.exp(-kv * v_r / a))
     t = np.linspace(0.0, 0.3, 300_001)
-    t_acc = v / a
-    y_cmd = np.where(t < t_acc, 0.5 * a * t * t, 0.5 * a * t_acc**2 + v * (t - t_acc))
+    # the G1 is the program's last move: LinuxCNC runs it at half its acceleration (its end is a
+    # parabolic blend, tc.c tcGetOverallMaxAccel); the rapid ends in a stop, at the full a
+    a_g1 = a / 2
+    t_acc = v / a_g1
+    y_cmd = np.where(t < t_acc, 0.5 * a_g1 * t * t, 0.5 * a_g1 * t_acc**2 + v * (t - t_acc))
     # first-order response to y_cmd: y' = Kv (y_cmd - y), y(0) = 0 (exact for piecewise-linear steps)
     dt = t[1] - t[0]
     decay = math.exp(-kv * dt)
@@ -209,3 +212,70 @@ def test_rapid_lag_decays_into_the_next_feed_move_in_the_part():
     assert 0.0 < run.air_max_um <= expected_um * 1.001
     line, _ = run.worst()
     assert program.lines[line].startswith("G1")
+
+
+# --- LinuxCNC 2.9's planner (corner = "path-tolerance", issue 37): machine/linuxcnc_tp.py --------
+
+LCNC = Machine(corner="path-tolerance", axis_vel_mm_s=100.0, axis_acc_mm_s2=1000.0, path_acc_mm_s2=1000.0,
+               chord_tol_mm=0.001)
+
+
+def _plans(text: str, machine: Machine = LCNC):
+    path = program_path(parse_program(text, "lcnc.ngc"), machine.chord_tol_mm)
+    return [plan_motion(c.motion, machine) for c in path.chains]
+
+
+def test_linuxcnc_arc_keeps_half_its_acceleration_for_the_normal():
+    # A full circle r = 10 at F = 20 mm/s from rest to rest, the program's last move. Its speed
+    # limit v_ini = min(100, sqrt(a sqrt(3)/2 r) = 93) needs the cutoff (ARC_FEED, then
+    # pmCircleActualMaxVel with the move's overall a_o = a/2, its end a parabolic blend):
+    # v_ini^2/r = 866 > a_o sqrt(3)/2, so the tangential acceleration is a_o/2 = 250 mm/s^2.
+    # Accelerate over v^2/(2 a_t) = 0.8 mm, cruise, brake: t = L/v + v/a_t.
+    (plan,) = _plans("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z0\nG2 X0 Y0 I10 J0 F1200\nM2\n")[-1:]
+    a_t, v = 250.0, 20.0
+    length = plan.length.sum()
+    assert length == pytest.approx(2 * math.pi * 10, rel=1e-4)      # chords within 1 um
+    np.testing.assert_allclose(plan.acc, a_t, rtol=1e-12)
+    assert plan.time_s == pytest.approx(length / v + v / a_t, rel=1e-9)
+    ramp = np.cumsum(plan.length)[np.flatnonzero(plan.v_exit >= v - 1e-9)[0]]
+    assert ramp == pytest.approx(v * v / (2 * a_t), abs=plan.length.max())
+
+
+def test_linuxcnc_large_arc_keeps_what_its_speed_limit_needs():
+    # r = 200: v_ini = the axes' 100 mm/s; a_n = v_ini^2/r = 50 <= a_o sqrt(3)/2, so the tangential
+    # share is sqrt(1 - (a_n/a_o)^2) of a_o = a/2 (the last move): a_t = 500 sqrt(1 - 0.01)
+    (plan,) = _plans("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z0\nG3 X200 Y200 I200 J0 F3000\nM2\n")[-1:]
+    a_t, v = 500.0 * math.sqrt(1 - 0.1 ** 2), 50.0
+    np.testing.assert_allclose(plan.acc, a_t, rtol=1e-12)
+    assert plan.time_s == pytest.approx(plan.length.sum() / v + v / a_t, rel=1e-9)
+
+
+def test_linuxcnc_last_move_runs_at_half_and_ignores_the_path_limit():
+    # Two lines at a right angle: the first ends in a blend arc (full acceleration, the axes' own:
+    # LinuxCNC 2.9 never reads [TRAJ] MAX_ACCELERATION), the last ends the program in a parabolic
+    # blend (half). Along x: a = 1200, not the path limit 1000.
+    machine = Machine(corner="path-tolerance", axis_vel_mm_s=100.0, axis_acc_mm_s2=1200.0,
+                      path_acc_mm_s2=1000.0)
+    (plan,) = _plans("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z0\nG1 X40 F3000\nG1 Y40\nM2\n", machine)[-1:]
+    np.testing.assert_allclose(plan.acc, [1200.0, 600.0], rtol=1e-12)
+    # the corner: blend radius R = P sin(45°)/(1 − sin(45°)), speed sqrt(a sqrt(3)/2 R)
+    s = math.sin(math.pi / 4)
+    v_c = math.sqrt(1200.0 * math.sqrt(3) / 2 * 0.01 * s / (1 - s))
+    assert plan.v_exit[0] == pytest.approx(v_c, rel=1e-9)
+    v = 50.0
+    # per move: d/v + the ramps' time lost: (v − v0)^2/(2 a v) for each ramp
+    t1 = 40 / v + (v ** 2) / (2 * 1200 * v) + (v - v_c) ** 2 / (2 * 1200 * v)
+    t2 = 40 / v + (v - v_c) ** 2 / (2 * 600 * v) + (v ** 2) / (2 * 600 * v)
+    assert plan.time_s == pytest.approx(t1 + t2, rel=1e-9)
+
+
+def test_linuxcnc_queue_drain_stops_the_tool():
+    # LinuxCNC's task waits for the motion queue before a spindle command or an S word: the move
+    # before it ends at rest, and as the queue's last move its end is parabolic (half acceleration)
+    plans = _plans("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z0\nG1 X40 F3000\nS1000\nG1 X80\nM2\n")
+    assert len(plans) == 2
+    assert plans[0].v_exit[-1] == 0.0
+    np.testing.assert_allclose(plans[0].acc, 500.0)
+    np.testing.assert_allclose(plans[1].acc, 500.0)
+    one = _plans("G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z0\nG1 X40 F3000\nG1 X80\nM2\n")
+    assert len(one) == 1 and one[0].v_exit[0] == pytest.approx(50.0)

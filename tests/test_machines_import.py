@@ -22,6 +22,8 @@ import linuxcnc_sim
 
 SAMPLES = "/usr/share/doc/linuxcnc/examples/sample-configs"
 GRBL_DEFAULTS = Path(__file__).parent / "machines" / "grbl_1.1h_defaults.txt"
+#: a third-party dump (cncjs's GRBL parser test, MIT; see tests/machines/README.md)
+GRBL_CNCJS = Path(__file__).parent / "machines" / "cncjs_grbl_0.9j_settings.txt"
 
 INI = """\
 [EMCMOT]
@@ -141,6 +143,24 @@ def test_grbl_defaults_by_hand():
     assert [s.key for s in im.used] == ["$110", "$111", "$112", "$120", "$121", "$122", "$11", "$12", "$13"]
     assert "$100" in {s.key for s in im.ignored} and "$32" in {s.key for s in im.ignored}
     assert parse_machine(machine_toml(im), "g.toml").as_dict() == m.as_dict()
+
+
+def test_grbl_third_party_dump(tmp_path, capsys):
+    # cncjs's GRBL 0.9j settings, read by hand: $110-$112 mm/min -> mm/s, $120-$122 mm/s^2,
+    # $11 junction deviation, $12 arc tolerance; no $0 line (it is not needed)
+    im = read_grbl_settings(GRBL_CNCJS.read_text(), GRBL_CNCJS)
+    m = im.machine
+    np.testing.assert_allclose(m.axis_vel_mm_s, [2500 / 60, 2500 / 60, 500 / 60])
+    np.testing.assert_allclose(m.axis_acc_mm_s2, [250.0, 250.0, 50.0])
+    assert (m.corner, m.corner_mm, m.chord_tol_mm, m.acceleration) == ("junction-deviation", 0.02, 0.002, "axes")
+    assert [s.key for s in im.used] == ["$110", "$111", "$112", "$120", "$121", "$122", "$11", "$12", "$13"]
+    assert {s.key for s in im.ignored} == {"$1", "$2", "$3", "$4", "$5", "$6", "$10", "$20", "$21", "$22",
+                                           "$23", "$24", "$25", "$26", "$27", "$100", "$101", "$102",
+                                           "$130", "$131", "$132"}
+    out = tmp_path / "cncjs.toml"
+    assert main(["machines", "import", str(GRBL_CNCJS), "-o", str(out)]) == 0
+    assert "$132" in capsys.readouterr().out
+    assert load_machine(out).as_dict() == m.as_dict()
 
 
 def test_grbl_09_comments_and_spaces():

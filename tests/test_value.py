@@ -257,3 +257,22 @@ def test_the_report_says_the_error_in_the_air_apart(grbl02):
     assert line.startswith("in the air") and f"line {r.worst_air[0] + 1} " in line
     assert line in r.lines()[-1]
     assert "in the air" in report_table_html([r])
+
+
+def test_a_move_from_an_unknown_start_is_not_run():
+    # the first move starts where the machine happens to be: its length, direction and the lag it
+    # leaves are unknown, so the run starts at its end, from rest (the reader's placeholder start
+    # 0,0,0 is not a path: run from it, a 300 mm rapid left ~lag of 3000 mm/s / Kv at the plunge)
+    text = "G21 G90 G94\nG0 X300 Y0 Z0\nG1 Z-1 F100\nG1 X310 F1200\nG0 Z5\nM2\n"
+    program = parse_program(text, "u.ngc")
+    assert not program.known[0] and program.known[1:].all()
+    machine = load_machine("reference")
+    path = program_path(program, machine.chord_tol_mm)
+    assert path.chains[0].seg_move[0] == 1
+    np.testing.assert_allclose(path.chains[0].motion.points[0], [300, 0, 0])
+    run = run_program(path, machine)
+    # from rest at (300, 0, 0): the plunge and the 10 mm line alone, a 90° corner at 20 mm/s:
+    # lag v/Kv = 0.67 mm cut across at most; nothing in the air
+    assert run.air_max_um == 0.0
+    ev = evaluate_program(program, machine, load_rule_table("machine"))
+    assert ev.report.advised.max_um <= 1.2 * machine.contour_tol_um

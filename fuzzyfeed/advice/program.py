@@ -79,7 +79,7 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
 
         ev = evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
                               step_mm=step_mm, cuts=cuts, reference=options.reference, progress=progress,
-                              verify=_verifier(options, tools), tools=tools)
+                              verify=_verifier(options, tools), tools=tools, check_uniform=False)
         return MachineProgramResult(spec, options, program, ev)
     if not options.reference:
         raise MachineLimitsError("--no-reference: the value report needs a machine (--machine FILE, or "
@@ -298,7 +298,10 @@ class ProgramResult(AdviceResult):
 
 class MachineProgramResult(AdviceResult):
     """A program on a machine: run as written, the cuts that break the tolerance advised, the
-    value report (``.value``)."""
+    value report (``.value``). The uniform slowdown's checking run (a whole run at its factor) and
+    the limit reference are made when the report is asked for: ``.value``, ``figures()`` or
+    ``--report`` (not for the plot); the summary printed without them marks the uniform row as not
+    checked (:data:`~fuzzyfeed.report.value.UNCHECKED`) and says the limit reference was not run."""
 
     kind = "program on a machine"
 
@@ -312,6 +315,7 @@ class MachineProgramResult(AdviceResult):
 
     @property
     def value(self):
+        self.evaluation = self.evaluation.checked()
         return self.evaluation.report
 
     def columns(self) -> dict:
@@ -327,8 +331,7 @@ class MachineProgramResult(AdviceResult):
                 *ev.report.lines()]
 
     def figures(self) -> dict:
-        ev, columns = self.evaluation, self.columns()
-        r = ev.report
+        r, ev, columns = self.value, self.evaluation, self.columns()
         row = {k: v for k, v in r.csv_row().items() if k not in ("program", "written_time_s", "advised_time_s")}
         return {"cuts": self.program.n_cuts, "cuts_advised": len(ev.advised_cuts), "time_written_s": r.written.time_s,
                 "time_advised_s": r.advised.time_s, "feed_pct_min": float(columns["feed_pct"].min()),
@@ -339,6 +342,8 @@ class MachineProgramResult(AdviceResult):
         from fuzzyfeed.io.csv import write_columns, write_metadata
 
         _check_outputs(csv, gcode, gcode_g52, plot)
+        if report:
+            self.evaluation = self.evaluation.checked()
         cap, machine = self.options.feed_mm_min, self.options.machine
         if csv is not None:
             columns = self.columns()
@@ -361,7 +366,7 @@ class MachineProgramResult(AdviceResult):
     def _plot(self, output) -> None:
         from fuzzyfeed.report.value_files import plot_value
 
-        plot_value(self.value, output)
+        plot_value(self.evaluation.report, output)
 
     def report_html(self) -> str:
         """The value report as one HTML page (``--report FILE.html``)."""

@@ -22,6 +22,11 @@ cap of its speed. The plan, like GRBL's planner (``planner.c``):
   ``tpCheckCanonType``: "Can't blend between rapid and feed move"), the command stops there, and it
   does not wait for the axes to be in position, so the servo's lag from the rapid still decays
   while the feed move starts (issue 37, defect 3). GRBL's planner blends them like any junction;
+- with ``corner = "path-tolerance"`` the accelerations, speed caps and corner speeds are LinuxCNC
+  2.9's own (:mod:`fuzzyfeed.machine.linuxcnc_tp`: axes-only acceleration, arcs' reduced
+  tangential acceleration, half acceleration at a parabolic end, blend arcs limited by the moves'
+  lengths, kinks, a move of at least 1.02 servo periods), and a segment changes speed only on what
+  the blend arcs leave of it;
 - the squared speed at every vertex is the largest that allows reaching the next and the previous
   cap with the acceleration: w_k = min_j (c_j + |D_k − D_j|), D the running sum of 2·a·L (one
   forward and one backward pass, each a running minimum); the program starts and ends at rest;
@@ -40,6 +45,7 @@ import numpy as np
 
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine.linuxcnc_tp import linuxcnc_limits
 
 #: Cosine of the junction angle beyond which two segments count as one straight line (GRBL: 0.999999).
 STRAIGHT_COS = 0.999999
@@ -159,13 +165,22 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         i = int(np.argmax(~(length > 0)))
         raise InputError(f"motion segment {i} has length 0; drop repeated points first")
     unit = delta / length[:, None]
-    acc = machine.move_acceleration(unit)
     vmax = machine.move_velocity(unit)
+    lcnc = machine.corner == "path-tolerance"
+    if lcnc:
+        requested = np.where(motion.rapid, vmax, np.minimum(motion.feed_mm_s, vmax))
+        acc, arc_cap, w_lcnc, trim = linuxcnc_limits(unit, length, motion.arc_radius_mm, requested, machine)
+        vmax = np.minimum(vmax, arc_cap)
+    else:
+        acc = machine.move_acceleration(unit)
     nominal = np.where(motion.rapid, vmax, np.minimum(motion.feed_mm_s, vmax))
     n = length.size
     cap = np.empty(n + 1)
     cap[0] = cap[-1] = 0.0
-    if n > 1:
+    if n > 1 and lcnc:
+        cap[1:-1] = np.minimum(w_lcnc, np.minimum(nominal[:-1], nominal[1:]) ** 2)
+        cap[1:-1] = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, cap[1:-1])
+    elif n > 1:
         r = junction_radius(unit, machine, motion.arc_radius_mm)
         j_dir = unit[1:] - unit[:-1]
         j_norm = np.linalg.norm(j_dir, axis=1)
@@ -174,9 +189,11 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         j_acc = machine.move_acceleration(j_unit)
         w_corner = j_acc * r
         cap[1:-1] = np.minimum(w_corner, np.minimum(nominal[:-1], nominal[1:]) ** 2)
-        if machine.corner == "path-tolerance":
-            cap[1:-1] = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, cap[1:-1])
     reach = 2.0 * acc * length                       # Δ(v²) a segment allows
+    if lcnc and n > 1:                               # less what LinuxCNC's blend arcs take
+        trim = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, trim)   # a stop: no blend
+        free = length - np.concatenate([[0.0], trim]) - np.concatenate([trim, [0.0]])
+        reach = 2.0 * acc * np.maximum(free, 0.0)
     if machine.lookahead_moves:
         csum = np.concatenate([[0.0], np.cumsum(reach)])
         end = np.minimum(np.arange(n + 1) + machine.lookahead_moves - 1, n)

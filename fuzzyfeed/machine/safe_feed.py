@@ -222,13 +222,26 @@ def corner_error_table(machine: Machine, rapid_lead: bool = False) -> tuple[np.n
 
 @lru_cache(maxsize=64)
 def _corner_error_table(machine: Machine, rapid_lead: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    top = max(machine.axis_vel_mm_s)
-    speeds = np.geomspace(LOWEST_SPEED_FRACTION * top, top, CORNER_SPEEDS)
-    angles = np.radians(CORNER_ANGLES_DEG)
-    err = np.vstack([_corner_errors(float(phi), speeds, machine, rapid_lead) for phi in angles])
-    # the error grows with the speed: a non-monotone wiggle of the grid is taken at its worst
-    err = np.maximum.accumulate(err, axis=1)
+    angles, speeds = _corner_grid(machine)
+    err = np.vstack([_corner_error_row(machine, rapid_lead, i) for i in range(angles.size)])
     return angles, speeds, err
+
+
+def _corner_grid(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
+    top = max(machine.axis_vel_mm_s)
+    return np.radians(CORNER_ANGLES_DEG), np.geomspace(LOWEST_SPEED_FRACTION * top, top, CORNER_SPEEDS)
+
+
+@lru_cache(maxsize=64 * CORNER_ANGLES_DEG.size)
+def _corner_error_row(machine: Machine, rapid_lead: bool, i: int) -> np.ndarray:
+    """Row ``i`` (angle ``CORNER_ANGLES_DEG[i]``) of the corner table, computed once per machine and
+    process: the rows are independent, so a program's advice computes only those its turns need."""
+    angles, speeds = _corner_grid(machine)
+    err = _corner_errors(float(angles[i]), speeds, machine, rapid_lead)
+    # the error grows with the speed: a non-monotone wiggle of the grid is taken at its worst
+    err = np.maximum.accumulate(err)
+    err.setflags(write=False)
+    return err
 
 
 def corner_safe_feed(machine: Machine, turn_angle_rad: np.ndarray, tol_mm: float | None = None,
@@ -238,11 +251,13 @@ def corner_safe_feed(machine: Machine, turn_angle_rad: np.ndarray, tol_mm: float
     one's) is within the tolerance, interpolated in log speed, the angle interpolated linearly
     between the table's angles (the slower of the two neighbours' feeds)."""
     tol = machine.contour_tol_mm if tol_mm is None else tol_mm
-    angles, speeds, err = corner_error_table(machine, rapid_lead)
-    per_angle = np.empty(angles.size)
+    angles, speeds = _corner_grid(machine)
+    phi = np.clip(np.abs(np.asarray(turn_angle_rad, dtype=float)), 0.0, math.pi)
+    k = np.clip(np.searchsorted(angles, phi, side="right"), 1, angles.size - 1)
+    per_angle = np.full(angles.size, np.nan)      # only the rows the turns read are computed
     logv = np.log(speeds)
-    for i in range(angles.size):
-        e = err[i]
+    for i in np.unique(np.concatenate([k - 1, k])):
+        e = _corner_error_row(machine, bool(rapid_lead), int(i))
         if e[-1] <= tol:
             per_angle[i] = np.inf
         elif e[0] > tol:
@@ -251,7 +266,5 @@ def corner_safe_feed(machine: Machine, turn_angle_rad: np.ndarray, tol_mm: float
             j = int(np.argmax(e > tol))        # first speed beyond the tolerance
             f = (tol - e[j - 1]) / (e[j] - e[j - 1]) if e[j] > e[j - 1] else 0.0
             per_angle[i] = math.exp(logv[j - 1] + f * (logv[j] - logv[j - 1]))
-    phi = np.clip(np.abs(np.asarray(turn_angle_rad, dtype=float)), 0.0, math.pi)
-    k = np.clip(np.searchsorted(angles, phi, side="right"), 1, angles.size - 1)
     out = np.minimum(per_angle[k - 1], per_angle[k])
     return out if rapid_lead else np.where(phi <= 0.0, np.inf, out)

@@ -98,6 +98,9 @@ class Execution:
     tv: np.ndarray
     ended: bool                 # an M2/M30 was executed
     in_order: bool              # every main-file line runs at most once, in file order
+    #: per row: the main-file line of the outermost subroutine call the row runs in (-1: not in
+    #: a call, or a call made from another file)
+    row_call: np.ndarray | None = None
 
     @property
     def n_rows(self) -> int:
@@ -209,6 +212,8 @@ def execute(path: Path, lines: list[str]) -> Execution:
     row_line: list[int] = []
     row_src: list[int] = []             # index into files
     row_pc: list[int] = []
+    row_call: list[int] = []
+    site = -1                           # main-file line of the outermost call in progress
     files: list[Path] = [main.path]
     counts: list[int] = []              # words per row
     tc: list[int] = []
@@ -243,6 +248,8 @@ def execute(path: Path, lines: list[str]) -> Execution:
         ow = code.oword
         if ow is not None:
             before = src
+            if not calls:
+                site = pc if src is main else -1
             src, pc = _control(src, pc, ow, params, calls, repeats, sources, flags)
             if src is not before:
                 file_index = _file_index(files, src.path)
@@ -257,6 +264,8 @@ def execute(path: Path, lines: list[str]) -> Execution:
         except PathFormatError as exc:
             raise src.error(pc, str(exc)) from None
         if code.fanuc_call:
+            if not calls:
+                site = pc if src is main else -1
             src, pc = _fanuc_call(src, pc, list(zip(code.letters, values)), params, calls)
             continue
         if not code.letters:          # parameter settings only: no row
@@ -274,6 +283,7 @@ def execute(path: Path, lines: list[str]) -> Execution:
             raise src.error(pc, f"the program executes more than {MAX_ROWS:,} lines with words")
         row_src.append(file_index)
         row_pc.append(pc)
+        row_call.append(site if calls else -1)
         counts.append(len(values))
         tc.extend(code.letters)
         tv.extend(values)
@@ -292,7 +302,7 @@ def execute(path: Path, lines: list[str]) -> Execution:
     return Execution(row_line=np.asarray(row_line, dtype=np.int64), files=tuple(files),
                      row_src=np.asarray(row_src, dtype=np.int64), row_pc=np.asarray(row_pc, dtype=np.int64),
                      tl=tl, tc=np.asarray(tc, dtype=np.int64), tv=np.asarray(tv, dtype=float),
-                     ended=ended, in_order=in_order)
+                     ended=ended, in_order=in_order, row_call=np.asarray(row_call, dtype=np.int64))
 
 
 _UNREAD = object()

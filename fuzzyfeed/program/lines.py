@@ -203,8 +203,41 @@ def piece_layout(program: Program, piece_move: np.ndarray,
         stops = np.concatenate([bounds, [piece_move.size]])
         piece_lo[piece_move[starts]] = starts
         piece_hi[piece_move[starts]] = stops
-    p_inch = program.inch[program.move_line[piece_move]] if piece_move.size else np.zeros(0, bool)
+    if not piece_move.size:
+        return piece_lo, piece_hi, []
+    line = program.move_line[piece_move]
+    p_inch = program.inch[line].copy()
+    # a move's first piece is its own line: its F is read in the units before the line's G20/G21
+    first = np.zeros(piece_move.size, bool)
+    first[np.concatenate([[0], np.flatnonzero(np.diff(piece_move)) + 1])] = True
+    p_inch[first] = feed_units_inch(program)[line[first]]
     return piece_lo, piece_hi, feed_texts_down(piece_feed_mm_min / np.where(p_inch, 25.4, 1.0), p_inch)
+
+
+def feed_units_inch(program: Program) -> np.ndarray:
+    """Per line, True where an F word on the line is read in inches: LinuxCNC sets the feed
+    (order of execution step 4) before it changes units (step 14), so an F is in the units in
+    force *before* its line (the reader's rule, :func:`fuzzyfeed.program.read.parse_program`).
+    A program whose lines run out of order (loops, calls) is written back with one unit for every
+    F (:mod:`fuzzyfeed.program.rewrite_rows` follows the F in force as numbers); if it changes
+    units once a feed is set, no F word could be placed safely: refused."""
+    inch = np.asarray(program.inch, bool)
+    rows = program.rows
+    if rows is not None and rows.feed_inch is not None:
+        feeds = rows.has_f.copy()
+        feeds[rows.move_row] = True
+        seen = rows.feed_inch[np.argmax(feeds):] if feeds.any() else rows.feed_inch[:0]
+        if seen.size and seen.any() != seen.all():
+            from fuzzyfeed.errors import ExportError
+
+            r = int(np.argmax(feeds)) + int(np.flatnonzero(seen != seen[0])[0])
+            li = int(rows.line[r - 1]) if r else -1
+            where = f"line {li + 1}" if li >= 0 else "a line of another file"
+            raise ExportError(f"{program.path.name}: {where} changes units (G20/G21) after a feed is set, "
+                              "in a program with loops or subroutine calls; fuzzyfeed cannot write F words "
+                              "into it safely (each run of a line may read its F in other units)")
+        return np.full(inch.size, bool(seen[0]) if seen.size else False)
+    return np.concatenate([[False], inch[:-1]])
 
 
 def split_lines(program: Program, m: int, raw: str, fractions, feeds: list[str]) -> list[str]:

@@ -63,6 +63,8 @@ class Rows:
     feed_value: np.ndarray      # (R,) F in force after the row (program units)
     feed_reset: np.ndarray      # (R,) F set to 0 on the row (G94/G95 given, or a change of mode)
     move_row: np.ndarray        # (M,) the row of every move
+    feed_inch: np.ndarray | None = None   # (R,) an F on the row is read in inches (units before it)
+    call_line: np.ndarray | None = None   # (R,) main-file line of the outermost call the row runs in, or -1
 
 
 def lines_of_rows(values: np.ndarray, row_line: np.ndarray, n_lines: int, before=None) -> np.ndarray:

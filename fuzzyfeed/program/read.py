@@ -450,6 +450,12 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     for a, _ in blocks:
         nurbs_first[a] = True
     move_rows = np.flatnonzero(moving | home_line | nurbs_first)
+    units_col = gcol["units"]
+    if move_rows.size and (units_col is None or not (units_col[:move_rows[0] + 1] >= 0).any()):
+        i = int(move_rows[0])
+        _notice(f"{path}:{int(rows.where(i)[1]) if rows is not None else i + 1}: no G20/G21 before the "
+                "first move: read in mm, as GRBL and a metric LinuxCNC start (a machine that starts in "
+                "inches reads it 25.4 x larger); put G21 or G20 at the top to say which")
     kind = np.full(move_rows.size, KEPT, dtype=np.int8)
     mo = motion[move_rows]
     kind[mo == 0] = RAPID
@@ -470,6 +476,17 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     feed_mm = np.where(np.isin(kind, [RAPID, HOME, SYNCED]), np.nan, feed_value[move_rows] * feed_scale[move_rows])
     no_split = m_stop[move_rows] | polar[move_rows]     # a polar line takes no X or Y word
     stops = m_stop[move_rows].copy()
+    # LinuxCNC's task waits for the motion queue to empty before a spindle, coolant or tool-change
+    # command (M3-M9, an S word) and a dwell (emctaskmain.cc, emcTaskCheckPreconditions:
+    # WAITING_FOR_MOTION), executed before the motion of their line: the tool stops after the
+    # move before them (issue 37). GRBL 1.1 syncs its buffer the same way (protocol_buffer_synchronize
+    # for M3-M5, M7-M9, G4), but on an S word only when the speed changes with the spindle on
+    m_drain = np.zeros(n, bool)
+    m_drain[m_line[np.isin(m_int, [3, 4, 5, 6, 7, 8, 9])]] = True
+    drain = m_drain | has("S") | nm(40)
+    if move_rows.size > 1:
+        dcum = np.concatenate([[0], np.cumsum(drain)])       # dcum[i] = drains on rows < i
+        stops[:-1] |= (dcum[move_rows[1:] + 1] - dcum[move_rows[:-1] + 1]) > 0
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
                                                        endp, col, inch, scale, ij_absolute, unplaced_arcs)
     no_split |= multi_turn
@@ -568,7 +585,8 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         per_line["feed_reset"] = lines_of_rows(fm_change, rows.row_line, len(lines), False)
         move_line = rows.row_line[move_rows]
         row_info = Rows(line=rows.row_line, feed_mode=feed_mode, has_f=has_f, feed_value=feed_value,
-                        feed_reset=fm_change, move_row=move_rows)
+                        feed_reset=fm_change, move_row=move_rows, feed_inch=scale_before != 1.0,
+                        call_line=rows.row_call)
         runs = np.bincount(rows.row_line[rows.row_line >= 0], minlength=len(lines))
         no_split |= (move_line < 0) | (runs[np.maximum(move_line, 0)] > 1)
     return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line, **per_line,

@@ -14,7 +14,7 @@ controller and servo model (:mod:`fuzzyfeed.program.run`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -31,6 +31,11 @@ MAX_TICKS = 2e8
 HOT_MAX_TICKS = 4e7
 #: Whole runs checking a uniform factor found on the hot stretches, at most.
 UNIFORM_CHECKS = 8
+#: Without the check (``uniform_slowdown(check=False)``), a trial at half the factor or less whose
+#: largest error is still above this fraction of the last one ends the search with a bound: the
+#: error does not come down with the feed there (a rapid's lag), the bound is true (that factor
+#: breaks the tolerance) if weaker than the one the search on ever longer stretches would reach.
+NO_PROGRESS = 0.9
 #: The uniform factor is searched to this relative step.
 UNIFORM_RTOL = 0.01
 #: A piece's new feed is this fraction of the √(tol/error) estimate (the estimate's own margin).
@@ -54,6 +59,10 @@ class Uniform:
     max_um: float = float("nan")
     bounded: bool = False   # no factor found within the tick budget: ``factor`` the lowest tried
                             # (it breaks the tolerance), ``time_s`` the planner's time there
+    checked: bool = True    # False: found on the hot stretches only, no whole run at the factor
+                            # (``time_s`` the planner's, ``max_um`` the stretches'; check_uniform),
+                            # or a bound the search stopped at early (NO_PROGRESS)
+    resume: tuple | None = field(default=None, repr=False)   # an early bound's search state
 
 
 def _scaled_plans(path: ProgramPath, machine: Machine, scale: float) -> list[Plan]:
@@ -100,58 +109,94 @@ def _hot(run: ProgramRun, tol_mm: float) -> list[np.ndarray]:
 
 
 def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun | None = None,
-                     tol_um: float | None = None, max_ticks: float = MAX_TICKS) -> Uniform:
+                     tol_um: float | None = None, max_ticks: float = MAX_TICKS, check: bool = True) -> Uniform:
     """The largest factor c (to 1 %) with every F × c holding the tolerance (c = 1 when the program
     as written holds it). Each trial runs only the stretches around the segments over the
     tolerance at the last factor that broke it (the error of a place grows with the feed: those
     that held there hold below it; :func:`~fuzzyfeed.machine.stream.segment_windows`); the time is
-    the planner's. The factor found is checked by one whole run (if within ``max_ticks`` servo
-    periods); should a place outside the hot stretches break it, the search goes on below (after
-    :data:`UNIFORM_CHECKS` such misses, on whole runs). When the hot stretches at a factor would
-    pass ``max_ticks`` servo periods (the error does not come down with the feed: a rapid's lag
-    at a plunge) the result is a bound (:attr:`Uniform.bounded`)."""
+    the planner's. With ``check`` the factor found is checked by one whole run (if within
+    ``max_ticks`` servo periods); should a place outside the hot stretches break it, the search goes
+    on below (after :data:`UNIFORM_CHECKS` such misses, on whole runs). Without ``check`` the
+    factor of the hot stretches is returned unchecked (:attr:`Uniform.checked` False, no run: the
+    checking run is the longest of all, 1/c times the program's time; :func:`check_uniform` does it
+    later), and a trial whose error does not come down with the feed ends the search with a bound
+    (:data:`NO_PROGRESS`). When the hot stretches at a factor would pass ``max_ticks`` servo periods (the error
+    does not come down with the feed: a rapid's lag at a plunge) the result is a bound
+    (:attr:`Uniform.bounded`)."""
     tol = machine.contour_tol_um if tol_um is None else tol_um
-    tol_mm = tol * 1e-3
     first = as_written if as_written is not None else run_program(path, machine)
     if first.max_um <= tol:
         return Uniform(1.0, first, 1, first.time_s, first.max_um)
-    hi, hi_max, hot = 1.0, first.max_um, _hot(first, tol_mm)
-    runs = 1
-    for _ in range(UNIFORM_CHECKS):
-        lo, lo_max = None, 0.0
+    if UNIFORM_CHECKS <= 0:
+        return _whole_search(path, machine, tol, 1.0, first.max_um, 1)
+    return _search(path, machine, tol, 1.0, first.max_um, _hot(first, tol * 1e-3), 1, max_ticks,
+                   UNIFORM_CHECKS, check)
+
+
+def check_uniform(path: ProgramPath, machine: Machine, u: Uniform, tol_um: float | None = None,
+                  max_ticks: float = MAX_TICKS) -> Uniform:
+    """``u`` (from :func:`uniform_slowdown` with ``check=False``) checked by a whole run, the search
+    going on below should a place outside the hot stretches break it: what
+    ``uniform_slowdown(..., check=True)`` returns."""
+    if u.checked:
+        return u
+    tol = machine.contour_tol_um if tol_um is None else tol_um
+    if u.bounded:           # a bound the search stopped at early: the search goes on
+        hi, hi_max, hot, runs, c, checks_left = u.resume
+        return _search(path, machine, tol, hi, hi_max, hot, runs, max_ticks, checks_left, True, c)
+    return _verify(path, machine, tol, u.factor, u.max_um, u.runs, max_ticks, UNIFORM_CHECKS - 1)
+
+
+def _verify(path, machine, tol, lo, lo_max, runs, max_ticks, checks_left) -> Uniform:
+    """One whole run at ``lo`` (a factor the hot stretches hold); the search below it if it breaks."""
+    time_s = _planned_time(path, machine, lo)
+    if time_s / machine.ts_s > max_ticks:
+        return Uniform(lo, None, runs, time_s, lo_max)
+    run = run_program(path, machine, feed_scale=lo)
+    runs += 1
+    if run.max_um <= tol:
+        return Uniform(lo, run, runs, run.time_s, run.max_um)
+    if checks_left <= 0:     # the hot stretches kept missing a place (not monotone there): whole runs
+        return _whole_search(path, machine, tol, lo, run.max_um, runs)
+    # a place the hot stretches missed: the search goes on below
+    return _search(path, machine, tol, lo, run.max_um, _hot(run, tol * 1e-3), runs, max_ticks, checks_left, True)
+
+
+def _search(path, machine, tol, hi, hi_max, hot, runs, max_ticks, checks_left, check, c=None) -> Uniform:
+    """The hot-stretch search below ``hi`` (whose max was ``hi_max`` µm, ``hot`` its segments over
+    the tolerance per chain) from the factor ``c``, then :func:`_verify` with ``check``."""
+    tol_mm = tol * 1e-3
+    lo, lo_max = None, 0.0
+    if c is None:
         c = min(hi, hi * tol / hi_max)          # the error grows at least linearly with the feed
-        while lo is None:
-            trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
-            if trial is None:      # no factor within the budget (a lag no feed changes, e.g.)
-                return Uniform(hi, None, runs, _planned_time(path, machine, hi), bounded=True)
-            m, h = trial
-            runs += 1
-            if m <= tol:
-                lo, lo_max = c, m
-            else:
-                hi, hot = c, h
-                c *= max(0.1, min(0.7, tol / m))
-        while hi / lo > 1.0 + UNIFORM_RTOL:
-            c = math.sqrt(lo * hi)
-            trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
-            if trial is None:
-                return Uniform(lo, None, runs, _planned_time(path, machine, lo), lo_max)
-            m, h = trial
-            runs += 1
-            if m <= tol:
-                lo, lo_max = c, m
-            else:
-                hi, hot = c, h
-        time_s = _planned_time(path, machine, lo)
-        if time_s / machine.ts_s > max_ticks:
-            return Uniform(lo, None, runs, time_s, lo_max)
-        run = run_program(path, machine, feed_scale=lo)
+    while lo is None:
+        trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
+        if trial is None:      # no factor within the budget (a lag no feed changes, e.g.)
+            return Uniform(hi, None, runs, _planned_time(path, machine, hi), bounded=True)
+        m, h = trial
         runs += 1
-        if run.max_um <= tol:
-            return Uniform(lo, run, runs, run.time_s, run.max_um)
-        hi, hi_max, hot = lo, run.max_um, _hot(run, tol_mm)     # a place the hot stretches missed
-    # the hot stretches kept missing a place (the error not monotone in the feed there): whole runs
-    return _whole_search(path, machine, tol, hi, hi_max, runs)
+        if m <= tol:
+            lo, lo_max = c, m
+        else:
+            c_next = c * max(0.1, min(0.7, tol / m))
+            if not check and c <= 0.5 * hi and m >= NO_PROGRESS * hi_max:
+                return Uniform(c, None, runs, _planned_time(path, machine, c), bounded=True, checked=False,
+                               resume=(c, m, h, runs, c_next, checks_left))
+            hi, hi_max, hot, c = c, m, h, c_next
+    while hi / lo > 1.0 + UNIFORM_RTOL:
+        c = math.sqrt(lo * hi)
+        trial = _hot_trial(path, machine, c, hot, tol_mm, min(max_ticks, HOT_MAX_TICKS))
+        if trial is None:
+            return Uniform(lo, None, runs, _planned_time(path, machine, lo), lo_max)
+        m, h = trial
+        runs += 1
+        if m <= tol:
+            lo, lo_max = c, m
+        else:
+            hi, hot = c, h
+    if not check:
+        return Uniform(lo, None, runs, _planned_time(path, machine, lo), lo_max, checked=False)
+    return _verify(path, machine, tol, lo, lo_max, runs, max_ticks, checks_left - 1)
 
 
 def _whole_search(path: ProgramPath, machine: Machine, tol: float, hi: float, hi_max: float,

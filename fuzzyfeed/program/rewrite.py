@@ -13,7 +13,9 @@ I/J/K) rewritten; the other pieces follow as new lines ``G1``/``G2``/``G3`` with
 mode in force (G90/G91, G20/G21, G90.1/G91.1, the arc's plane). Arcs stay arcs with the same
 centre; the pieces' end points are rounded to the line's decimals (at least 4 in mm, 5 in inch)
 on an integer grid, so incremental programs keep their exact positions. F words are written in
-the program's units, rounded down (never above the feed wanted).
+the program's units, rounded down (never above the feed wanted): on the move's own line in the units
+in force before it (LinuxCNC reads F before the line's G20/G21), on the pieces' new lines in the
+line's units.
 """
 
 from __future__ import annotations
@@ -22,7 +24,8 @@ import re
 
 import numpy as np
 
-from fuzzyfeed.program.lines import edit_line, piece_layout, format_feed_exact, split_lines
+from fuzzyfeed.program.lines import (edit_line, feed_units_inch, format_feed_down, format_feed_exact,
+                                     piece_layout, split_lines)
 from fuzzyfeed.program.model import NO_F_KINDS, Program
 
 _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
@@ -63,6 +66,10 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
     feed_value = program.feed_value
     has_f = program.has_f
     piece_lo, piece_hi, p_text = piece_layout(program, piece_move, piece_feed_mm_min)
+    # mm per unit of an F word on each line (read before the line's G20/G21), and after it
+    f_inch = feed_units_inch(program)
+    f_scale = np.where(f_inch, 25.4, 1.0)
+    scale = program.scale
     # per feed move: the F text wanted on its line (first piece) and in force after it (last)
     want_first = {}
     want_last = {}
@@ -82,11 +89,14 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
         if program.feed_mode[li] == 93 and has_f[li]:
             continue  # inverse time: its own F, already on the line
         text = format_feed_exact(float(feed_value[li]))
+        mm = float(program.feed_mm_min[m])
+        if np.isfinite(mm) and abs(float(feed_value[li]) * f_scale[li] - mm) > 1e-9 * max(mm, 1.0):
+            text = format_feed_down(mm / f_scale[li], bool(f_inch[li]))   # F in force read in other units
         want_first[li] = (m, text)
         want_last[li] = text
     mode_change = program.feed_reset
     out_lines = []
-    f_in_force = None   # value in program units
+    f_in_force = None   # mm/min
     end = min(program.end_line + 1, n_lines)
     change_lines = set(np.flatnonzero(mode_change[:end]).tolist())
     f_lines = has_f.tolist()
@@ -97,14 +107,15 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
         hit = want_first.get(li)
         if hit is None:
             if f_lines[li]:
-                f_in_force = float(feed_value[li])
+                f_in_force = float(feed_value[li]) * f_scale[li]
             out_lines.append(raw)
             if len(out_lines) >= CHUNK_LINES:
                 yield out_lines
                 out_lines = []
             continue
         m, want = hit
-        if piece_lo[m] >= 0 and piece_hi[m] - piece_lo[m] > 1:
+        split = piece_lo[m] >= 0 and piece_hi[m] - piece_lo[m] > 1
+        if split:
             lo, hi = piece_lo[m], piece_hi[m]
             out_lines.extend(split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
         else:
@@ -115,13 +126,13 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
                         raw = edit_line(raw, [("F", want)])
                     else:
                         raw = _F_WORD.sub("F" + want, raw, count=1)
-            elif f_in_force is None or abs(f_in_force - want_v) > 1e-9:
+            elif f_in_force is None or abs(f_in_force - want_v * f_scale[li]) > 1e-9 * max(f_in_force, 1.0):
                 if any(c in raw for c in "(;#["):
                     raw = edit_line(raw, [("F", want)])
                 else:
                     raw = raw.rstrip() + " F" + want
             out_lines.append(raw)
-        f_in_force = float(want_last[li])
+        f_in_force = float(want_last[li]) * (scale[li] if split else f_scale[li])
         if len(out_lines) >= CHUNK_LINES:
             yield out_lines
             out_lines = []

@@ -9,9 +9,17 @@ must run at the F it had (an F word is added to its line where that F would othe
 when one F word cannot serve every run of a line (a subroutine line called at different feeds,
 a line of another file), the advice of the lines that changed the F in force before it is
 dropped and the program is checked again.
+
+A subroutine called from a line of the program that runs once per call (pcb2gcode's
+autolevelling ``o1 call [x] [y] [z]``, one call per point) is advised per call instead: an F line
+is written just before the call (LinuxCNC takes no other word on an O-word line) with the slowest
+feed wanted inside that call, when nothing inside the call sets F (no F word, no G93/G94/G95) and
+every line the call moves on runs only inside such calls; the moves inside keep no F of their own.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,14 +44,22 @@ def rewrite_rows(program: Program, piece_move: np.ndarray, piece_end: np.ndarray
     row_move[rows.move_row] = np.arange(n_moves)
     feed_move = ~np.isin(kind, NO_F_KINDS)
     advised = {int(m) for m in np.flatnonzero(piece_lo >= 0)}
+    calls = _call_blocks(rows, row_move, feed_move, move_line, advised, piece_lo, p_val, p_text, len(lines))
     while True:
-        first, last, split = _advised_lines(advised, move_line, piece_lo, piece_hi, p_val, p_text)
-        added, drop = _follow_feeds(rows, row_move, feed_move, first, last)
+        in_calls = {m for b in calls for m in b.moves}
+        first, last, split = _advised_lines(advised - in_calls, move_line, piece_lo, piece_hi, p_val, p_text)
+        added, drop, needed = _follow_feeds(rows, row_move, feed_move, first, last, calls)
         if not drop:
             break
+        if any(key >= len(lines) for key in drop):
+            calls = []                       # a call's F broke a feed after it: advise per line
+            continue
         advised -= {m for m in advised if int(move_line[m]) in drop}
+    before = {b.site: b.text for b, need in zip(calls, needed) if need}
     out = []
     for li, raw in enumerate(lines):
+        if li in before:
+            out.append(raw[:len(raw) - len(raw.lstrip())] + "F" + before[li])
         if li in split:
             m = split[li]
             lo, hi = piece_lo[m], piece_hi[m]
@@ -78,9 +94,15 @@ def _advised_lines(advised, move_line, piece_lo, piece_hi, p_val, p_text):
     return first, last, split
 
 
-def _follow_feeds(rows, row_move, feed_move, first, last):
+def _follow_feeds(rows, row_move, feed_move, first, last, calls=()):
     """F words to add (line -> value) so that every move that is not advised runs at its own F,
-    or the advised lines to give up (a set) when one F word cannot serve every run of a line."""
+    or the advised lines to give up (a set; a call's key is its site + the number of lines) when
+    one F word cannot serve every run of a line; and per call block whether its F line changes the
+    F in force."""
+    start = {b.rows[0]: b for b in calls}
+    inside = np.zeros(len(rows.line), bool)
+    for b in calls:
+        inside[b.rows[0]:b.rows[1]] = True
     added: dict = {}
     cause: dict = {}                         # added line -> the advised lines that made it needed
     line_of = rows.line.tolist()
@@ -93,10 +115,18 @@ def _follow_feeds(rows, row_move, feed_move, first, last):
         f = 0.0
         restart = False
         touched: list[int] = []              # advised lines run since the original F was set
+        needed = []
         for r in range(len(line_of)):
             li = line_of[r]
             if reset[r]:
                 f, touched = 0.0, []
+            b = start.get(r)
+            if b is not None:
+                needed.append(abs(f - b.value) > _SAME)
+                f = b.value
+                touched.append(b.key)
+            if inside[r]:
+                continue
             if li in first:
                 f = last[li]
                 touched.append(li)
@@ -118,6 +148,67 @@ def _follow_feeds(rows, row_move, feed_move, first, last):
                 restart = True
                 break
             culprits = set(touched) | cause.get(li, set())
-            return added, culprits or set(first)
+            return added, culprits or set(first) | {b.key for b in calls}, []
         if not restart:
-            return added, set()
+            return added, set(), needed
+
+
+@dataclass(frozen=True)
+class _CallBlock:
+    """The rows [rows[0], rows[1]) of one call from ``site`` (a line run once per call), the feed
+    moves in it, and the F (program units, and its text) written before the call."""
+
+    site: int
+    key: int
+    rows: tuple[int, int]
+    moves: tuple[int, ...]
+    value: float
+    text: str
+
+
+def _call_blocks(rows, row_move, feed_move, move_line, advised, piece_lo, p_val, p_text, n_lines):
+    """The calls advised per call (module docstring), in row order."""
+    call = rows.call_line
+    if call is None or not (call >= 0).any():
+        return []
+    edges = np.flatnonzero(np.diff(call)) + 1
+    starts = np.concatenate([[0], edges])
+    stops = np.concatenate([edges, [call.size]])
+    keep = call[starts] >= 0
+    starts, stops = starts[keep], stops[keep]
+    sites = call[starts]
+    once = np.bincount(sites, minlength=n_lines)[sites] == 1     # one block per site
+    setting = rows.has_f | rows.feed_reset
+    cum = np.concatenate([[0], np.cumsum(setting)])
+    once &= cum[stops] == cum[starts]                           # nothing inside sets F
+    line_of = rows.line
+    block_of = np.full(line_of.size, -1)
+    for k, (a, b) in enumerate(zip(starts, stops)):
+        block_of[a:b] = k
+    move_rows = [(int(r), int(row_move[r])) for r in np.flatnonzero(row_move >= 0) if feed_move[row_move[r]]]
+    ok = once.copy()
+    while True:                                                 # lines run only inside good blocks
+        bad_lines = {int(line_of[r]) for r, _ in move_rows
+                     if line_of[r] >= 0 and (block_of[r] < 0 or not ok[block_of[r]])}
+        new = ok.copy()
+        for r, m in move_rows:
+            k = block_of[r]
+            if k >= 0 and (int(line_of[r]) in bad_lines or rows.feed_mode[r] != 94):
+                new[k] = False
+        if (new == ok).all():
+            break
+        ok = new
+    blocks = []
+    for k in np.flatnonzero(ok).tolist():
+        a, b = int(starts[k]), int(stops[k])
+        inner = [(r, m) for r, m in move_rows if a <= r < b]
+        if not inner:
+            continue
+        wants = [(p_val[piece_lo[m]], p_text[piece_lo[m]]) if m in advised
+                 else (float(rows.feed_value[r]), format_feed_exact(float(rows.feed_value[r]))) for r, m in inner]
+        value, text = min(wants, key=lambda w: w[0])
+        site = int(sites[k])
+        blocks.append(_CallBlock(site, site + n_lines, (a, b), tuple(m for _, m in inner), value, text))
+    # every call of a line is advised per call once one is (an F on the line would serve them all);
+    # an F line is written only where it changes the F in force
+    return blocks if any(m in advised for blk in blocks for m in blk.moves) else []

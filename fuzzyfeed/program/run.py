@@ -4,7 +4,8 @@ a machine: is it worth having?").
 :func:`program_path` turns a :class:`~fuzzyfeed.program.model.Program` into *chains*: runs of
 moves the controller plans in one look-ahead, from rest to rest — rapids and feed moves (lines;
 arcs and G5.2 blocks as chords within the machine's chord tolerance) whose positions follow on.
-A chain ends where the tool stops or the position is not known: a move of unknown position, a
+A chain ends where the tool stops or the position is not known: a move of unknown position (or
+from an unknown start: its lag is not known either; the next chain starts from rest), a
 canned cycle, a move in G93/G95 or with rotary axes, a stop code (M0/M1/M2/M6/M30/M60), a frame
 change. Those moves are left out of the time. :func:`run_program` plans every chain
 (:func:`fuzzyfeed.machine.planner.plan_motion`) and runs it tick by tick through the servo,
@@ -16,6 +17,7 @@ run keeps summaries (largest error per segment, a histogram, the ticks over the 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,64 +87,102 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
     runnable = np.isin(kinds, [RAPID, HOME, LINE, ARC, NURBS])
     feed_move = np.isin(kinds, [LINE, ARC, NURBS])
     runnable &= ~feed_move | ((feed_mode == 94) & (program.feed_mm_min > 0))
+    if program.known is not None:
+        # a move from a point the reader cannot place (the machine's position at the start, after
+        # G28/G53, ...) is not run: its start, direction and length are not known, so neither is
+        # the servo's lag it leaves; the chain restarts at its end, from rest
+        runnable &= program.known
     # a line with a stop code stops the tool after its motion
     stops = program.stops if program.stops is not None else program.no_split & ~(kinds == ARC)
     chains: list[Chain] = []
-    pts: list[np.ndarray] = []
+    # a line is one point, handled with Python floats (no array per move); a chain's points are
+    # kept as indices (>= 0: the end of that move; < 0: a row of ``pool``, arcs' chords and starts)
+    run_a, stop_a = runnable, np.asarray(stops, bool)
+    rows: list[int] = []
+    pool: list[np.ndarray] = []
+    n_pool = 0
     feed: list[float] = []
     rapid: list[bool] = []
     radius: list[float] = []
     seg_move: list[int] = []
     measured: list[bool] = []
-    last_end: np.ndarray | None = None
+    last_end: list[float] | None = None
+    prev = (0.0, 0.0, 0.0)
+
+    def pooled(block: np.ndarray) -> list[int]:
+        nonlocal n_pool
+        pool.append(block)
+        n_pool += block.shape[0]
+        return list(range(-n_pool + block.shape[0] - 1, -n_pool - 1, -1))
 
     def close() -> None:
-        nonlocal pts, feed, rapid, radius, seg_move, measured, last_end
+        nonlocal rows, pool, n_pool, feed, rapid, radius, seg_move, measured, last_end
         if feed:
-            p = np.vstack(pts)
-            r = np.array(radius)
-            chains.append(Chain(Motion(p, np.array(feed), np.array(rapid), r),
+            idx = np.array(rows, dtype=np.int64)
+            pts = np.empty((idx.size, 3))
+            own = idx >= 0
+            pts[own] = program.end[idx[own]]
+            pts[~own] = np.vstack(pool)[-1 - idx[~own]]
+            chains.append(Chain(Motion(pts, np.array(feed), np.array(rapid), np.array(radius)),
                                 np.array(seg_move), np.array(measured)))
-        pts, feed, rapid, radius, seg_move, measured, last_end = [], [], [], [], [], [], None
+        rows, pool, n_pool, feed, rapid, radius, seg_move, measured, last_end = [], [], 0, [], [], [], [], [], None
 
-    for m in range(kinds.size):
-        if not runnable[m]:
-            close()
-            continue
-        start, end = program.start[m], program.end[m]
-        if last_end is not None and not np.array_equal(start, last_end):
-            close()
-        kind = int(kinds[m])
-        if kind == ARC:
-            new, r = _arc_chords(program, m, chord_tol_mm)
-            rads = [r] * (new.shape[0] - 1) + [np.nan]
-        elif kind == NURBS:
-            new = _nurbs_chords(program, m, chord_tol_mm)
-            rads = [np.nan] * new.shape[0]
-        else:
-            new = end[None, :]
-            rads = [np.nan]
-        if not pts:
-            pts.append(start[None, :])
-            radius.append(np.nan)
-        prev = pts[-1][-1]
-        steps = np.linalg.norm(np.diff(np.vstack([prev[None, :], new]), axis=0), axis=1)
-        keep = steps > 1e-9
-        if keep.any():
-            new = new[keep]
-            rads = [r for r, k in zip(rads, keep) if k]
-            rads[-1] = np.nan
+    chunk = 1 << 15
+    for c0 in range(0, kinds.size, chunk):
+        c1 = min(c0 + chunk, kinds.size)
+        run_l, kind_l, stop_l = run_a[c0:c1].tolist(), kinds[c0:c1].tolist(), stop_a[c0:c1].tolist()
+        start_l, end_l = program.start[c0:c1].tolist(), program.end[c0:c1].tolist()
+        feed_l, cut_l = program.feed_mm_min[c0:c1].tolist(), program.cut[c0:c1].tolist()
+        for i in range(c1 - c0):
+            m = c0 + i
+            if not run_l[i]:
+                close()
+                continue
+            start, end = start_l[i], end_l[i]
+            if last_end is not None and start != last_end:
+                close()
+            kind = kind_l[i]
+            if not rows:
+                rows.extend(pooled(program.start[m][None, :]))
+                radius.append(np.nan)
+                prev = tuple(start)
             is_rapid = kind in (RAPID, HOME)
-            pts.append(new)
-            radius.extend(rads)
-            f = np.nan if is_rapid else float(program.feed_mm_min[m]) / 60.0
-            feed.extend([f] * new.shape[0])
-            rapid.extend([is_rapid] * new.shape[0])
-            seg_move.extend([m] * new.shape[0])
-            measured.extend([(not is_rapid) and program.cut[m] >= 0] * new.shape[0])
-        last_end = end
-        if stops[m]:
-            close()
+            f = np.nan if is_rapid else feed_l[i] / 60.0
+            meas = (not is_rapid) and cut_l[i] >= 0
+            if kind == ARC or kind == NURBS:
+                if kind == ARC:
+                    new, r = _arc_chords(program, m, chord_tol_mm)
+                    rads = [r] * (new.shape[0] - 1) + [np.nan]
+                else:
+                    new = _nurbs_chords(program, m, chord_tol_mm)
+                    rads = [np.nan] * new.shape[0]
+                steps = np.linalg.norm(np.diff(np.vstack([np.array(prev)[None, :], new]), axis=0), axis=1)
+                keep = steps > 1e-9
+                if keep.any():
+                    new = new[keep]
+                    rads = [r for r, k in zip(rads, keep) if k]
+                    rads[-1] = np.nan
+                    n = new.shape[0]
+                    rows.extend(pooled(new))
+                    prev = tuple(new[-1].tolist())
+                    radius.extend(rads)
+                    feed.extend([f] * n)
+                    rapid.extend([is_rapid] * n)
+                    seg_move.extend([m] * n)
+                    measured.extend([meas] * n)
+            else:
+                dx, dy, dz = end[0] - prev[0], end[1] - prev[1], end[2] - prev[2]
+                if math.sqrt(dx * dx + dy * dy + dz * dz) > 1e-9:
+                    rows.append(m)
+                    prev = (end[0], end[1], end[2])
+                    radius.append(np.nan)
+                    feed.append(f)
+                    rapid.append(is_rapid)
+                    seg_move.append(m)
+                    measured.append(meas)
+            last_end = end
+            if stop_l[i]:
+                close()
     close()
     return ProgramPath(program=program, chains=tuple(chains), chord_tol_mm=chord_tol_mm)
 

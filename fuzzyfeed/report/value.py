@@ -16,7 +16,7 @@ report says so; where even the limit reference cannot hold it, the report says w
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from fuzzyfeed.program.verify import Verification
 from fuzzyfeed.program.feeds import ProgramAdvice, advice_columns, advise_program
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
-from fuzzyfeed.program.reference import limit_reference, uniform_slowdown
+from fuzzyfeed.program.reference import Uniform, check_uniform, limit_reference, uniform_slowdown
 from fuzzyfeed.program.rewrite import rewrite_program
 from fuzzyfeed.program.run import ProgramPath, ProgramRun, program_path, run_program
 
@@ -79,6 +79,7 @@ class ValueReport:
     coverage: Coverage | None = None     # the judged part (issue 40): no verdict beyond it
     verification: Verification | None = None   # what rs274 said of the rewrite (--verify-rs274)
     worst_air: tuple[int, tuple[float, float, float]] | None = None
+    reference_deferred: bool = False     # the limit reference left to the report (Evaluation.checked)
 
     @property
     def partial(self) -> bool:
@@ -102,7 +103,8 @@ class ValueReport:
                f"  {'':24s} {'time (s)':>10s} {'max (um)':>10s} {'p99 (um)':>10s}"]
         for r in self.rows:
             flag = "  over" if r.max_um > tol * (1 + 1e-9) else ""
-            out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {r.p99_um:10.1f}{flag}")
+            p99 = f"{r.p99_um:10.1f}" if np.isfinite(r.p99_um) else f"{'-':>10s}"
+            out.append(f"  {r.label:24s} {r.time_s:10.2f} {r.max_um:10.1f} {p99}{flag}")
         if self.coverage is not None:
             out.append("  " + self.coverage.summary())
         if self.verification is not None:
@@ -111,6 +113,16 @@ class ValueReport:
         air = self.air_line()
         if air:
             out.append("  " + air)
+        if self.reference_deferred:
+            out.append("  limit reference: not run (--report runs it)")
+        if self.uniform.label.endswith(UNCHECKED):
+            out.append(f"  {UNCHECKED} uniform: the factor the stretches over the tolerance hold (time from the "
+                       "planner, max of those stretches, no p99); not checked by a run of the whole program "
+                       "at that factor (--report runs it)")
+        elif self.uniform.label.endswith(UNCHECKED + " (at least)"):
+            out.append(f"  {UNCHECKED} uniform: the error does not come down with the feed there (at half the "
+                       "factor it stayed above 0.9 of itself): the search stopped at this bound (--report "
+                       "searches on)")
         return out
 
     def air_line(self) -> str:
@@ -186,15 +198,51 @@ def cuts_over(run: ProgramRun, tol_um: float) -> list[int]:
     return [int(k) for k in np.flatnonzero(run.cut_max_um() > tol_um)]
 
 
+#: The mark of a uniform row found on the hot stretches and not checked by a whole run.
+UNCHECKED = "*"
+
+
+def uniform_row(u: Uniform) -> ValueRow:
+    """The uniform slowdown's row: checked by a whole run, or a bound, or from the hot stretches
+    (no p99; marked :data:`UNCHECKED` when no whole run checked it)."""
+    if u.bounded:
+        mark = "" if u.checked else UNCHECKED
+        return ValueRow(f"uniform x<{_factor(u.factor)}{mark} (at least)", u.time_s, float("nan"), float("nan"))
+    if u.run is None:
+        mark = "" if u.checked else UNCHECKED
+        return ValueRow(f"uniform x{_factor(u.factor)}{mark}", u.time_s, u.max_um, float("nan"))
+    return ValueRow.of(f"uniform x{_factor(u.factor)}", u.run)
+
+
 @dataclass(frozen=True, eq=False)
 class Evaluation:
     """A program advised for a machine: the advice of every cut, which cuts it is applied to (those
-    that break the tolerance as written), the program text to write and the report."""
+    that break the tolerance as written), the program text to write and the report. ``uniform``
+    and ``path``: the uniform slowdown and the written program's path, kept when the uniform row
+    is not yet checked by a whole run (:meth:`checked`)."""
 
     advice: ProgramAdvice
     advised_cuts: tuple[int, ...]
     text: str
     report: ValueReport
+    uniform: Uniform | None = None
+    path: ProgramPath | None = None
+
+    def checked(self) -> Evaluation:
+        """This evaluation with the uniform slowdown checked by a whole run
+        (:func:`~fuzzyfeed.program.reference.check_uniform`) and the limit reference run, where
+        :func:`evaluate_program` left them (``check_uniform=False``); itself when nothing is left."""
+        u, r = self.uniform, self.report
+        if self.path is None:
+            return self
+        if u is not None and not u.checked:
+            u = check_uniform(self.path, r.machine, u)
+            r = replace(r, uniform=uniform_row(u), uniform_factor=u.factor)
+        if r.reference_deferred:
+            ref = limit_reference(self.path, r.machine)
+            r = replace(r, reference=ValueRow.of("limit reference", ref.run), reference_converged=ref.converged,
+                        reference_deferred=False)
+        return replace(self, report=r, uniform=u, path=None)
 
     def columns(self) -> dict[str, np.ndarray]:
         """The CSV columns (:func:`~fuzzyfeed.program.feeds.advice_columns`) plus ``advised``: 1 on
@@ -210,7 +258,8 @@ class Evaluation:
 def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, cap_mm_min: float | None = None,
                      feed_step_mm_min: float = 10.0, step_mm: float = 0.25, min_piece_mm: float = 1.0,
                      cuts: list[int] | None = None, reference: bool = True, progress=None,
-                     max_ticks: float | None = None, verify=None, tools: dict | None = None) -> Evaluation:
+                     max_ticks: float | None = None, verify=None, tools: dict | None = None,
+                     check_uniform: bool = True) -> Evaluation:
     """Advise ``program`` for ``machine`` and measure what it bought (module docstring): the cuts
     (of ``cuts``, default all) that break the tolerance as written get the advice, the others keep
     their feeds. ``progress(step)`` is called with a short name before each stage. ``max_ticks``
@@ -219,7 +268,12 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     ``verify(program, move, end, feed) -> (text, Verification)`` replaces the plain rewrite (rs274's
     check, :func:`fuzzyfeed.program.verify.verified_rewrite`): the advised run is of its text.
     ``tools``: the tool table the program was read with (the advised text is read with it too, so
-    its compensated moves are the tool centre's path as the written program's are)."""
+    its compensated moves are the tool centre's path as the written program's are).
+    ``check_uniform=False`` leaves the uniform slowdown's checking run (a whole run at the factor,
+    1/factor times the program's time: the longest of all) and the limit reference (``reference``)
+    to :meth:`Evaluation.checked` (what ``advise --machine`` does without ``--report``): the uniform
+    row is then marked :data:`UNCHECKED` (time from the planner, max of the hot stretches, no p99)
+    and the report has no limit reference row, saying so."""
     step = progress or (lambda _name: None)
     tol = machine.contour_tol_um
     step("as written")
@@ -237,9 +291,10 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     else:
         step("rs274")
         text, checked = verify(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
+    u = None
     if not over:
         advised_run = written
-        uniform_factor, uniform_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
+        uniform_factor, u_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
         ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
         advised_path = path
     else:
@@ -247,16 +302,11 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         advised_path = program_path(parse_program(text, program.path, tools), machine.chord_tol_mm)
         advised_run = run_program(advised_path, machine)
         step("uniform slowdown")
-        u = uniform_slowdown(path, machine, written, **({} if max_ticks is None else {"max_ticks": max_ticks}))
-        uniform_factor = u.factor
-        if u.bounded:
-            uniform_row = ValueRow(f"uniform x<{_factor(u.factor)} (at least)", u.time_s, float("nan"), float("nan"))
-        elif u.run is None:
-            uniform_row = ValueRow(f"uniform x{_factor(u.factor)}", u.time_s, u.max_um, float("nan"))
-        else:
-            uniform_row = ValueRow.of(f"uniform x{_factor(u.factor)}", u.run)
+        u = uniform_slowdown(path, machine, written, check=check_uniform,
+                             **({} if max_ticks is None else {"max_ticks": max_ticks}))
+        uniform_factor, u_row = u.factor, uniform_row(u)
         ref_row, converged = None, True
-        if reference:
+        if reference and check_uniform:
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
@@ -266,13 +316,16 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
         advised=ValueRow.of("advised", advised_run),
-        uniform=uniform_row,
+        uniform=u_row,
         uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
         trace=feed_trace(path, written, advised_path, tol), coverage=program_coverage(program),
-        verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])))
-    return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report)
+        verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
+        reference_deferred=bool(over) and reference and not check_uniform)
+    pending = (u is not None and not u.checked) or report.reference_deferred
+    return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report,
+                      uniform=u if pending else None, path=path if pending else None)
 
 
 def _along(path: ProgramPath):
