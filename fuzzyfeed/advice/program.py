@@ -33,7 +33,7 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
     from fuzzyfeed.io.points import pick_by_index
     from fuzzyfeed.io.shapes import resolve_shape_path, split_selector
     from fuzzyfeed.program.cuts import DEFAULT_STEP_MM
-    from fuzzyfeed.program.feeds import DEFAULT_PROGRAM_FEED_STEP_MM_MIN, advise_program
+    from fuzzyfeed.program.feeds import DEFAULT_PROGRAM_FEED_STEP_MM_MIN
     from fuzzyfeed.program.read import read_program
 
     cap = options.feed_mm_min
@@ -55,6 +55,9 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
         from fuzzyfeed.program.tools import read_tool_table
 
         tools = read_tool_table(options.tool_table, options.tool_units)
+    from fuzzyfeed.base.memory import fix_mmap_threshold
+
+    fix_mmap_threshold()               # large programs: the columns a read drops go back to the system
     program = read_program(path, tools=tools)
     if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
         return NothingResult(spec, options, path, program)
@@ -81,8 +84,7 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
     if not options.reference:
         raise MachineLimitsError("--no-reference: the value report needs a machine (--machine FILE, or "
                                  "a machine flag such as --contour-tol-um)")
-    pa = advise_program(program, table, cuts=cuts, step_mm=step_mm, cap_mm_min=cap, feed_step_mm_min=step)
-    return ProgramResult(spec, options, path, program, pa, step, _verifier(options, tools))
+    return ProgramResult(spec, options, path, program, table, cuts, step_mm, step, _verifier(options, tools))
 
 
 def _verifier(options: AdviceOptions, tools):
@@ -121,27 +123,88 @@ def _write_text(path: str, text: str) -> None:
 
 
 class ProgramResult(AdviceResult):
-    """A program advised without a machine: every cut (or the one picked) under its own F."""
+    """A program advised without a machine: every cut (or the one picked) under its own F.
+
+    The advice runs in pieces (:func:`~fuzzyfeed.program.stream.stream_program_advice`: the same
+    rows and feeds as advising each cut whole, memory bounded by a piece): :meth:`write` writes the
+    CSV piece by piece and the program in chunks, keeping only the pieces' feeds (per move) and the
+    advised fraction at every sample (for the summary). A plot, or a table that reads a machine's
+    terms, takes the whole cuts' advice (:attr:`advice`, under the sample budget of a cut).
+    :meth:`columns` / :meth:`frame` hold every sample's row (about 110 bytes a sample: ~0.1 GB on a
+    10⁶-move raster at the default step) and :attr:`text` the whole rewritten program."""
 
     kind = "program"
 
-    def __init__(self, source, options, path: Path, program, advice, feed_step_mm_min: float, verify=None):
+    def __init__(self, source, options, path: Path, program, table, cuts, step_mm: float,
+                 feed_step_mm_min: float, verify=None):
+        from fuzzyfeed.fuzzy.rules import MACHINE
         from fuzzyfeed.program.coverage import program_coverage
 
         self.source, self.options, self.path, self.program = source, options, path, program
-        self.advice, self.feed_step_mm_min = advice, feed_step_mm_min
+        self.table, self.cuts, self.step_mm, self.feed_step_mm_min = table, cuts, step_mm, feed_step_mm_min
         self.coverage = program_coverage(program)
         self._verify = verify
         self._text = None
         self.verification = None     # what rs274 said of the rewrite (verify_rs274), once it is made
+        self._whole = None           # the whole cuts' ProgramAdvice, once asked for (plot)
+        self._pieces = None          # (move, end, feed) of the advised pieces, once advised
+        self._feed_pct = None        # the advised fraction at every sample, once advised
+        self._in_pieces = table.inputs != MACHINE
+        # the arguments and the cuts' F are checked now (errors at advise time); pieces made when consumed
+        self._pending = self._start() if self._in_pieces else None
+
+    def _start(self):
+        from fuzzyfeed.program.stream import stream_program_advice
+
+        return stream_program_advice(self.program, self.table, cuts=self.cuts, step_mm=self.step_mm,
+                                     cap_mm_min=self.options.feed_mm_min,
+                                     feed_step_mm_min=self.feed_step_mm_min)
+
+    @property
+    def advice(self):
+        """The whole cuts' :class:`~fuzzyfeed.program.feeds.ProgramAdvice` (every sample's
+        features and feed profile; refused when a cut needs more samples than the budget)."""
+        from fuzzyfeed.program.feeds import advise_program
+
+        if self._whole is None:
+            self._whole = advise_program(self.program, self.table, cuts=self.cuts, step_mm=self.step_mm,
+                                         cap_mm_min=self.options.feed_mm_min,
+                                         feed_step_mm_min=self.feed_step_mm_min)
+        return self._whole
+
+    def _advise(self, sink=None) -> None:
+        """Advise (in pieces unless the whole advice is made), each piece's rows to ``sink``;
+        keep the pieces' feeds and the advised fractions."""
+        if self._whole is not None or not self._in_pieces:
+            pa = self.advice
+            if sink is not None:
+                sink(self.columns())
+            self._pieces = (pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+            self._feed_pct = np.concatenate([a.feed_pct for a in pa.advice])
+            return
+        stream, self._pending = self._pending, None
+        pm, pe, pf, pct = [], [], [], []
+        for piece in stream if stream is not None else self._start():
+            if sink is not None:
+                sink(piece.columns)
+            pct.append(piece.columns["feed_pct"])
+            pm.append(piece.piece_move)
+            pe.append(piece.piece_end)
+            pf.append(piece.piece_feed_mm_min)
+        self._pieces = (np.concatenate(pm), np.concatenate(pe), np.concatenate(pf))
+        self._feed_pct = np.concatenate(pct)
+
+    def _advised(self) -> tuple:
+        if self._pieces is None:
+            self._advise()
+        return self._pieces
 
     @property
     def text(self) -> str:
         from fuzzyfeed.program.rewrite import rewrite_program
 
         if self._text is None:
-            pa = self.advice
-            pieces = (pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+            pieces = self._advised()
             if self._verify is not None:
                 self._text, self.verification = self._verify(self.program, *pieces)
             else:
@@ -151,20 +214,27 @@ class ProgramResult(AdviceResult):
     def columns(self) -> dict:
         from fuzzyfeed.program.feeds import advice_columns
 
-        return advice_columns(self.advice)
+        if self._whole is not None or not self._in_pieces:
+            return advice_columns(self.advice)
+        parts = []
+        self._advise(parts.append)
+        return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
 
     def _times(self):
-        from fuzzyfeed.program.feeds import program_times
+        from fuzzyfeed.program.feeds import pieces_times
 
-        return program_times(self.advice)
+        return pieces_times(self.program, *self._advised())
+
+    def _n_advised(self) -> int:
+        return self.program.n_cuts if self.cuts is None else len(self.cuts)
 
     def summary(self) -> list[str]:
-        pa, program, cap, step = self.advice, self.program, self.options.feed_mm_min, self.feed_step_mm_min
+        program, cap, step = self.program, self.options.feed_mm_min, self.feed_step_mm_min
         t_prog, t_adv = self._times()
-        fr = np.concatenate([a.feed_pct for a in pa.advice])
-        n_split = int(np.sum(np.diff(pa.piece_move) == 0))
+        fr = self._feed_pct
+        n_split = int(np.sum(np.diff(self._pieces[0]) == 0))
         return [f"{self.path.name}: {len(program.lines)} lines, {program.kind.size} moves, {program.n_cuts} "
-                f"cut(s), {len(pa.cuts)} advised; rules {pa.table.name!r}; F from the program"
+                f"cut(s), {self._n_advised()} advised; rules {self.table.name!r}; F from the program"
                 + (f", capped at {cap:g} mm/min" if cap else ""),
                 f"advised fraction of the programmed F  min {fr.min():.2f} %  mean {fr.mean():.2f} %  "
                 f"max {fr.max():.2f} %   (F rounded down to {step:g} mm/min steps)",
@@ -175,36 +245,47 @@ class ProgramResult(AdviceResult):
 
     def figures(self) -> dict:
         t_prog, t_adv = self._times()
-        fr = np.concatenate([a.feed_pct for a in self.advice.advice])
-        return {"cuts": self.program.n_cuts, "cuts_advised": len(self.advice.cuts), "time_written_s": t_prog,
+        fr = self._feed_pct
+        return {"cuts": self.program.n_cuts, "cuts_advised": self._n_advised(), "time_written_s": t_prog,
                 "time_advised_s": t_adv, "feed_pct_min": float(fr.min()), "feed_pct_mean": float(fr.mean()),
                 **self.coverage.figures(),
                 **({} if self.verification is None else self.verification.figures())}
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
+        from fuzzyfeed.base.atomic import atomic_write
         from fuzzyfeed.fuzzy.provenance import provenance
-        from fuzzyfeed.io.csv import write_columns, write_metadata
+        from fuzzyfeed.io.csv import ColumnStream, write_metadata
 
         _check_outputs(csv, gcode, gcode_g52, plot)
         _refuse_report(report)
         if self._verify is not None and not gcode:
             raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
-        text = self.text if gcode else None
+        if plot:
+            self.advice                  # the plot draws the whole cuts' advice
         cap = self.options.feed_mm_min
-        if csv is not None:
-            columns = self.columns()
-            write_columns(csv, columns)
-            record = provenance(self.advice.table, cap or 0.0, str(self.path), len(columns["s_mm"]))
+        if csv is not None:              # rows written as the pieces come
+            with atomic_write(csv, "w", newline="") as handle:
+                out = ColumnStream(handle, csv)
+                self._advise(out.write)
+            record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = _feed_note(cap)
-            write_metadata(csv, list(columns), record)
+            write_metadata(csv, out.names, record)
         if plot:
             self.plot(plot)
-        if text is not None:
-            _write_text(gcode, text)
+        if gcode:
+            if self._text is not None or self._verify is not None:
+                _write_text(gcode, self.text)
+            else:                        # the rewritten program in chunks, never whole
+                from fuzzyfeed.program.rewrite import rewrite_chunks
+
+                pieces = self._advised()
+                with atomic_write(gcode, "w", newline="") as handle:
+                    for chunk in rewrite_chunks(self.program, *pieces):
+                        handle.write(chunk)
         lines = []
         if csv is not None or plot:
             lines.append("wrote " + " and ".join(p for p in (csv, plot) if p))
-        if text is not None:
+        if gcode:
             lines.append(f"wrote {gcode}")
         return lines
 
@@ -212,7 +293,7 @@ class ProgramResult(AdviceResult):
         from fuzzyfeed.report.plot import plot_fuzzy_advice
 
         plot_fuzzy_advice(combined_advice(self.advice),
-                          f"{self.path.name}: {len(self.advice.cuts)} cut(s) end to end", output)
+                          f"{self.path.name}: {self._n_advised()} cut(s) end to end", output)
 
 
 class MachineProgramResult(AdviceResult):

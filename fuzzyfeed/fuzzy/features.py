@@ -59,11 +59,12 @@ def forward_window_max(values: np.ndarray, window_points: int) -> np.ndarray:
 CONSTANT_RTOL = 1e-9
 
 
-def normalise(dk: np.ndarray, clip: float) -> np.ndarray:
+def normalise(dk: np.ndarray, clip: float, bounds: tuple[float, float] | None = None) -> np.ndarray:
     """Clip at ``clip`` then min–max normalise to [0, 1]; a constant array (spread at most
-    ``CONSTANT_RTOL`` of its max, e.g. a circle's κ up to rounding) gives 0."""
+    ``CONSTANT_RTOL`` of its max, e.g. a circle's κ up to rounding) gives 0. ``bounds``: the
+    clipped minimum and maximum over the whole path when ``dk`` is a piece of it."""
     c = np.minimum(dk, clip)
-    lo, hi = float(c.min()), float(c.max())
+    lo, hi = (float(c.min()), float(c.max())) if bounds is None else bounds
     if hi - lo <= CONSTANT_RTOL * abs(hi):
         return np.zeros_like(c)
     return (c - lo) / (hi - lo)
@@ -79,11 +80,14 @@ class Features:
 
 
 def features(kappa: np.ndarray, window_points: int = 30, clip_1_mm: float = 3.0,
-             s: np.ndarray | None = None, window_mm: float | None = None) -> Features:
+             s: np.ndarray | None = None, window_mm: float | None = None,
+             span: tuple[float, float] | None = None, bounds: tuple[float, float] | None = None) -> Features:
     """κ and the normalised Dκ of seed 002 (eq. 10, clip, min–max normalisation).
 
     With ``window_mm`` (and the arc length ``s`` of the points) the window is a length instead:
     Dκᵢ = max κⱼ over s_i ≤ s_j ≤ s_i + window_mm, the same stretch of path at any sampling.
+    On a piece of a path, ``span`` is the path's first and last s and ``bounds`` the clipped Dκ's
+    minimum and maximum over the path (:func:`normalise`).
     """
     k = check_curvature(kappa)
     expect(clip_1_mm, (int, float, np.integer, np.floating), "clip_1_mm", "a number of 1/mm")
@@ -96,5 +100,6 @@ def features(kappa: np.ndarray, window_points: int = 30, clip_1_mm: float = 3.0,
 
         if s is None or np.shape(s) != k.shape:
             raise InputError("window_mm needs the arc length s of every point")
-        raw = range_max(k, *forward_bounds(k.size, s=s, length_mm=window_mm))
-    return Features(curvature_1_mm=k, window_max_1_mm=raw, curvature_variation=normalise(raw, clip_1_mm))
+        raw = range_max(k, *forward_bounds(k.size, s=s, length_mm=window_mm, span=span))
+    return Features(curvature_1_mm=k, window_max_1_mm=raw,
+                    curvature_variation=normalise(raw, clip_1_mm, bounds))

@@ -52,21 +52,39 @@ def curvature_peaks(kappa: np.ndarray) -> np.ndarray:
 
 def smooth_feed(values: np.ndarray, kind: str = DEFAULT_FILTER, points: int | None = 21,
                 s: np.ndarray | None = None, length_mm: float | None = None,
-                curvature: np.ndarray | None = None, rise_pct: float = CORNER_RISE_PCT) -> np.ndarray:
+                curvature: np.ndarray | None = None, rise_pct: float = CORNER_RISE_PCT,
+                span: tuple[float, float] | None = None, lowest: float | None = None) -> np.ndarray:
     """The controller's feed ``values`` smoothed by filter ``kind`` over a window of ``points``
     samples (M, odd: a centred window) or of ``length_mm`` mm of arc length ``s``. Non-finite
     values are refused (NaN in never becomes a feed out).
 
     The averaging window is centred and shrinks symmetrically at the ends (the first and last
     points keep their own value); the sliding minimum uses the same half-width, truncated at the
-    ends. ``"corner-mean"`` needs the ``curvature`` of every point.
+    ends. ``"corner-mean"`` needs the ``curvature`` of every point. ``span`` and ``lowest``: the
+    whole path's when ``s`` is a piece of it (:func:`filter_terms`).
     """
+    v, lo, hi, weights = filter_terms(values, kind, points, s, length_mm, curvature, rise_pct, span, lowest)
+    if lo is None:
+        return v.copy()
+    return window_mean(v, lo, hi, weights)
+
+
+def filter_terms(values: np.ndarray, kind: str = DEFAULT_FILTER, points: int | None = 21,
+                 s: np.ndarray | None = None, length_mm: float | None = None,
+                 curvature: np.ndarray | None = None, rise_pct: float = CORNER_RISE_PCT,
+                 span: tuple[float, float] | None = None, lowest: float | None = None):
+    """What :func:`smooth_feed` averages: (the values after the sliding minimum or the corner cap,
+    window bounds lo, hi, the samples' weights or None); lo is None for ``"none"``. On a piece of
+    a path (``span`` = the path's first and last s, ``lowest`` = its lowest value at a curvature
+    peak, :func:`corner_cap`) every value whose windows lie inside the piece is the whole path's,
+    bit for bit; the average itself is left to the caller, who can carry its cumulative sums from
+    piece to piece."""
     v = finite_vector(values, "values", "the filter needs finite values")
     if kind not in FILTER_KINDS:
         raise InputError(f"filter = {kind!r}; must be one of {', '.join(FILTER_KINDS)}")
     n = v.size
     if kind == "none":
-        return v.copy()
+        return v, None, None, None
     if length_mm is None:
         if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 1:
             raise InputError(f"filter_points = {points!r}; must be an integer >= 1")
@@ -79,7 +97,7 @@ def smooth_feed(values: np.ndarray, kind: str = DEFAULT_FILTER, points: int | No
         length = float(length_mm)
         if not np.isfinite(length) or length <= 0:
             raise InputError(f"filter_mm = {length_mm!r}; must be a finite number > 0 (mm)")
-        half = dict(s=s, half_mm=length / 2)
+        half = dict(s=s, half_mm=length / 2, span=span)
         weights = cell_lengths(s)
     lo, hi = centred_bounds(n, symmetric=True, **half)
     if kind == "min-mean":
@@ -90,26 +108,30 @@ def smooth_feed(values: np.ndarray, kind: str = DEFAULT_FILTER, points: int | No
         at_peaks = np.where(curvature_peaks(curvature), v, np.inf)
         x, flat = ((np.arange(n, dtype=float), float(half["half_points"])) if "half_points" in half
                    else (np.asarray(s, dtype=float), float(half["half_mm"])))
-        v = np.minimum(v, corner_cap(at_peaks, x, flat, rise_pct))
-    return window_mean(v, lo, hi, weights)
+        v = np.minimum(v, corner_cap(at_peaks, x, flat, rise_pct, span if "half_mm" in half else None,
+                                     lowest))
+    return v, lo, hi, weights
 
 
-def corner_cap(at_peaks: np.ndarray, x: np.ndarray, flat: float, rise_pct: float) -> np.ndarray:
+def corner_cap(at_peaks: np.ndarray, x: np.ndarray, flat: float, rise_pct: float,
+               span: tuple[float, float] | None = None, lowest: float | None = None) -> np.ndarray:
     """cap_j = min over peaks p of a_p + slope · max(0, |x_j − x_p| − flat), slope = rise_pct / flat
-    (``at_peaks`` = a_p at the peaks, inf elsewhere; ``x`` positions, non-decreasing).
+    (``at_peaks`` = a_p at the peaks, inf elsewhere; ``x`` positions, non-decreasing). When ``x`` is
+    a piece of a path: ``span`` its first and last x, ``lowest`` its lowest a_p.
 
     The flat part is a sliding minimum; the sloped part is the lower envelope of cones evaluated at
-    x_j ∓ flat: slope·y + a running minimum of (a_p − slope·x_p) (and mirrored), O(N log N).
+    x_j ∓ flat: slope·y + a running minimum of (a_p − slope·x_p) (and mirrored), O(N log N). A cone
+    is never below its peak: the envelope is held at or above the path's lowest a_p (rounding aside).
     """
     n = at_peaks.size
-    cap = range_min(at_peaks, *_bounds_around(x, flat))
+    cap = range_min(at_peaks, *_bounds_around(x, flat, span))
     if flat <= 0 or not np.isfinite(at_peaks).any():
         return cap
     slope = rise_pct / flat
     with np.errstate(invalid="ignore"):
         left = np.minimum.accumulate(at_peaks - slope * x)            # peaks at or before k
         right = np.minimum.accumulate((at_peaks + slope * x)[::-1])[::-1]
-    lowest = float(at_peaks.min())            # a cone is never below its peak (rounding aside)
+    lowest = float(at_peaks.min()) if lowest is None else float(lowest)
     y = x - flat                                                      # cones from the left
     k = np.searchsorted(x, y, side="right") - 1
     ok = k >= 0
@@ -121,9 +143,11 @@ def corner_cap(at_peaks: np.ndarray, x: np.ndarray, flat: float, rise_pct: float
     return cap
 
 
-def _bounds_around(x: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+def _bounds_around(x: np.ndarray, reach: float,
+                   span: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Index bounds of the samples within ``reach`` of each sample (positions ``x``)."""
-    tol = 1e-12 * max(abs(float(x[-1])), abs(float(x[0])), 1.0)
+    first, last = (float(x[0]), float(x[-1])) if span is None else span
+    tol = 1e-12 * max(abs(last), abs(first), 1.0)
     idx = np.arange(x.size)
     lo = np.minimum(np.searchsorted(x, x - reach - tol, side="left"), idx)
     hi = np.maximum(np.searchsorted(x, x + reach + tol, side="right") - 1, idx)

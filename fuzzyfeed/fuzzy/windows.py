@@ -36,32 +36,39 @@ def _check_s(s: np.ndarray) -> np.ndarray:
     return s
 
 
-def _tol(s: np.ndarray) -> float:
-    """Rounding allowance on positions (the window edge of a point exactly on it counts it)."""
-    return 1e-12 * max(abs(float(s[-1])), abs(float(s[0])), 1.0)
+def _tol(s: np.ndarray, span: tuple[float, float] | None = None) -> float:
+    """Rounding allowance on positions (the window edge of a point exactly on it counts it);
+    ``span``: the path's first and last s when ``s`` is a piece of it."""
+    first, last = (float(s[0]), float(s[-1])) if span is None else span
+    return 1e-12 * max(abs(last), abs(first), 1.0)
 
 
 def forward_bounds(n: int, points: int | None = None, s: np.ndarray | None = None,
-                   length_mm: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   length_mm: float | None = None,
+                   span: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Window [i, i + points − 1] or every point with s_i ≤ s_j ≤ s_i + length_mm, truncated at the
-    end of the path (seed 002 eq. 10 counts points)."""
+    end of the path (seed 002 eq. 10 counts points). ``span``: the whole path's first and last s
+    when ``s`` is a piece of it (the windows of the piece's points whose window lies inside it are
+    then the whole path's)."""
     idx = np.arange(n)
     if length_mm is None:
         w = _check_count("window_points", points)
         return idx, np.minimum(idx + w - 1, n - 1)
     length = _check_length("window_mm", length_mm)
     s = _check_s(s)
-    hi = np.searchsorted(s, s + length + _tol(s), side="right") - 1
+    hi = np.searchsorted(s, s + length + _tol(s, span), side="right") - 1
     return idx, np.maximum(hi, idx)
 
 
 def centred_bounds(n: int, half_points: int | None = None, s: np.ndarray | None = None,
-                   half_mm: float | None = None, symmetric: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                   half_mm: float | None = None, symmetric: bool = True,
+                   span: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Centred window of half-width ``half_points`` points or ``half_mm`` mm around each point.
 
     ``symmetric``: near the ends the half-width shrinks to the distance to the nearer end, so the
     window stays centred and the end points keep their own value (seed 002's average filter);
-    otherwise the window is simply truncated at the ends.
+    otherwise the window is simply truncated at the ends. ``span`` (windows in mm): the whole
+    path's first and last s when ``s`` is a piece of it.
     """
     idx = np.arange(n)
     if half_mm is None:
@@ -76,9 +83,10 @@ def centred_bounds(n: int, half_points: int | None = None, s: np.ndarray | None 
     if not np.isfinite(half) or half < 0:
         raise InputError(f"half window = {half_mm!r} mm; must be a finite number >= 0")
     h = np.full(n, half)
+    first, last = (s[0], s[-1]) if span is None else span
     if symmetric:
-        h = np.minimum(h, np.minimum(s - s[0], s[-1] - s))
-    tol = _tol(s)
+        h = np.minimum(h, np.minimum(s - first, last - s))
+    tol = _tol(s, span)
     lo = np.searchsorted(s, s - h - tol, side="left")
     hi = np.searchsorted(s, s + h + tol, side="right") - 1
     return np.minimum(lo, idx), np.maximum(hi, idx)
@@ -127,11 +135,16 @@ def cell_lengths(s: np.ndarray) -> np.ndarray:
 
 
 def window_mean(values: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                weights: np.ndarray | None = None) -> np.ndarray:
+                weights: np.ndarray | None = None,
+                sums: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Mean of values[lo[i] : hi[i] + 1] for each i, optionally weighted (a convex combination of
-    the window's values, so it never leaves their range)."""
+    the window's values, so it never leaves their range). ``sums``: the cumulative sums (Σw, Σwv)
+    with a leading 0, when the caller made them (a piece of a path carries the whole path's)."""
     v = np.asarray(values, dtype=float)
-    if weights is None:
+    if sums is not None:
+        cw, cv = sums
+        out = (cv[hi + 1] - cv[lo]) / (cw[hi + 1] - cw[lo])
+    elif weights is None:
         c = np.concatenate([[0.0], np.cumsum(v)])
         out = (c[hi + 1] - c[lo]) / (hi - lo + 1)
     else:

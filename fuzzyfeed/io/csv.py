@@ -44,6 +44,33 @@ def write_columns(path: str | os.PathLike, columns: Mapping[str, np.ndarray],
         _write_rows(handle, arrays)
 
 
+class ColumnStream:
+    """Rows written as they come: :meth:`write` takes equal-length columns (the same names every
+    time), refuses a non-finite float before writing any of its rows, and writes the header with
+    the first. Text identical to :func:`write_columns` of the columns end to end."""
+
+    def __init__(self, handle, path: str | os.PathLike):
+        self.handle, self.path, self.names, self.rows = handle, path, None, 0
+
+    def write(self, columns: Mapping[str, np.ndarray]) -> None:
+        names = list(columns)
+        if self.names is None:
+            self.names = names
+            self.handle.write(",".join(_quote(n) for n in names) + "\n")
+        elif names != self.names:
+            raise ExportError(f"{self.path}: columns {names} after {self.names}")
+        arrays = [np.asarray(columns[n]) for n in names]
+        if len({a.shape[0] for a in arrays}) != 1:
+            raise ExportError(f"{self.path}: columns have different lengths")
+        for name, arr in zip(names, arrays):
+            if arr.dtype.kind == "f" and not np.isfinite(arr).all():
+                i = int(np.argmax(~np.isfinite(arr)))
+                raise ExportError(f"{self.path}: column {name} row {self.rows + i} = {arr[i]}; refusing "
+                                  "to write a non-finite value")
+        _write_rows(self.handle, arrays)
+        self.rows += arrays[0].shape[0]
+
+
 #: Rows formatted per block (bounds the memory of the text: ~15 MB for 11 float columns).
 ROWS_PER_BLOCK = 1 << 16
 

@@ -111,28 +111,8 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
             # a fraction of the feed the machine can run along the segment (below its own F only
             # where the axes cannot reach F); 100 % keeps the program's F
             reachable_seg = np.minimum(ceiling_seg, 60.0 * machine.speed_along(cs.samples.xyz))
-        q = quantise_down(np.where(seg_phi >= 1.0, ceiling_seg, seg_phi * reachable_seg), feed_step_mm_min,
-                          ceiling_seg)
-        # one feed per move where it may not be split: the slowest over the move
-        seg_len = np.diff(cs.samples.s)
-        new_move = np.ones(q.size, bool)
-        new_move[1:] = cs.seg_move[1:] != cs.seg_move[:-1]
-        first = np.flatnonzero(new_move)
-        move_len = np.add.reduceat(seg_len, first)
-        move_min = np.minimum.reduceat(q, first)
-        grp = np.cumsum(new_move) - 1
-        whole = (program.no_split[cs.seg_move] | (program.kind[cs.seg_move] == NURBS)
-                 | (move_len[grp] < 2 * min_piece_mm))
-        if program.comp_unknown is not None:   # LinuxCNC's compensation rules need the move whole
-            whole |= program.comp_unknown[cs.seg_move]
-        q = np.where(whole, move_min[grp], q)
-        q = hold_min_length(q, seg_len, first, min_piece_mm)
-        change = new_move.copy()
-        change[1:] |= q[1:] != q[:-1]
-        last = np.append(change[1:], True)          # last segment of each piece
-        p_move = cs.seg_move[last]
-        p_end = np.where(np.append(new_move[1:], True)[last], 1.0, cs.seg_f1[last])
-        p_feed = q[last]
+        p_move, p_end, p_feed = move_pieces(program, cs.seg_move, cs.seg_f1, np.diff(cs.samples.s), seg_phi,
+                                            ceiling_seg, reachable_seg, feed_step_mm_min, min_piece_mm)
         pm.append(p_move)
         pe.append(p_end)
         pf.append(p_feed)
@@ -143,6 +123,33 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
                          ceiling_mm_min=tuple(ceilings), piece_move=np.concatenate(pm),
                          piece_end=np.concatenate(pe), piece_feed_mm_min=np.concatenate(pf),
                          feed_step_mm_min=feed_step_mm_min, cap_mm_min=cap_mm_min, table=table)
+
+
+def move_pieces(program: Program, seg_move: np.ndarray, seg_f1: np.ndarray, seg_len: np.ndarray,
+                seg_phi: np.ndarray, ceiling_seg: np.ndarray, reachable_seg: np.ndarray,
+                feed_step_mm_min: float, min_piece_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pieces (move, end fraction, feed mm/min) of whole moves from their segments' fractions
+    ``seg_phi`` of ``reachable_seg`` under ``ceiling_seg`` (see the module docstring)."""
+    q = quantise_down(np.where(seg_phi >= 1.0, ceiling_seg, seg_phi * reachable_seg), feed_step_mm_min,
+                      ceiling_seg)
+    # one feed per move where it may not be split: the slowest over the move
+    new_move = np.ones(q.size, bool)
+    new_move[1:] = seg_move[1:] != seg_move[:-1]
+    first = np.flatnonzero(new_move)
+    move_len = np.add.reduceat(seg_len, first)
+    move_min = np.minimum.reduceat(q, first)
+    grp = np.cumsum(new_move) - 1
+    whole = (program.no_split[seg_move] | (program.kind[seg_move] == NURBS)
+             | (move_len[grp] < 2 * min_piece_mm))
+    if program.comp_unknown is not None:   # LinuxCNC's compensation rules need the move whole
+        whole |= program.comp_unknown[seg_move]
+    q = np.where(whole, move_min[grp], q)
+    q = hold_min_length(q, seg_len, first, min_piece_mm)
+    change = new_move.copy()
+    change[1:] |= q[1:] != q[:-1]
+    last = np.append(change[1:], True)          # last segment of each piece
+    p_end = np.where(np.append(new_move[1:], True)[last], 1.0, seg_f1[last])
+    return seg_move[last], p_end, q[last]
 
 
 def hold_min_length(q: np.ndarray, seg_len: np.ndarray, move_first: np.ndarray, min_len: float) -> np.ndarray:
@@ -210,13 +217,18 @@ def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:
 def program_times(pa: ProgramAdvice) -> tuple[float, float]:
     """Time (s) of the advised cuts' feed moves at the programmed feeds and at the written
     (advised, rounded) feeds, ignoring acceleration."""
-    program = pa.program
+    return pieces_times(pa.program, pa.piece_move, pa.piece_end, pa.piece_feed_mm_min)
+
+
+def pieces_times(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
+                 piece_feed_mm_min: np.ndarray) -> tuple[float, float]:
+    """:func:`program_times` from the pieces alone."""
     lengths = program.move_lengths()
-    moves = np.unique(pa.piece_move)
+    moves = np.unique(piece_move)
     t_prog = float(np.sum(lengths[moves] / program.feed_mm_min[moves])) * 60.0
-    starts = np.concatenate([[0.0], pa.piece_end[:-1]])
-    same = np.concatenate([[False], pa.piece_move[1:] == pa.piece_move[:-1]])
+    starts = np.concatenate([[0.0], piece_end[:-1]])
+    same = np.concatenate([[False], piece_move[1:] == piece_move[:-1]])
     starts = np.where(same, starts, 0.0)
-    frac = pa.piece_end - starts
-    t_adv = float(np.sum(lengths[pa.piece_move] * frac / pa.piece_feed_mm_min)) * 60.0
+    frac = piece_end - starts
+    t_adv = float(np.sum(lengths[piece_move] * frac / piece_feed_mm_min)) * 60.0
     return t_prog, t_adv

@@ -46,7 +46,7 @@ from fuzzyfeed.program.compensation import comp_per_line, compensate
 from fuzzyfeed.program.expr import POLAR_LETTERS
 from fuzzyfeed.program.flow import execute, needs_execution
 from fuzzyfeed.program.frames import START_EPOCH, cycle_info, sequential_positions, system_events
-from fuzzyfeed.program.lexer import LETTERS, clean_lines, fail_at, tokenise
+from fuzzyfeed.program.lexer import clean_lines, fail_at, tokenise
 from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
 from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, SYNCED, Program,
@@ -96,7 +96,7 @@ def read_program(path: str | os.PathLike, text: str | None = None, tools: dict |
     if text is None:
         from fuzzyfeed.base.files import read_text
         # G-code may be Latin-1 (comments in old controllers' files often are)
-        text = read_text(path, "G-code", PathFormatError, latin1=True)
+        return parse_program(read_text(path, "G-code", PathFormatError, latin1=True), path, tools)
     return parse_program(text, path, tools)
 
 
@@ -110,7 +110,9 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | 
     if newline == "\r\n" or "\r" in text:
         lines = [ln.rstrip("\r") for ln in lines]
     clean = clean_lines(lines, text, path)
+    del text                  # the caller's copy only, from here (a 10⁶-line program: 24 MB)
     body = "\n".join(clean).upper().replace(" ", "").replace("\t", "")
+    del clean
     if "/" in body:
         body = re.sub(r"(?m)^/", "", body)
     # the program ends at the first M2/M30: nothing after it is read
@@ -130,6 +132,7 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | 
         raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
                               "nothing to advise")
     tl, tc, tv = tokenise(body, path, lines)
+    del body
     return _interpret(path, lines, newline, end_line, n, tl, tc, tv, tools=tools)
 
 
@@ -161,8 +164,11 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         where, number = rows.where(int(i))
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
-    letter = {ch: tc == ord(ch) - 65 for ch in LETTERS}
-    letter.update({ch: tc == code for ch, code in POLAR_LETTERS.items()})
+    class _Letters:          # each letter's mask made when asked (28 masks of every word: 80 MB at 10⁶ lines)
+        def __getitem__(self, ch):
+            return tc == POLAR_LETTERS.get(ch, ord(ch) - 65)
+
+    letter = _Letters()
     big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTHLETTERS)
     if big.any():
         k = int(np.argmax(big))
@@ -484,7 +490,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     centre, turns, arc_plane, multi_turn = arc_centres(fail, kind, move_rows, motion, plane, start,
                                                        endp, col, inch, scale, ij_absolute, unplaced_arcs)
     no_split |= multi_turn
-    row_of = {int(r): k for k, r in enumerate(move_rows)}
+    row_of = {int(r): k for k, r in enumerate(move_rows)} if blocks else {}   # only G5.2 blocks ask
     nurbs, nurbs_lines = nurbs_blocks(fail, blocks, row_of, known, col, any_xyz, xyz_has,
                                       pos_before, pos_after)
     for m in nurbs:

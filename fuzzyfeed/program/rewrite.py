@@ -34,10 +34,31 @@ _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
 def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
                     piece_feed_mm_min: np.ndarray) -> str:
     """The program text with the pieces' feeds (see the module docstring)."""
+    return "".join(rewrite_chunks(program, piece_move, piece_end, piece_feed_mm_min))
+
+
+#: Lines per chunk of :func:`rewrite_chunks`.
+CHUNK_LINES = 1 << 14
+
+
+def rewrite_chunks(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
+                   piece_feed_mm_min: np.ndarray):
+    """:func:`rewrite_program`'s text in chunks of about :data:`CHUNK_LINES` lines, to be written as
+    they come (the text of a 10⁶-line program is never held whole)."""
     if program.rows is not None:
         from fuzzyfeed.program.rewrite_rows import rewrite_rows
 
-        return rewrite_rows(program, piece_move, piece_end, piece_feed_mm_min)
+        yield rewrite_rows(program, piece_move, piece_end, piece_feed_mm_min)
+        return
+    nl = program.newline
+    for part in _rewrite_parts(program, piece_move, piece_end, piece_feed_mm_min):
+        if part:
+            yield nl.join(part) + nl
+
+
+def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
+                   piece_feed_mm_min: np.ndarray):
+    """Lists of output lines, in order."""
     lines = program.lines
     n_lines = len(lines)
     kind = program.kind
@@ -88,6 +109,9 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
             if f_lines[li]:
                 f_in_force = float(feed_value[li]) * f_scale[li]
             out_lines.append(raw)
+            if len(out_lines) >= CHUNK_LINES:
+                yield out_lines
+                out_lines = []
             continue
         m, want = hit
         split = piece_lo[m] >= 0 and piece_hi[m] - piece_lo[m] > 1
@@ -109,6 +133,8 @@ def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
                     raw = raw.rstrip() + " F" + want
             out_lines.append(raw)
         f_in_force = float(want_last[li]) * (scale[li] if split else f_scale[li])
-    out_lines.extend(lines[end:])
-    text = program.newline.join(out_lines)
-    return text + program.newline if out_lines else text
+        if len(out_lines) >= CHUNK_LINES:
+            yield out_lines
+            out_lines = []
+    yield out_lines
+    yield lines[end:]
