@@ -66,11 +66,10 @@ def test_gap_time_below_seven_phase_rest_to_rest(gap):
     assert got >= 0.65 * exact
 
 
-@pytest.mark.parametrize("make", [lambda: slw_cases.cam_polyline(300),
-                                  lambda: slw_cases.corner_polyline(np.random.default_rng(3))])
-def test_floor_stays_below_the_schedule(make):
+@pytest.mark.parametrize("seed", [3, 5, 8])
+def test_floor_stays_below_the_schedule(seed):
     """Every schedule keeps its limits, so none may beat the floor (it would not be one)."""
-    curve = make()
+    curve = slw_cases.corner_polyline(np.random.default_rng(seed))
     for lim in (MachineLimits(), MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))):
         traj = schedule(curve, lim, transition="seven-phase")
         chain = fl.corner_chain_s(traj.curve, lim)
