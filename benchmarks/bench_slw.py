@@ -159,9 +159,10 @@ HEADER = (f"{'path / machine / transition':<34} {'length mm':>9} {'SLW s':>9} {'
           f"{'/floor':>7} {'/old':>7} {'worst':>8} {'limit':>8} {'crit':>6} {'cpu s':>7}")
 
 
-def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None):
+def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None, builtin_only: bool = False):
     """(name, curve, limits, feed cap or None) of every benchmark case; with ``programs`` = (first,
-    end), only the programs whose path in the library is in [first, end) ("" = no end)."""
+    end), only the programs whose path in the library is in [first, end) ("" = no end); with
+    ``builtin_only``, every case but the programs."""
     if programs is not None:
         yield from _program_cases(max_cuts, programs)
         return
@@ -181,7 +182,8 @@ def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None)
         curve, _ = slw_cases.random_nurbs(seed)
         for mname, lim in MACHINES.items():
             yield f"nurbs{seed} p{curve.degree} {curve.dim}-D/{mname}", curve, lim, None
-    yield from _program_cases(max_cuts, ("", ""))
+    if not builtin_only:
+        yield from _program_cases(max_cuts, ("", ""))
 
 
 def _program_cases(max_cuts: int, programs: tuple[str, str]):
@@ -233,6 +235,8 @@ def main() -> None:
     ap.add_argument("--programs", nargs=2, metavar=("FIRST", "END"), help="only the programs whose path "
                     "in the library is in [FIRST, END) ('' for no end), no other case: a run split across "
                     "processes (the summary is then of those cases only)")
+    ap.add_argument("--builtin-only", action="store_true", help="every case but the programs (the other part "
+                    "of a run split with --programs)")
     args = ap.parse_args()
     if args.corner_bound:
         wanted = set(args.corner_bound)
@@ -253,7 +257,8 @@ def main() -> None:
     print(HEADER)
     print("-" * len(HEADER))
     results: dict[str, list[dict]] = {t: [] for t in transitions}
-    for name, curve, lim, cap in cases(args.random, args.max_cuts, args.programs and tuple(args.programs)):
+    for name, curve, lim, cap in cases(args.random, args.max_cuts, args.programs and tuple(args.programs),
+                                 args.builtin_only):
         for t in transitions:
             r = run_case(f"{name}/{t}", curve, lim, t, cap)
             results[t].append(r)
