@@ -204,20 +204,45 @@ def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float):
     return lo
 
 
-def corner_chain_s(curve: Nurbs, limits: MachineLimits) -> float:
-    """A lower bound (s) on any schedule with tangential |j| ≤ J, |a| ≤ ‖A_j‖₂ and v ≤ F that
-    passes each true corner no faster than the corner rule allows (preprocess.corners without
-    its margin: (cap + J·Ts²/2)/0.9, at least what it allows) and rests at both ends: the path is
-    cut at its corners and each gap run alone, accelerations at its ends free (a relaxation)."""
+def chain_points(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the path and a feed no schedule may pass each at: the true corners, at what the
+    corner rule allows (preprocess.corners without its margin: (cap + J·Ts²/2)/0.9, at least
+    what it allows), and the local minima (first and last point of a flat one) of the pointwise
+    limit on the bound's adaptive grid — command, axial velocities, chord error and the
+    maximum-velocity curve of the axial accelerations, read at the point itself, so exact there
+    whatever the grid (:func:`fuzzyfeed.slw.bound.pointwise_limit`). Sorted by arc length."""
+    from fuzzyfeed.slw.bound import _grid
     from fuzzyfeed.slw.preprocess import corners
 
+    jerk, feed = limits.jerk_mm_s3, limits.feed_mm_s
     s_c, cap = corners(curve, limits)
-    if s_c.size == 0:
+    v_c = np.minimum((cap + 0.5 * jerk * limits.ts_s ** 2) / 0.9, feed)
+    s, x, _, _ = _grid(curve, limits, None)
+    if s.size >= 3:
+        mid = x[1:-1]
+        low = ((mid < x[:-2]) & (mid <= x[2:])) | ((mid <= x[:-2]) & (mid < x[2:]))
+        k = np.flatnonzero(low & (mid < (0.999 * feed) ** 2)) + 1
+        k = k[~np.isin(s[k], s_c)]  # a corner's grid point holds its cap with the margin
+        s_m, v_m = s[k], np.sqrt(np.maximum(x[k], 0.0))
+    else:
+        s_m, v_m = np.empty(0), np.empty(0)
+    s_all = np.concatenate([s_c, s_m])
+    order = np.argsort(s_all, kind="stable")
+    return s_all[order], np.concatenate([v_c, v_m])[order]
+
+
+def corner_chain_s(curve: Nurbs, limits: MachineLimits) -> float:
+    """A lower bound (s) on any schedule with tangential |j| ≤ J, |a| ≤ ‖A_j‖₂ and v ≤ F that
+    passes each of :func:`chain_points` no faster than its feed and rests at both ends: the path
+    is cut at those points and each gap run alone, accelerations at its ends free (a
+    relaxation: the gaps' times add up)."""
+    s_p, v_p = chain_points(curve, limits)
+    if s_p.size == 0:
         return 0.0
     jerk, feed = limits.jerk_mm_s3, limits.feed_mm_s
     acc = float(np.linalg.norm(np.asarray(limits.axis_acc_mm_s2)[:curve.dim]))
-    s = np.concatenate([[0.0], s_c, [curve.length]])
-    v = np.concatenate([[0.0], np.minimum((cap + 0.5 * jerk * limits.ts_s ** 2) / 0.9, feed), [0.0]])
+    s = np.concatenate([[0.0], s_p, [curve.length]])
+    v = np.concatenate([[0.0], v_p, [0.0]])
     gaps = np.diff(s)
     keep = gaps > 0.0
     g, v1, v2 = gaps[keep], v[:-1][keep], v[1:][keep]
