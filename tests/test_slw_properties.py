@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 import slw_cases
 from fuzzyfeed.slw import measure, path_bound, schedule
-from fuzzyfeed.slw.floor import jerk_floor
+from fuzzyfeed.slw.floor import corner_chain_s, jerk_floor
 from fuzzyfeed.slw.preprocess import joins
 
 #: The limits measured from the positions, and how far a tick may pass one (the summary prints
@@ -59,6 +59,8 @@ def assert_within_limits_and_floor(curve, lim):
     # the bound is exact to its grid's change when halved (0.35 % on a polyline of 28 corners)
     assert bound.time_s * (1 - bound.grid_change - 1e-3) <= traj.cycle_time_s
     assert traj.cycle_time_s <= FLOOR_MULTIPLE * floor, traj.cycle_time_s / floor
+    # the floor's corner chain is a proven bound (no grid error): no schedule beats it
+    assert corner_chain_s(traj.curve, lim) <= traj.cycle_time_s
 
 
 @SETTINGS

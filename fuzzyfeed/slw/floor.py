@@ -70,10 +70,194 @@ def legs_s(curve: Nurbs, limits: MachineLimits) -> float:
     return total
 
 
+#: Points per gap of the time grid on which :func:`max_distance` bounds the feed, bisection steps
+#: for the acceleration at a point and for the gap's time.
+CHAIN_POINTS = 64
+ALPHA_STEPS = 40
+TIME_STEPS = 16
+#: Gaps per vectorised batch (bounds the memory: batch × CHAIN_POINTS floats per array).
+CHAIN_BATCH = 2048
+
+
+def _rise(alpha, t, acc: float, jerk: float):
+    """Largest v(t) − v(0) of any motion with a(t) = α, |a| ≤ A, |j| ≤ J: ∫₀ᵗ min(A, α + Jσ) dσ
+    (a(s) ≤ α + J·(t − s) before t) = αt + Jt²/2 while α + Jt ≤ A, else At − (A − α)²/(2J)."""
+    return np.where(alpha + jerk * t <= acc, alpha * t + 0.5 * jerk * t * t,
+                    acc * t - (acc - alpha) ** 2 / (2.0 * jerk))
+
+
+def _fall(alpha, r, acc: float, jerk: float):
+    """Largest v(t) − v(t + r) of any motion with a(t) = α: −∫₀ʳ max(−A, α − Jτ) dτ
+    = −αr + Jr²/2 while α − Jr ≥ −A, else Ar − (A + α)²/(2J)."""
+    return np.where(alpha - jerk * r >= -acc, -alpha * r + 0.5 * jerk * r * r,
+                    acc * r - (acc + alpha) ** 2 / (2.0 * jerk))
+
+
+def _crossing(t, r, dc, acc: float, jerk: float):
+    """The root α* in [−A, A] of φ(α) = rise(α, t) − fall(α, r) + dc (increasing in α), piece by
+    piece in closed form: rise is linear for α ≤ A − Jt, else quadratic; fall is quadratic for
+    α ≤ Jr − A, else linear. Returns (α*, φ(−A) ≥ 0, φ(A) ≤ 0)."""
+    at_lo = _rise(-acc, t, acc, jerk) - _fall(-acc, r, acc, jerk) + dc >= 0.0
+    at_hi = _rise(acc, t, acc, jerk) - _fall(acc, r, acc, jerk) + dc <= 0.0
+    b1 = np.clip(acc - jerk * t, -acc, acc)
+    b2 = np.clip(jerk * r - acc, -acc, acc)
+    m1, m2 = np.minimum(b1, b2), np.maximum(b1, b2)
+    root = np.zeros(np.broadcast(t, r, dc).shape)
+    found = at_lo | at_hi
+    for x0, x1 in ((np.full_like(m1, -acc), m1), (m1, m2), (m2, np.full_like(m2, acc))):
+        mid = 0.5 * (x0 + x1)
+        quad_rise, quad_fall = mid >= b1, mid <= b2
+        qa = np.where(quad_rise, -0.5 / jerk, 0.0) + np.where(quad_fall, 0.5 / jerk, 0.0)
+        qb = np.where(quad_rise, acc / jerk, t) + np.where(quad_fall, acc / jerk, r)
+        qc = (np.where(quad_rise, acc * t - acc * acc / (2.0 * jerk), 0.5 * jerk * t * t)
+              + np.where(quad_fall, -acc * r + acc * acc / (2.0 * jerk), -0.5 * jerk * r * r) + dc)
+        f0 = _rise(x0, t, acc, jerk) - _fall(x0, r, acc, jerk) + dc
+        f1 = _rise(x1, t, acc, jerk) - _fall(x1, r, acc, jerk) + dc
+        here = ~found & (f0 <= 0.0) & (f1 >= 0.0) & (x1 >= x0)
+        disc = np.sqrt(np.maximum(qb * qb - 4.0 * qa * qc, 0.0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # the root where φ rises through 0 (qb > 0 on every piece), without cancellation
+            x = np.where(np.abs(qa) * np.abs(qc) < 1e-14 * qb * qb, -qc / qb, -2.0 * qc / (qb + disc))
+        root = np.where(here, np.clip(x, x0, x1), root)
+        found |= here
+    return root, at_lo, at_hi
+
+
+def max_distance(T, c1, c2, feed: float, acc: float, jerk: float, points: int = CHAIN_POINTS):
+    """An upper bound (mm, per gap) on the distance any motion with 0 ≤ v ≤ F, |a| ≤ A, |j| ≤ J
+    covers in T seconds from v(0) ≤ c1 to v(T) ≤ c2, the accelerations at both ends free.
+
+    At any t, whatever α = a(t): v(t) ≤ c1 + rise(α, t) and v(t) ≤ c2 + fall(α, T − t) (the
+    jerk bounds a on either side of t), the first increasing in α, the second decreasing; so
+    v(t) ≤ W(t) = min(F, max_α min(...)), read at the crossing α* (closed form, widened by
+    1e-9·A either side against rounding). W is A-Lipschitz (both sides move by at most A per
+    second for a fixed α), so over a step h with end values w₀, w₁ the integral is at most
+    h(w₀ + w₁)/2 + (A²h² − min(|w₁ − w₀|, Ah)²)/(4A) (the tent), nondecreasing in w₀ and w₁, and
+    at most hF. Arrays T, c1, c2 of one shape (gaps)."""
+    T, c1, c2 = (np.asarray(x, dtype=float)[:, None] for x in (T, c1, c2))
+    t = T * np.linspace(0.0, 1.0, points + 1)[None, :]
+    r = T - t
+    root, at_lo, at_hi = _crossing(t, r, c1 - c2, acc, jerk)
+    widen = 1e-9 * acc
+    w = np.minimum(c1 + _rise(np.minimum(root + widen, acc), t, acc, jerk),
+                   c2 + _fall(np.maximum(root - widen, -acc), r, acc, jerk))
+    w = np.where(at_lo, c2 + _fall(-acc, r, acc, jerk), w)  # the max at α = −A
+    w = np.where(at_hi, c1 + _rise(acc, t, acc, jerk), w)   # the max at α = A
+    w = np.minimum(w, feed)
+    h = T / points
+    d = np.minimum(np.abs(np.diff(w, axis=1)), acc * h)
+    tent = h * 0.5 * (w[:, :-1] + w[:, 1:]) + (acc * acc * h * h - d * d) / (4.0 * acc)
+    return np.minimum(tent, h * feed).sum(axis=1)
+
+
+def _max_distance_bisect(T, c1, c2, feed: float, acc: float, jerk: float, points: int = CHAIN_POINTS):
+    """:func:`max_distance` with α* by bisection (the tests' reference for the closed form)."""
+    T, c1, c2 = (np.asarray(x, dtype=float)[:, None] for x in (T, c1, c2))
+    t = T * np.linspace(0.0, 1.0, points + 1)[None, :]
+    r = T - t
+    lo, hi = np.full(t.shape, -acc), np.full(t.shape, acc)
+    for _ in range(ALPHA_STEPS):
+        mid = 0.5 * (lo + hi)
+        up = c1 + _rise(mid, t, acc, jerk) >= c2 + _fall(mid, r, acc, jerk)
+        lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
+    w = np.minimum(np.minimum(c1 + _rise(hi, t, acc, jerk), c2 + _fall(lo, r, acc, jerk)), feed)
+    h = T / points
+    d = np.minimum(np.abs(np.diff(w, axis=1)), acc * h)
+    tent = h * 0.5 * (w[:, :-1] + w[:, 1:]) + (acc * acc * h * h - d * d) / (4.0 * acc)
+    return np.minimum(tent, h * feed).sum(axis=1)
+
+
+def _acc_only_s(gaps, c1, c2, feed: float, acc: float):
+    """Least time over each gap under v ≤ F and |a| ≤ A alone, from v ≤ c1 to v ≤ c2: up to the
+    peak √((2Ag + c1² + c2²)/2) or a cruise at F, ends lowered to what the gap can reach."""
+    c1 = np.minimum(c1, np.sqrt(c2 * c2 + 2.0 * acc * gaps))
+    c2 = np.minimum(c2, np.sqrt(c1 * c1 + 2.0 * acc * gaps))
+    peak = np.sqrt(0.5 * (2.0 * acc * gaps + c1 * c1 + c2 * c2))
+    ramps = (2.0 * np.minimum(peak, feed) - c1 - c2) / acc
+    cruise = np.maximum(gaps - (2.0 * feed * feed - c1 * c1 - c2 * c2) / (2.0 * acc), 0.0) / feed
+    return ramps + np.where(peak > feed, cruise, 0.0)
+
+
+def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float):
+    """Per gap, a time no motion of :func:`max_distance`'s kind covers the gap in less than:
+    bisection on T keeping max_distance(lo) < gap, which alone proves lo (a motion covering the
+    gap in T' ≤ lo, run slower by lo/T', would cover it in lo; no monotonicity of the bound is
+    assumed). It starts from the acceleration-only time (where the bound confirms it, else the
+    gap at F) and widens the bracket by steps of A/J."""
+    gaps, c1, c2 = (np.asarray(x, dtype=float) for x in (gaps, c1, c2))
+    lo = 0.999 * _acc_only_s(gaps, c1, c2, feed, acc)
+    lo = np.where(max_distance(lo, c1, c2, feed, acc, jerk) < gaps, lo, gaps / feed * (1.0 - 1e-12))
+    step = np.full(gaps.size, acc / jerk)
+    hi = lo + step
+    todo = np.arange(gaps.size)
+    for _ in range(200):
+        short = max_distance(hi[todo], c1[todo], c2[todo], feed, acc, jerk) < gaps[todo]
+        todo = todo[short]
+        if not todo.size:
+            break
+        step[todo] *= 2.0
+        lo[todo], hi[todo] = hi[todo], hi[todo] + step[todo]
+    for _ in range(TIME_STEPS):
+        mid = 0.5 * (lo + hi)
+        covers = max_distance(mid, c1, c2, feed, acc, jerk) >= gaps
+        lo, hi = np.where(covers, lo, mid), np.where(covers, mid, hi)
+    return lo
+
+
+def chain_points(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the path and a feed no schedule may pass each at: the true corners, at what the
+    corner rule allows (preprocess.corners without its margin: (cap + J·Ts²/2)/0.9, at least
+    what it allows), and the local minima (first and last point of a flat one) of the pointwise
+    limit on the bound's adaptive grid — command, axial velocities, chord error and the
+    maximum-velocity curve of the axial accelerations, read at the point itself, so exact there
+    whatever the grid (:func:`fuzzyfeed.slw.bound.pointwise_limit`). Sorted by arc length."""
+    from fuzzyfeed.slw.bound import _grid
+    from fuzzyfeed.slw.preprocess import corners
+
+    jerk, feed = limits.jerk_mm_s3, limits.feed_mm_s
+    s_c, cap = corners(curve, limits)
+    v_c = np.minimum((cap + 0.5 * jerk * limits.ts_s ** 2) / 0.9, feed)
+    s, x, _, _ = _grid(curve, limits, None)
+    if s.size >= 3:
+        mid = x[1:-1]
+        low = ((mid < x[:-2]) & (mid <= x[2:])) | ((mid <= x[:-2]) & (mid < x[2:]))
+        k = np.flatnonzero(low & (mid < (0.999 * feed) ** 2)) + 1
+        k = k[~np.isin(s[k], s_c)]  # a corner's grid point holds its cap with the margin
+        s_m, v_m = s[k], np.sqrt(np.maximum(x[k], 0.0))
+    else:
+        s_m, v_m = np.empty(0), np.empty(0)
+    s_all = np.concatenate([s_c, s_m])
+    order = np.argsort(s_all, kind="stable")
+    return s_all[order], np.concatenate([v_c, v_m])[order]
+
+
+def corner_chain_s(curve: Nurbs, limits: MachineLimits) -> float:
+    """A lower bound (s) on any schedule with tangential |j| ≤ J, |a| ≤ ‖A_j‖₂ and v ≤ F that
+    passes each of :func:`chain_points` no faster than its feed and rests at both ends: the path
+    is cut at those points and each gap run alone, accelerations at its ends free (a
+    relaxation: the gaps' times add up)."""
+    s_p, v_p = chain_points(curve, limits)
+    if s_p.size == 0:
+        return 0.0
+    jerk, feed = limits.jerk_mm_s3, limits.feed_mm_s
+    acc = float(np.linalg.norm(np.asarray(limits.axis_acc_mm_s2)[:curve.dim]))
+    s = np.concatenate([[0.0], s_p, [curve.length]])
+    v = np.concatenate([[0.0], v_p, [0.0]])
+    gaps = np.diff(s)
+    keep = gaps > 0.0
+    g, v1, v2 = gaps[keep], v[:-1][keep], v[1:][keep]
+    total = 0.0
+    for k in range(0, g.size, CHAIN_BATCH):
+        part = slice(k, k + CHAIN_BATCH)
+        total += float(gap_times(g[part], v1[part], v2[part], feed, acc, jerk).sum())
+    return total
+
+
 def jerk_floor(curve: Nurbs, limits: MachineLimits, bound_s: float | None = None) -> float:
-    """max(acceleration-limited bound, Σ legs rest-to-rest) in s; ``bound_s`` if already known."""
+    """max(acceleration-limited bound, Σ legs rest-to-rest, corner chain) in s; ``bound_s`` if
+    already known."""
     if bound_s is None:
         from fuzzyfeed.slw.bound import path_bound
 
         bound_s = path_bound(curve, limits, halve=False).time_s
-    return max(bound_s, legs_s(curve, limits))
+    return max(bound_s, legs_s(curve, limits), corner_chain_s(curve, limits))

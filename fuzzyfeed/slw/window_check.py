@@ -1,0 +1,270 @@
+"""Every block of the look-ahead window checked against the path before release, and repaired.
+
+The profile is sampled at half servo periods (compiled, slw/_kernels.py); the feed is checked
+against the pointwise limit at the samples and at the reference points, and the axial
+accelerations a_t·T_j + v²·κN_j (+ v·|ΔT_j|/Ts at a kink) against A_j. A feed above the limit
+adds a junction there; an axial acceleration above its limit lowers the block's tangential
+acceleration, or caps the feed of a new junction when the centripetal part alone nearly uses the
+axis up.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fuzzyfeed.slw.preprocess import Reference, _evaluate, evaluate_reference
+from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration
+from fuzzyfeed.slw.window_blocks import CRAWL, _Junction, _WBlock
+
+#: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
+CHECK_RTOL = 1e-6
+#: Blocks shorter than this fraction of one servo period's travel at the command feed are not
+#: checked against the limits (the ticks around them are what the machine sees).
+SUB_TICK = 1e-3
+#: A junction added where the profile crosses the feed limit is capped this far below the limit:
+#: the next profile has room to rise, so a slowly rising limit is followed in stairs of a few per
+#: cent (a bounded number of splits) instead of a staircase of tiny steps.
+SPLIT_ROOM = 0.97
+#: The profile read at a block's reference points may exceed their limit by this fraction: the
+#: samples hold the limit between them (CHECK_RTOL); the points catch a limit held at one point
+#: (a corner's cap, far below its neighbours), not the 1e-5 by which a sampled profile passes a
+#: smooth minimum (a junction for each cost a random curve 4 %).
+POINT_RTOL = 1e-3
+#: A junction added where the centripetal part nearly uses an axis up is capped at the feed that
+#: brings that axis back within its limit (centripetal ∝ v²), with this much room, and at most a
+#: SPLIT_ROOM lower: a profile leaving a minimum brushed the limit by 0.04 % and the minimum's
+#: junctions fell a whole stair (trident2: 3 % at two of its five minima).
+NEAR_ROOM = 0.999
+#: A block whose acceleration an axis-acceleration repair would take below this share of the
+#: machine's tangential acceleration gets a junction at the offending point instead (a 28 mm
+#: block crawled at 17 % of it for one point of one axis; random curve 199 of bench_slw).
+ACC_KEEP = 0.5
+#: Samples of a block's profile within this share of a limit (axis acceleration or feed) are
+#: checked against the path evaluated at the samples themselves, not interpolated between points.
+EXACT_NEAR = 0.99
+
+
+class BlockCheck:
+    """The check and its repairs (mixed into :class:`fuzzyfeed.slw.lookahead.SlidingWindow`)."""
+
+    def _segments(self, i: int):
+        b = self.blocks[i]
+        return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
+                              self.approach, self.shape)
+
+    def _sample(self, i: int):
+        """Block i's profile sampled at half servo periods with the path's data interpolated from
+        its reference points: (key, segments, s, v, a, segment index, vlim, T, κN, near), where
+        ``near`` indexes the samples within EXACT_NEAR of a limit (read exactly before judging);
+        None when the block needs no check (already checked with this key, or crossed within a
+        small part of one servo period). Kept on the block with its key until judged."""
+        b = self.blocks[i]
+        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length)
+        if b.checked == key:
+            return None
+        if b.pending is not None and b.pending[0] == key:
+            return b.pending
+        if b.length < SUB_TICK * self.limits.feed_mm_s * self.limits.ts_s:
+            b.checked = key  # crossed within a small part of one servo period: nothing to sample
+            return None
+        kind, segs = self._segments(i)
+        if not segs:
+            b.checked = key
+            return None
+        import fuzzyfeed.slw._kernels as kernels
+
+        seg_arr = np.array([(g.v0, g.v1, g.duration_s, math.nan if g.jerk_mm_s3 is None else g.jerk_mm_s3)
+                            for g in segs])
+        s, v, a, seg_id = kernels.sample_segments(seg_arr[:, 0], seg_arr[:, 1], seg_arr[:, 2], seg_arr[:, 3],
+                                                  b.s0, 0.5 * self.limits.ts_s)
+        ref = b.ref
+        vlim = np.interp(s, ref.s, ref.vlim)
+        tan = np.stack([np.interp(s, ref.s, ref.tangent[:, j]) for j in range(3)], axis=1)
+        kn = np.stack([np.interp(s, ref.s, ref.kn[:, j]) for j in range(3)], axis=1)
+        r, _, _ = self._axis_ratio(v, a, tan, kn)
+        near = np.flatnonzero((r > EXACT_NEAR) | ((v > EXACT_NEAR * vlim) & (vlim < self.limits.feed_mm_s)))
+        if self.curve is None:
+            near = near[:0]
+        b.pending = (key, segs, s, v, a, seg_id, vlim, tan, kn, near)
+        return b.pending
+
+    def _check_all(self, indices) -> bool:
+        """Check blocks ``indices`` in order, repairing the first that breaks a limit (False).
+        The samples within reach of a limit of every block still to judge are read from the path
+        in one evaluation (one call instead of one per block: the calls' overhead was half of
+        a long program's scheduling)."""
+        data = [(i, self._sample(i)) for i in indices]
+        todo = [d for _, d in data if d is not None and d[9].size]
+        if todo:
+            s_all = np.concatenate([d[2][d[9]] for d in todo])
+            u_all = np.concatenate([np.interp(d[2][d[9]], self.blocks[i].ref.s, self.blocks[i].ref.u)
+                                    for i, d in data if d is not None and d[9].size])
+            exact = _evaluate(self.curve, self.limits, s_all, self.cap, u_all)
+            at = 0
+            for i, d in data:
+                if d is None or not d[9].size:
+                    continue
+                near = d[9]
+                part = slice(at, at + near.size)
+                at += near.size
+                vlim, tan, kn = d[6].copy(), d[7].copy(), d[8].copy()
+                vlim[near] = np.minimum(vlim[near], exact.vlim[part])
+                tan[near], kn[near] = exact.tangent[part], exact.kn[part]
+                self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
+        for i, _ in data:
+            if not self._check(i):
+                return False
+        return True
+
+    def _check(self, i: int) -> bool:
+        """Check block i; repair it and return False if it broke a limit."""
+        d = self._sample(i)
+        if d is None:
+            return True
+        key, segs, s, v, a, seg_id, vlim, tan, kn, near = d
+        b = self.blocks[i]
+        b.pending = None
+        ref = b.ref
+        if near.size:
+            # within reach of a limit: the path read at the samples themselves, not interpolated
+            # between reference points (a product of interpolated T and κN missed a block's
+            # peak: wm on a slow Y axis, 100.4 % of A_y between two points 0.1 mm apart)
+            # (at u interpolated between the points: no arc-length inversion, second-order close)
+            exact = _evaluate(self.curve, self.limits, s[near], self.cap, np.interp(s[near], ref.s, ref.u))
+            vlim, tan, kn = vlim.copy(), tan.copy(), kn.copy()
+            vlim[near] = np.minimum(vlim[near], exact.vlim)
+            tan[near], kn[near] = exact.tangent, exact.kn
+        r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        kinks = self._kink_samples(s, v, a)
+        if kinks is not None:  # a kink's tick, as one more sample (no feed limit of its own)
+            s_k, v_k, a_k, tan_k, cen_k, at = kinks
+            s, v, a = np.concatenate([s, s_k]), np.concatenate([v, v_k]), np.concatenate([a, a_k])
+            vlim = np.concatenate([vlim, 2.0 * v_k + 1.0])
+            seg_id = np.concatenate([seg_id, seg_id[at]])
+            tan, cen = np.vstack([tan, tan_k]), np.vstack([cen, cen_k])
+            ratio = (np.abs(a[:, None] * tan) + np.abs(cen)) / self.axis_acc[None, :]
+            ratio[:-s_k.size] = np.abs(a[:-s_k.size, None] * tan[:-s_k.size] + cen[:-s_k.size]) \
+                / self.axis_acc[None, :]
+            worst_axis = np.argmax(ratio, axis=1)
+            r = ratio[np.arange(ratio.shape[0]), worst_axis]
+        over_v = v - vlim * (1.0 + CHECK_RTOL) - 1e-12
+        # and at the reference points themselves: a corner's cap is one point, and samples either
+        # side of it read the limit interpolated towards its neighbours, far above it
+        inner = np.flatnonzero((ref.s > s[0]) & (ref.s < s[-1]))
+        over_ref = np.interp(ref.s[inner], s, v) - ref.vlim[inner] * (1.0 + POINT_RTOL) - 1e-12
+        if over_ref.size and over_ref.max() > 0.0 and over_v.max() <= 0.0:
+            k = int(inner[np.argmax(over_ref / np.maximum(ref.vlim[inner], 1e-12))])
+            self._split(i, float(ref.s[k]), cap=float(ref.vlim[k]))
+            self.stats.caps_lowered += 1
+            return False
+        if over_v.max() <= 0.0 and r.max() <= 1.0 + CHECK_RTOL:
+            b.checked = key
+            return True
+        if over_v.max() > 0.0:
+            k = int(np.argmax(over_v / np.maximum(vlim, 1e-12)))
+            bad = over_v > 0.0
+            a_idx = k
+            while a_idx > 0 and bad[a_idx - 1]:
+                a_idx -= 1
+            b_idx = k
+            while b_idx < bad.size - 1 and bad[b_idx + 1]:
+                b_idx += 1
+            # a junction where the profile first crosses the limit, capped at the lowest limit of
+            # the crossing: a ramp is then followed in few, large steps
+            cap = SPLIT_ROOM * float(vlim[a_idx:b_idx + 1].min())
+            self._split(i, s[a_idx], cap=cap)
+            return False
+        k = int(np.argmax(r))
+        j = int(worst_axis[k])
+        cen_ratio = abs(cen[k, j]) / self.axis_acc[j]
+        tan_ratio = abs(a[k] * tan[k, j]) / self.axis_acc[j]
+        seg = segs[int(seg_id[k])]
+        if cen_ratio > 0.9 or tan_ratio < 0.05:
+            # the centripetal part nearly uses the axis up: a junction here (zero tangential
+            # acceleration), as much slower than the profile as the excess needs (NEAR_ROOM)
+            room = max(SPLIT_ROOM, NEAR_ROOM / math.sqrt(float(r[k])))  # r[k] > 1 here
+            self._split(i, s[k], cap=room * float(v[k]))
+            self.stats.caps_lowered += 1
+            return False
+        peak = max(peak_acceleration(seg), 1e-9) if seg.duration_s else b.acc
+        need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
+        acc = max(min(b.acc, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
+        if acc < ACC_KEEP * self.acc:
+            # the whole block would crawl for one point: a junction there instead (zero
+            # tangential acceleration), the rest of the block keeps its acceleration
+            self._split(i, s[k], cap=SPLIT_ROOM * float(v[k]))
+            self.stats.caps_lowered += 1
+            return False
+        b.acc = acc
+        self.stats.acc_lowered += 1
+        self._invalidate()
+        return False
+
+    def _kink_samples(self, s: np.ndarray, v: np.ndarray, a: np.ndarray):
+        """The ticks that pass a kink of the path inside the sampled stretch (a tangent break too
+        small to be a corner the profile stops its acceleration for: a join of a blended
+        polyline, 0.2°): there the axis sees |a·T_j| + v·|ΔT_j|/Ts + v²·|κn_j| at once (a slow
+        Y axis at 109 % of A_y, the tangential part alone using it up). Returns (s, v, a, |T_j|
+        of the steeper side, v·|ΔT_j|/Ts + v²·|κn_j|, index of the sample before) or None."""
+        if self._kinks is None:
+            return None
+        s_j, t_j, c2, jump = self._kinks
+        lo, hi = np.searchsorted(s_j, [s[0], s[-1]], side="right")
+        if hi <= lo:
+            return None
+        s_k = s_j[lo:hi]
+        if s_k[-1] >= s[-1]:
+            s_k = s_k[s_k < s[-1]]
+            hi = lo + s_k.size
+            if not s_k.size:
+                return None
+        order = np.argsort(s, kind="stable")
+        v_k = np.interp(s_k, s[order], v[order])
+        a_k = np.interp(s_k, s[order], a[order])
+        n = s_j.size
+        tan_k = np.maximum(np.abs(t_j[lo:hi]), np.abs(t_j[n + lo:n + hi]))
+        cen_k = v_k[:, None] * jump[lo:hi] / self.limits.ts_s + (v_k * v_k)[:, None] * c2[lo:hi]
+        at = np.clip(np.searchsorted(s, s_k), 0, s.size - 1)
+        return s_k, v_k, a_k, tan_k, cen_k, at
+
+    def _axis_ratio(self, v: np.ndarray, a: np.ndarray, tan: np.ndarray, kn: np.ndarray):
+        """Worst |a·T_j + v²·κN_j|/A_j per sample, its axis, and the centripetal parts v²·κN."""
+        cen = (v * v)[:, None] * kn
+        ratio = np.abs(a[:, None] * tan + cen) / self.axis_acc[None, :]
+        worst_axis = np.argmax(ratio, axis=1)
+        return ratio[np.arange(ratio.shape[0]), worst_axis], worst_axis, cen
+
+    def _invalidate(self) -> None:
+        """Nothing to do: a block's check is keyed by everything its profile depends on (junction
+        feeds, acceleration, cruise cap, length), so only changed blocks are
+        checked again."""
+
+    def _split(self, i: int, s_at: float, factor: float = 1.0, cap: float | None = None) -> None:
+        """Add a junction inside block i at ``s_at`` (its feed limit, times ``factor``, as cap)."""
+        b = self.blocks[i]
+        ref = b.ref
+        span = ref.s[-1] - ref.s[0]
+        s_at = float(np.clip(s_at, ref.s[0] + 1e-6 * span, ref.s[-1] - 1e-6 * span))
+        k = int(np.searchsorted(ref.s, s_at))
+        if self.curve is not None and ref.s[k] != s_at and abs(ref.s[k] - s_at) > 1e-3 * span:
+            new = evaluate_reference(self.curve, self.limits, np.array([s_at]), cap=self.cap)
+            ref = Reference.concat([ref.slice(0, k - 1), new, ref.slice(k, len(ref) - 1)])
+        elif ref.s[k] != s_at:  # split at the nearest interior reference point
+            if len(ref) <= 2:
+                raise RuntimeError("cannot split a block without interior reference points")
+            k = int(np.clip(k, 1, len(ref) - 2))
+            if k - 1 >= 1 and abs(ref.s[k - 1] - s_at) < abs(ref.s[k] - s_at):
+                k -= 1
+        left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
+        cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
+        if i == 0 and cap < self.juncs[0].v:  # the first junction is committed: reachable from it
+            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc, self.jerk, self.shape)
+        crawl = CRAWL * self.limits.feed_mm_s
+        bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, max(float(left.vlim.max()), crawl)))
+        br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, max(float(right.vlim.max()), crawl)))
+        self.blocks[i:i + 1] = [bl, br]
+        self.juncs.insert(i + 1, _Junction(float(ref.s[k]), cap))
+        self.stats.junctions_added += 1
+        self._invalidate()
