@@ -92,24 +92,6 @@ def breach(xyz: np.ndarray, u: np.ndarray, jerk_mm_s3: np.ndarray, limits: Machi
     return (name, k, float(ratios[name][k])) if r > 1.0 + TICK_RTOL else None
 
 
-def all_breaches(xyz: np.ndarray, u: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
-                 corner_u: np.ndarray, apart: int = 80) -> list[tuple[str, int, float]]:
-    """Every tick over a limit as :func:`breach` judges it, one (limit, tick, ratio) per run of
-    such ticks (the worst of ticks closer than ``apart``): a repair then mends them all at once."""
-    ratios = tick_ratios(xyz, jerk_mm_s3, limits, corner_ticks(u, corner_u))
-    judged = dict(ratios, **{"path jerk": ratios["path jerk"] / (1.0 + PATH_JERK_RTOL)})
-    hits = []
-    for name, arr in judged.items():
-        over = np.flatnonzero(np.nan_to_num(arr, nan=0.0) > 1.0 + TICK_RTOL)
-        if not over.size:
-            continue
-        groups = np.split(over, np.flatnonzero(np.diff(over) > apart) + 1)
-        for g in groups:
-            k = int(g[np.argmax(arr[g])])
-            hits.append((name, k, float(ratios[name][k])))
-    return hits
-
-
 def breach_error(found: tuple[str, int, float], s_mm: np.ndarray, limits: MachineLimits) -> InputError:
     """The one-line error of a breach: the limit, the axis, the arc length and the ratio."""
     name, k, r = found

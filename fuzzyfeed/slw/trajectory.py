@@ -25,7 +25,7 @@ from fuzzyfeed.geometry.sampling import PathSamples
 from fuzzyfeed.machine.simulate import Simulation, TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import KINK_MIN, LookaheadStats, ScheduledBlock, SlidingWindow
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
-from fuzzyfeed.slw.check import all_breaches, breach, breach_error
+from fuzzyfeed.slw.check import breach, breach_error
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, joins, machine_cap
 from fuzzyfeed.slw.profile import COSINE, TRANSITIONS, segment_state
 
@@ -160,8 +160,6 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
 
 #: Schedules again with the feed lowered around a tick over a limit at most this many times.
 TICK_REPAIRS = 4
-#: Ticks either side of a breach of the chords' jerk over which the feed is lowered.
-PATH_JERK_DIP = 40
 
 
 def _dip(cap: FeedCap | None, found: tuple[str, int, float], s: np.ndarray, v: np.ndarray,
@@ -170,12 +168,8 @@ def _dip(cap: FeedCap | None, found: tuple[str, int, float], s: np.ndarray, v: n
     feed there times 0.999/r: the axis accelerations the look-ahead checks are the profile's at
     every point, the machine's the positions' second differences over Ts, which a sharp
     curvature peak passes by 0.1 % (a random curve at 100.08 % of A_y)."""
-    name, k, r = found
-    # the chords' jerk is the profile's (up to J) plus the third difference of the arc-chord
-    # deficit: a dip whose own transitions end next to the tick adds J there again, so the feed
-    # is held flat over PATH_JERK_DIP ticks either side instead
-    reach = PATH_JERK_DIP if name == "path jerk" else 2
-    lo, hi = max(k - reach, 0), min(k + reach + 1, s.size - 1)
+    _, k, r = found
+    lo, hi = max(k - 2, 0), min(k + 3, s.size - 1)
     s0, s1 = float(s[lo]), float(s[hi])
     if s1 <= s0:
         s1 = min(s0 + 1e-6 * total, total)
@@ -308,8 +302,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
             break
         if attempt == TICK_REPAIRS:
             raise breach_error(found, s, limits)
-        for each in all_breaches(xyz, u, j, limits, kinks_u):
-            cap = _dip(cap, each, s, v, limits, total)
+        cap = _dip(cap, found, s, v, limits, total)
     critical = np.array([b.s1 for b in blocks[:-1]])
     for arr in (t, s, u, xyz, v, a, j):  # read-only: shared with the time law and simulations
         arr.flags.writeable = False
