@@ -61,13 +61,10 @@ def quantise_down(feed_mm_min: np.ndarray, step: float, ceiling: np.ndarray) -> 
     return np.minimum(q, ceiling)
 
 
-def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None = None,
-                   step_mm: float = DEFAULT_STEP_MM, cap_mm_min: float | None = None,
-                   feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
-                   min_piece_mm: float = DEFAULT_MIN_PIECE_MM, machine: Machine | None = None) -> ProgramAdvice:
-    """Advise the cuts ``cuts`` (default: all) of ``program`` (see the module docstring). A machine
-    table reads the ``machine``'s inputs at every sample, with the program's F there as the feed
-    its ratios refer to and the cut's exact junction angles and corners."""
+def checked_cuts(program: Program, cuts: list[int] | None, step_mm: float,
+                 feed_step_mm_min: float) -> list[int]:
+    """The cuts to advise (all when ``cuts`` is None), after checking the sampling step, the feed
+    step and that every move of those cuts has an F > 0 (one line naming the first that has none)."""
     if not (np.isfinite(step_mm) and step_mm > 0):
         raise InputError(f"step_mm = {step_mm!r}; the sampling step must be finite and > 0")
     if not (np.isfinite(feed_step_mm_min) and feed_step_mm_min > 0):
@@ -76,7 +73,6 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         raise PathFormatError(f"{program.path}: no feed move (G1, G2/G3 or G5.2) in G94 found; "
                               "nothing to advise")
     chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
-    engine = compile_table(table)
     feed = program.feed_mm_min
     for k in chosen:
         moves = program.cut_moves(k)
@@ -84,6 +80,19 @@ def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None
         if bad.any():
             line = int(program.move_line[moves[np.argmax(bad)]]) + 1
             raise PathFormatError(f"{program.path}:{line}: {NO_FEED_RULE}")
+    return chosen
+
+
+def advise_program(program: Program, table: RuleTable, *, cuts: list[int] | None = None,
+                   step_mm: float = DEFAULT_STEP_MM, cap_mm_min: float | None = None,
+                   feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
+                   min_piece_mm: float = DEFAULT_MIN_PIECE_MM, machine: Machine | None = None) -> ProgramAdvice:
+    """Advise the cuts ``cuts`` (default: all) of ``program`` (see the module docstring). A machine
+    table reads the ``machine``'s inputs at every sample, with the program's F there as the feed
+    its ratios refer to and the cut's exact junction angles and corners."""
+    chosen = checked_cuts(program, cuts, step_mm, feed_step_mm_min)
+    engine = compile_table(table)
+    feed = program.feed_mm_min
     cut_samples, advices, ceilings = [], [], []
     pm, pe, pf = [], [], []
     for k in chosen:

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fuzzyfeed.errors import InputError, PathFormatError
+from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.advisor import point_sequence_table
 from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.features import features, normalise
@@ -44,8 +44,8 @@ from fuzzyfeed.geometry.sampling import MAX_POINTS
 from fuzzyfeed.program.cuts import (DEFAULT_STEP_MM, cut_moves, move_lengths, move_sample_counts,
                                     path_length, run_geometry, sample_moves)
 from fuzzyfeed.program.feeds import (DEFAULT_MIN_PIECE_MM, DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
-                                     move_pieces)
-from fuzzyfeed.program.model import NO_FEED_RULE, Program
+                                     checked_cuts, move_pieces)
+from fuzzyfeed.program.model import Program
 
 #: Samples in a piece's core (its margins add a few hundred): bounds the memory of the advice.
 DEFAULT_PIECE_POINTS = 100_000
@@ -115,26 +115,12 @@ def stream_program_advice(program: Program, table: RuleTable, *, cuts: list[int]
     """:func:`fuzzyfeed.program.feeds.advise_program` without a machine, piece by piece (see the
     module docstring): the same CSV rows and pieces, in order. The arguments, the cuts' F and the
     table are checked here, at the call; the pieces are made as the iterator is consumed."""
-    if not (np.isfinite(step_mm) and step_mm > 0):
-        raise InputError(f"step_mm = {step_mm!r}; the sampling step must be finite and > 0")
-    if not (np.isfinite(feed_step_mm_min) and feed_step_mm_min > 0):
-        raise InputError(f"feed_step_mm_min = {feed_step_mm_min!r}; must be finite and > 0")
     if isinstance(piece_points, bool) or not isinstance(piece_points, (int, np.integer)) or piece_points < 1:
         raise InputError(f"piece_points = {piece_points!r}; must be an integer >= 1")
     if table.inputs == MACHINE:
         raise InputError(f"rule table {table.name!r} reads the machine's terms: the advice in pieces "
                          "is the plain table's (advise_program takes a machine)")
-    if program.n_cuts == 0:
-        raise PathFormatError(f"{program.path}: no feed move (G1, G2/G3 or G5.2) in G94 found; "
-                              "nothing to advise")
-    chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
-    feed = program.feed_mm_min
-    for k in chosen:
-        moves = program.cut_moves(k)
-        bad = ~(feed[moves] > 0)
-        if bad.any():
-            line = int(program.move_line[moves[np.argmax(bad)]]) + 1
-            raise PathFormatError(f"{program.path}:{line}: {NO_FEED_RULE}")
+    chosen = checked_cuts(program, cuts, step_mm, feed_step_mm_min)
     return _cuts(program, chosen, table, step_mm, cap_mm_min, feed_step_mm_min, min_piece_mm, piece_points)
 
 
