@@ -67,15 +67,7 @@ def advice_columns(advice, rule_strengths: bool = False) -> dict[str, np.ndarray
     """The CSV columns of a fuzzy advice, units in the names (plus w_K_D per rule if asked)."""
     profile = advice.profile
     cols = dict(profile.samples.columns())
-    if advice.machine is not None:
-        ceiling = profile.max_feed_mm_s * 60.0
-        cols["safe_feed_mm_min"] = np.minimum(advice.machine.safe_feed_mm_s * 60.0, ceiling)
-        cols["safe_feed_ratio"] = advice.machine.safe_feed_ratio
-        cols["safe_feed_ratio_near"] = advice.machine.safe_feed_ratio_near
-    else:
-        cols["curvature_window_max_1_mm"] = advice.features.window_max_1_mm
-        cols["curvature_variation"] = advice.features.curvature_variation
-    cols["feed_pct_controller"] = advice.controller_pct
+    cols.update(advice.term_columns(profile.max_feed_mm_s * 60.0))
     cols["feed_pct"] = profile.feed_pct
     cols["feed_mm_min"] = profile.feed_mm_min
     if rule_strengths:

@@ -60,6 +60,19 @@ class FuzzyAdvice:
             return self.machine.safe_feed_ratio, self.machine.safe_feed_ratio_near
         return self.features.curvature_1_mm, self.features.curvature_variation
 
+    def term_columns(self, ceiling_mm_min) -> dict[str, np.ndarray]:
+        """The CSV columns of what the controller read and answered: the machine terms (the safe
+        feed capped at ``ceiling_mm_min``) or κ's window max and Dκ, then its output in %."""
+        if self.machine is not None:
+            cols = {"safe_feed_mm_min": np.minimum(self.machine.safe_feed_mm_s * 60.0, ceiling_mm_min),
+                    "safe_feed_ratio": self.machine.safe_feed_ratio,
+                    "safe_feed_ratio_near": self.machine.safe_feed_ratio_near}
+        else:
+            cols = {"curvature_window_max_1_mm": self.features.window_max_1_mm,
+                    "curvature_variation": self.features.curvature_variation}
+        cols["feed_pct_controller"] = self.controller_pct
+        return cols
+
     def rule_strengths(self) -> tuple[list[str], np.ndarray]:
         """Rule names and the firing strength of every rule at every point, (N, n_rules)."""
         engine = compile_table(self.table)

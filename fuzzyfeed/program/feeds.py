@@ -207,14 +207,7 @@ def advice_columns(pa: ProgramAdvice) -> dict[str, np.ndarray]:
         part = {"cut": np.full(n, cs.cut + 1),
                 "source_line": pa.program.move_line[cs.sample_move] + 1}
         part.update(cs.samples.columns())
-        if adv.machine is not None:
-            part["safe_feed_mm_min"] = np.minimum(adv.machine.safe_feed_mm_s * 60.0, ceil)
-            part["safe_feed_ratio"] = adv.machine.safe_feed_ratio
-            part["safe_feed_ratio_near"] = adv.machine.safe_feed_ratio_near
-        else:
-            part["curvature_window_max_1_mm"] = adv.features.window_max_1_mm
-            part["curvature_variation"] = adv.features.curvature_variation
-        part["feed_pct_controller"] = adv.controller_pct
+        part.update(adv.term_columns(ceil))
         part["feed_pct"] = adv.feed_pct
         part["programmed_feed_mm_min"] = ceil
         part["feed_mm_min"] = adv.feed_pct / 100.0 * ceil
