@@ -199,9 +199,10 @@ def _call_blocks(rows, row_move, feed_move, move_line, advised, piece_lo, p_val,
             break
         ok = new
     blocks = []
+    feed_row = np.array([r for r, _ in move_rows], dtype=np.int64)    # ascending
     for k in np.flatnonzero(ok).tolist():
         a, b = int(starts[k]), int(stops[k])
-        inner = [(r, m) for r, m in move_rows if a <= r < b]
+        inner = move_rows[int(np.searchsorted(feed_row, a)):int(np.searchsorted(feed_row, b))]
         if not inner:
             continue
         wants = [(p_val[piece_lo[m]], p_text[piece_lo[m]]) if m in advised
