@@ -21,8 +21,10 @@ HIST_BINS = 10_000 + 80_000
 # indices into the float state vector
 S_MAX, S_MAX_T, S_MAX_X, S_AIR, S_AIR_T, S_AIR_X, S_N_PART, S_N_AIR = 0, 1, 2, 5, 6, 7, 10, 11
 # indices into the int state vector
-I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG, I_NEAR = range(11)
-ISTATE_SIZE = 11
+I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG, I_NEAR, I_RIGHT, I_LEFT = range(13)
+ISTATE_SIZE = 13
+#: A window of at most this many blocks is scanned segment by segment (the boxes cost more there).
+SCAN_BLOCKS = 3
 
 
 @numba.njit(cache=True, nogil=True)
@@ -55,6 +57,31 @@ def _search_left(a, x):
         else:
             hi = mid
     return lo
+
+
+@numba.njit(cache=True, nogil=True)
+def _walk_right(a, x, c):
+    """_search_right(a, x) (the count of a ≤ x, a sorted) walked from the count ``c`` of a nearby
+    x (-1: none, binary search): the window moves a few vertices per tick."""
+    if c < 0:
+        return _search_right(a, x)
+    while c < a.shape[0] and a[c] <= x:
+        c += 1
+    while c > 0 and a[c - 1] > x:
+        c -= 1
+    return c
+
+
+@numba.njit(cache=True, nogil=True)
+def _walk_left(a, x, c):
+    """_search_left(a, x) (the count of a < x, a sorted) walked from ``c`` as :func:`_walk_right`."""
+    if c < 0:
+        return _search_left(a, x)
+    while c < a.shape[0] and a[c] < x:
+        c += 1
+    while c > 0 and a[c - 1] >= x:
+        c -= 1
+    return c
 
 
 @numba.njit(cache=True, nogil=True)
@@ -135,7 +162,9 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
     The nearest segment of the window is found as the plain scan would (the least squared distance,
     the first segment reaching it), skipping every block of ``block`` segments whose bounding box
     ``box_lo``/``box_hi`` is farther than the best distance found so far plus ``slack``
-    (:func:`nearest_pruned`); ``block`` = 0 scans every segment of the window.
+    (:func:`nearest_pruned`), a window of at most SCAN_BLOCKS blocks segment by segment, and the
+    window's ends walked from the last tick's; ``block`` = 0 is the plain pass (binary searches for
+    the window's ends, every segment of it scanned), the anchor the tests and benchmark hold it to.
 
     The servo state (y_hist: last two errors per axis, x_hist: last two tick velocities, prev: the
     last set-point) and the lookback ring buffers are read and left for the next call. Measured
@@ -211,9 +240,17 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
         q0, q1, q2 = c0 - e0, c1 - e1, c2 - e2
         s_lo = s_back - margin
         s_hi = s_cmd + margin
-        i_lo = min(max(_search_right(s_vertex, s_lo) - 1, 0), n - 1)
-        i_hi = min(max(_search_left(s_vertex, s_hi), i_lo + 1), n)
-        if block > 0:
+        if block > 0:   # the window's ends walked from the last tick's (the same counts)
+            c_right = _walk_right(s_vertex, s_lo, istate[I_RIGHT])
+            c_left = _walk_left(s_vertex, s_hi, istate[I_LEFT])
+            istate[I_RIGHT] = c_right
+            istate[I_LEFT] = c_left
+        else:
+            c_right = _search_right(s_vertex, s_lo)
+            c_left = _search_left(s_vertex, s_hi)
+        i_lo = min(max(c_right - 1, 0), n - 1)
+        i_hi = min(max(c_left, i_lo + 1), n)
+        if block > 0 and i_hi - i_lo > SCAN_BLOCKS * block:
             best_j, best_t, best_d2 = nearest_pruned(points, q0, q1, q2, i_lo, i_hi, istate[I_NEAR],
                                                      box_lo, box_hi, block, slack)
         else:

@@ -198,7 +198,7 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
     slack = BOX_SLACK_PER_MM * (1.0 + float(np.abs(motion.points).max()))
     box_args = (f64(box_lo), f64(box_hi), int(block), slack)
     seg_max = np.zeros(n)
-    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_NEAR, I_SEG, ISTATE_SIZE
+    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_LEFT, I_NEAR, I_RIGHT, I_SEG, ISTATE_SIZE
 
     hist = np.zeros(HIST_BINS, dtype=np.int64)
     fstate = np.zeros(12)
@@ -217,7 +217,7 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
         seg_ring = np.zeros(lookback + 1, dtype=np.int64)
         istate[I_K0] = -1
         istate[I_EV_N] = 0
-        istate[I_NEAR] = -1
+        istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = -1
         istate[I_SEG] = min(max(int(np.searchsorted(plan.t_start, min(k_from * ts, plan.time_s),
                                                      side="right")) - 1, 0), n - 1)
         k = k_from
