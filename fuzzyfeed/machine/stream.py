@@ -10,6 +10,12 @@ commanded on a feed move while the tool is still nearest a rapid it lags behind)
 error *in the part*, and the ticks over a threshold merged into runs (what the limit reference and
 the value plot need). Memory: O(segments) + a 64k-event buffer, never O(ticks).
 
+**Search.** Each tick's nearest segment of its lookback window is found by blocks of
+:data:`BOX_BLOCK` segments and their bounding boxes (:func:`segment_boxes`): a block farther than
+the best distance so far is skipped, since |q − X| ≥ dist(q, box) for every point X of its
+segments (:func:`fuzzyfeed.machine._ticks_jit.nearest_pruned`). The answer is the plain scan's bit
+for bit (``block=0``; tests/test_tick_search.py).
+
 **Windows.** ``windows`` runs only stretches of ticks [k_a, k_b]: each starts at rest
 :data:`WARMUP_TIME_CONSTANTS` servo time constants earlier, so its error at k_a differs from the
 whole run's by at most e^-16 ≈ 1e-7 of the largest lag (a first-order loop forgets its state as
