@@ -2,13 +2,15 @@
 
     python benchmarks/bench_machine_advice.py [--set library tiger raster] [--tiger PATH ...]
         [--raster-lines 1000000 ...] [--modes plain machine report] [--timeout 600] [--mem-gb 8]
-        [--every 1]
+        [--every 1] [--before DIR --modes plain machine before]
 
 For every program three commands, each one child process:
 
 - plain:   ``fuzzyfeed advise P -o x.csv``
 - machine: ``fuzzyfeed advise P -o x.csv --machine reference``
 - report:  ``fuzzyfeed advise P -o x.csv --machine reference --report r.html``
+- before (only if asked): the machine command with ``PYTHONPATH=DIR`` (``--before DIR``, another
+  checkout: the code before a change), its ratios to plain and of machine to it
 
 CPU s = the child's user + system time, peak RSS = its ru_maxrss (``os.wait4``). A run past
 ``--timeout`` s is killed and reported as ``timeout`` (its ratio a lower bound, ``>=``); the child's
@@ -39,17 +41,17 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 LIBRARY = HERE / "library"
-MODES = ("plain", "machine", "report")
+MODES = ("plain", "machine", "report", "before")
 
 
-def run_child(cmd: list[str], timeout_s: float, mem_bytes: int) -> dict:
+def run_child(cmd: list[str], timeout_s: float, mem_bytes: int, env: dict | None = None) -> dict:
     """Run ``cmd``; its CPU s, peak RSS MB and status (ok, timeout, memory cap, error N)."""
     def limit():
         resource.setrlimit(resource.RLIMIT_AS, (mem_bytes, mem_bytes))
 
     with tempfile.TemporaryFile() as err:
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err, preexec_fn=limit,
-                                start_new_session=True)
+                                start_new_session=True, env=env)
         start = time.monotonic()
         status = "ok"
         while True:
@@ -86,7 +88,7 @@ def count_lines(path: Path) -> int:
 
 def command(program: Path, mode: str, out: Path) -> list[str]:
     cmd = [sys.executable, "-m", "fuzzyfeed", "advise", str(program), "-o", str(out / "x.csv")]
-    if mode in ("machine", "report"):
+    if mode in ("machine", "report", "before"):
         cmd += ["--machine", "reference"]
     if mode == "report":
         cmd += ["--report", str(out / "r.html")]
@@ -128,7 +130,10 @@ def main() -> None:
                         default=["library", "tiger", "raster"])
     parser.add_argument("--tiger", nargs="*", default=[], metavar="PATH", help="tiger-sized programs")
     parser.add_argument("--raster-lines", nargs="*", type=int, default=[1_000_000])
-    parser.add_argument("--modes", nargs="+", choices=MODES, default=list(MODES))
+    parser.add_argument("--modes", nargs="+", choices=MODES, default=list(MODES[:3]))
+    parser.add_argument("--before", metavar="DIR", default=None,
+                        help="mode 'before': the machine advice with PYTHONPATH=DIR (another checkout, "
+                             "e.g. /work/main), its ratio to plain and to 'machine' printed")
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per run (default: 600)")
     parser.add_argument("--mem-gb", type=float, default=8.0, help="address-space cap per run (default: 8)")
     parser.add_argument("--every", type=int, default=1, help="library: every N-th program by size")
@@ -157,14 +162,21 @@ def main() -> None:
             lines = count_lines(path)
             row = {"group": group, "name": path.name, "lines": lines}
             for mode in args.modes:
-                row[mode] = run_child(command(path, mode, tmp), args.timeout, mem)
+                env = None
+                if mode == "before":
+                    if not args.before:
+                        parser.error("mode 'before' needs --before DIR")
+                    env = dict(os.environ, PYTHONPATH=args.before)
+                row[mode] = run_child(command(path, mode, tmp), args.timeout, mem, env)
             results.append(row)
             rm = ratio(row.get("machine"), row.get("plain"))
             rr = ratio(row.get("report"), row.get("plain"))
             show = lambda r: "-" if r is None else (">=" if r[1] else "") + f"{r[0]:.2f}"
             print(f"{group:8s} {path.name[:34]:34s} {lines:8d} lines | plain {fmt(row.get('plain'))} | "
                   f"machine {fmt(row.get('machine'))} x{show(rm)} | report {fmt(row.get('report'))} "
-                  f"x{show(rr)}", flush=True)
+                  f"x{show(rr)}" + (f" | before {fmt(row.get('before'))} x{show(ratio(row['before'], row.get('plain')))}"
+                                    f", machine/before x{show(ratio(row.get('machine'), row['before']))}"
+                                    if row.get("before") else ""), flush=True)
     lib = [r for r in results if r["group"] == "library"]
     mo = [x for x in (ratio(r.get("machine"), r.get("plain")) for r in lib) if x is not None]
     ro = [x for x in (ratio(r.get("report"), r.get("plain")) for r in lib) if x is not None]

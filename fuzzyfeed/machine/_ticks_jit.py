@@ -21,7 +21,10 @@ HIST_BINS = 10_000 + 80_000
 # indices into the float state vector
 S_MAX, S_MAX_T, S_MAX_X, S_AIR, S_AIR_T, S_AIR_X, S_N_PART, S_N_AIR = 0, 1, 2, 5, 6, 7, 10, 11
 # indices into the int state vector
-I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG = range(10)
+I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG, I_NEAR, I_RIGHT, I_LEFT = range(13)
+ISTATE_SIZE = 13
+#: A window of at most this many blocks is scanned segment by segment (the boxes cost more there).
+SCAN_BLOCKS = 3
 
 
 @numba.njit(cache=True, nogil=True)
@@ -57,10 +60,111 @@ def _search_left(a, x):
 
 
 @numba.njit(cache=True, nogil=True)
+def _walk_right(a, x, c):
+    """_search_right(a, x) (the count of a ≤ x, a sorted) walked from the count ``c`` of a nearby
+    x (-1: none, binary search): the window moves a few vertices per tick."""
+    if c < 0:
+        return _search_right(a, x)
+    while c < a.shape[0] and a[c] <= x:
+        c += 1
+    while c > 0 and a[c - 1] > x:
+        c -= 1
+    return c
+
+
+@numba.njit(cache=True, nogil=True)
+def _walk_left(a, x, c):
+    """_search_left(a, x) (the count of a < x, a sorted) walked from ``c`` as :func:`_walk_right`."""
+    if c < 0:
+        return _search_left(a, x)
+    while c < a.shape[0] and a[c] < x:
+        c += 1
+    while c > 0 and a[c - 1] >= x:
+        c -= 1
+    return c
+
+
+@numba.njit(cache=True, nogil=True)
+def _seg_d2(points, q0, q1, q2, jj):
+    """Squared distance from q to segment jj, and the foot's fraction t (the scan's operations)."""
+    dx = points[jj + 1, 0] - points[jj, 0]
+    dy = points[jj + 1, 1] - points[jj, 1]
+    dz = points[jj + 1, 2] - points[jj, 2]
+    l2 = (dx * dx + dy * dy) + dz * dz
+    r0 = q0 - points[jj, 0]
+    r1 = q1 - points[jj, 1]
+    r2 = q2 - points[jj, 2]
+    tt = ((r0 * dx + r1 * dy) + r2 * dz) / l2
+    tt = min(max(tt, 0.0), 1.0)
+    o0 = r0 - dx * tt
+    o1 = r1 - dy * tt
+    o2 = r2 - dz * tt
+    return (o0 * o0 + o1 * o1) + o2 * o2, tt
+
+
+@numba.njit(cache=True, nogil=True)
+def nearest_scan(points, q0, q1, q2, i_lo, i_hi):
+    """The nearest of segments i_lo … i_hi − 1 to q: (index, foot fraction, squared distance); the
+    first one reaching the least squared distance (the reference scan, every segment)."""
+    best_d2 = np.inf
+    best_j = i_lo
+    best_t = 0.0
+    for jj in range(i_lo, i_hi):
+        d2, tt = _seg_d2(points, q0, q1, q2, jj)
+        if d2 < best_d2:
+            best_d2 = d2
+            best_j = jj
+            best_t = tt
+    return best_j, best_t, best_d2
+
+
+@numba.njit(cache=True, nogil=True)
+def nearest_pruned(points, q0, q1, q2, i_lo, i_hi, seed, box_lo, box_hi, block, slack):
+    """:func:`nearest_scan`'s answer (same index, fraction and squared distance), skipping blocks.
+
+    Bound: every point X of a segment of block b lies in the block's bounding box, so
+    |q − X| ≥ dist(q, box_b). Start from the segment ``seed`` (the last tick's nearest, clipped to
+    the window) with the distance d*; a block with dist(q, box_b) > d* + slack holds no segment at
+    d* or nearer (slack covers the rounding of both sides: far above it, here 1e-9 mm per mm of
+    coordinate), so only the other blocks are scanned, in order; ties go to the lower index, as
+    in the scan (it keeps the first of equal distances)."""
+    j0 = min(max(seed, i_lo), i_hi - 1)
+    slack = slack + 1e-12 * ((abs(q0) + abs(q1)) + abs(q2))
+    best_d2, best_t = _seg_d2(points, q0, q1, q2, j0)
+    best_j = j0
+    lim = math.sqrt(best_d2) + slack
+    lim2 = lim * lim
+    for b in range(i_lo // block, (i_hi - 1) // block + 1):
+        g0 = max(box_lo[b, 0] - q0, q0 - box_hi[b, 0], 0.0)
+        g1 = max(box_lo[b, 1] - q1, q1 - box_hi[b, 1], 0.0)
+        g2 = max(box_lo[b, 2] - q2, q2 - box_hi[b, 2], 0.0)
+        if (g0 * g0 + g1 * g1) + g2 * g2 > lim2:
+            continue
+        for jj in range(max(b * block, i_lo), min((b + 1) * block, i_hi)):
+            d2, tt = _seg_d2(points, q0, q1, q2, jj)
+            if d2 < best_d2 or (d2 == best_d2 and jj < best_j):
+                if d2 < best_d2:
+                    lim = math.sqrt(d2) + slack
+                    lim2 = lim * lim
+                best_d2 = d2
+                best_j = jj
+                best_t = tt
+    return best_j, best_t, best_d2
+
+
+@numba.njit(cache=True, nogil=True)
 def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_acc, t_cruise,
               measured, fb, fa, ts, total, k_from, k_measure, k_end, lookback, margin, keep_mm,
-              y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i):
+              y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
+              box_lo, box_hi, block, slack):
     """Ticks k_from … k_end (inclusive) of a plan; ticks before k_measure only run the servo.
+
+    The nearest segment of the window is found as the plain scan would (the least squared distance,
+    the first segment reaching it), skipping every block of ``block`` segments whose bounding box
+    ``box_lo``/``box_hi`` is farther than the best distance found so far plus ``slack``
+    (:func:`nearest_pruned`), a window of at most SCAN_BLOCKS blocks segment by segment, and the
+    window's ends walked from the last tick's; ``block`` = 0 is the plain pass (binary searches for
+    the window's ends, every segment of it scanned), the anchor the tests and benchmark hold it to.
 
     The servo state (y_hist: last two errors per axis, x_hist: last two tick velocities, prev: the
     last set-point) and the lookback ring buffers are read and left for the next call. Measured
@@ -136,29 +240,22 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
         q0, q1, q2 = c0 - e0, c1 - e1, c2 - e2
         s_lo = s_back - margin
         s_hi = s_cmd + margin
-        i_lo = min(max(_search_right(s_vertex, s_lo) - 1, 0), n - 1)
-        i_hi = min(max(_search_left(s_vertex, s_hi), i_lo + 1), n)
-        best_d2 = np.inf
-        best_j = i_lo
-        best_t = 0.0
-        for jj in range(i_lo, i_hi):
-            dx = points[jj + 1, 0] - points[jj, 0]
-            dy = points[jj + 1, 1] - points[jj, 1]
-            dz = points[jj + 1, 2] - points[jj, 2]
-            l2 = (dx * dx + dy * dy) + dz * dz
-            r0 = q0 - points[jj, 0]
-            r1 = q1 - points[jj, 1]
-            r2 = q2 - points[jj, 2]
-            tt = ((r0 * dx + r1 * dy) + r2 * dz) / l2
-            tt = min(max(tt, 0.0), 1.0)
-            o0 = r0 - dx * tt
-            o1 = r1 - dy * tt
-            o2 = r2 - dz * tt
-            d2 = (o0 * o0 + o1 * o1) + o2 * o2
-            if d2 < best_d2:
-                best_d2 = d2
-                best_j = jj
-                best_t = tt
+        if block > 0:   # the window's ends walked from the last tick's (the same counts)
+            c_right = _walk_right(s_vertex, s_lo, istate[I_RIGHT])
+            c_left = _walk_left(s_vertex, s_hi, istate[I_LEFT])
+            istate[I_RIGHT] = c_right
+            istate[I_LEFT] = c_left
+        else:
+            c_right = _search_right(s_vertex, s_lo)
+            c_left = _search_left(s_vertex, s_hi)
+        i_lo = min(max(c_right - 1, 0), n - 1)
+        i_hi = min(max(c_left, i_lo + 1), n)
+        if block > 0 and i_hi - i_lo > SCAN_BLOCKS * block:
+            best_j, best_t, best_d2 = nearest_pruned(points, q0, q1, q2, i_lo, i_hi, istate[I_NEAR],
+                                                     box_lo, box_hi, block, slack)
+        else:
+            best_j, best_t, best_d2 = nearest_scan(points, q0, q1, q2, i_lo, i_hi)
+        istate[I_NEAR] = best_j
         dist = math.sqrt(best_d2)
         f0 = points[best_j, 0] + (points[best_j + 1, 0] - points[best_j, 0]) * best_t
         f1 = points[best_j, 1] + (points[best_j + 1, 1] - points[best_j, 1]) * best_t

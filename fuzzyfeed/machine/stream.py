@@ -10,6 +10,12 @@ commanded on a feed move while the tool is still nearest a rapid it lags behind)
 error *in the part*, and the ticks over a threshold merged into runs (what the limit reference and
 the value plot need). Memory: O(segments) + a 64k-event buffer, never O(ticks).
 
+**Search.** Each tick's nearest segment of its lookback window is found by blocks of
+:data:`BOX_BLOCK` segments and their bounding boxes (:func:`segment_boxes`): a block farther than
+the best distance so far is skipped, since |q − X| ≥ dist(q, box) for every point X of its
+segments (:func:`fuzzyfeed.machine._ticks_jit.nearest_pruned`). The answer is the plain scan's bit
+for bit (``block=0``; tests/test_tick_search.py).
+
 **Windows.** ``windows`` runs only stretches of ticks [k_a, k_b]: each starts at rest
 :data:`WARMUP_TIME_CONSTANTS` servo time constants earlier, so its error at k_a differs from the
 whole run's by at most e^-16 ≈ 1e-7 of the largest lag (a first-order loop forgets its state as
@@ -31,6 +37,11 @@ from fuzzyfeed.machine.planner import Plan
 WARMUP_TIME_CONSTANTS = 16.0
 #: Events (merged ticks over the threshold) held before they are handed to Python.
 EVENT_CHUNK = 65_536
+#: Segments per bounding box of the pruned nearest-segment search (:func:`segment_boxes`).
+BOX_BLOCK = 8
+#: The pruned search's rounding slack, mm per mm of the largest coordinate (distances are exact
+#: to ~1e-16 of it; see :func:`fuzzyfeed.machine._ticks_jit.nearest_pruned`).
+BOX_SLACK_PER_MM = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,11 +159,30 @@ def segment_windows(plan: Plan, machine: Machine, segments: np.ndarray) -> list[
     return out
 
 
+def segment_boxes(points: np.ndarray, block: int) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned bounding box (lo, hi), each (⌈n/block⌉, 3), of every block of ``block``
+    consecutive segments of the polyline ``points`` (n+1, 3): block b holds segments
+    b·block … (b+1)·block − 1, i.e. vertices b·block … (b+1)·block."""
+    pts = np.asarray(points, dtype=float)
+    n = pts.shape[0] - 1
+    nb = -(-n // block)
+    starts = np.arange(nb) * block
+    lo = np.minimum.reduceat(pts[:-1], starts, axis=0)
+    hi = np.maximum.reduceat(pts[:-1], starts, axis=0)
+    ends = np.minimum(starts + block, n)            # each block's last vertex
+    return np.minimum(lo, pts[ends]), np.maximum(hi, pts[ends])
+
+
 def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None,
-                keep_mm: float | None = None, windows: list[tuple[int, int]] | None = None) -> StreamRun:
+                keep_mm: float | None = None, windows: list[tuple[int, int]] | None = None,
+                block: int = BOX_BLOCK, boxes: tuple[np.ndarray, np.ndarray] | None = None) -> StreamRun:
     """Run ``plan`` on ``machine``'s servo tick by tick (module docstring): all ticks, or only
     ``windows``; the contour error measured at the ticks commanded on ``measured`` segments
-    (default all); ticks over ``keep_mm`` (default the machine's tolerance) kept as events."""
+    (default all); ticks over ``keep_mm`` (default the machine's tolerance) kept as events.
+
+    The nearest segment is searched by blocks of ``block`` segments and their bounding boxes
+    (:func:`segment_boxes`, or ``boxes`` given: the tests give wrong ones to see them caught);
+    ``block=0`` scans every segment of each tick's window. Both give the same floats."""
     motion = plan.motion
     n = plan.length.size
     meas = np.ones(n, bool) if measured is None else np.ascontiguousarray(measured, dtype=bool)
@@ -167,13 +197,19 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
     arrays = (f64(motion.points), f64(plan.unit), f64(plan.length), f64(plan.segment_arc_start()),
               f64(plan.t_start), f64(plan.v_entry), f64(plan.v_peak), f64(plan.acc), f64(plan.t_acc),
               f64(plan.t_cruise), np.array(meas, dtype=np.bool_), fb, fa)
+    if block > 0:
+        box_lo, box_hi = segment_boxes(motion.points, block) if boxes is None else boxes
+    else:
+        box_lo = box_hi = np.zeros((1, 3))
+    slack = BOX_SLACK_PER_MM * (1.0 + float(np.abs(motion.points).max()))
+    box_args = (f64(box_lo), f64(box_hi), int(block), slack)
     seg_max = np.zeros(n)
-    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_SEG
+    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_LEFT, I_NEAR, I_RIGHT, I_SEG, ISTATE_SIZE
 
     hist = np.zeros(HIST_BINS, dtype=np.int64)
     fstate = np.zeros(12)
     fstate[[0, 5]] = -1.0
-    istate = np.full(10, -1, dtype=np.int64)
+    istate = np.full(ISTATE_SIZE, -1, dtype=np.int64)
     ev_f = np.zeros((EVENT_CHUNK, 6))
     ev_i = np.zeros((EVENT_CHUNK, 3), dtype=np.int64)
     parts_f, parts_i = [], []
@@ -187,12 +223,14 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
         seg_ring = np.zeros(lookback + 1, dtype=np.int64)
         istate[I_K0] = -1
         istate[I_EV_N] = 0
+        istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = -1
         istate[I_SEG] = min(max(int(np.searchsorted(plan.t_start, min(k_from * ts, plan.time_s),
                                                      side="right")) - 1, 0), n - 1)
         k = k_from
         while k <= kb:
             k = run(*arrays, ts, plan.time_s, k, ka, kb, lookback, WINDOW_MARGIN_MM, keep,
-                    y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i)
+                    y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
+                    *box_args)
             m = int(istate[I_EV_N])
             if m:
                 parts_f.append(ev_f[:m].copy())

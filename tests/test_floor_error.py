@@ -1,0 +1,59 @@
+"""floor_errors (issue 36 item 3) against the whole-array tick reference at the floor factor, and
+the two kinds of place it tells apart: a feed move entered from rapids (the error stays) and a
+corner between feed moves (the error goes with the feed)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fuzzyfeed.errors import InputError
+from fuzzyfeed.machine.description import load_machine
+from fuzzyfeed.machine.floor_error import floor_errors
+from fuzzyfeed.machine.planner import Motion
+from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS
+from fuzzyfeed.machine.trace import trace_motion
+
+# _from_curve's line 89 in small: retract by rapid, a short rapid across, a plunge from above the
+# stock at F 500 mm/min, then a cut; and a fast 90-degree corner between two feed moves
+POINTS = np.array([[0, 0, -2.0], [0, 0, 10.0], [-0.12, -0.54, 10.0], [-0.12, -0.54, -0.2],
+                   [5.0, -0.54, -0.2], [5.0, 5.0, -0.2]])
+RAPID = np.array([True, True, False, False, False])
+FEED = np.array([np.nan, np.nan, 8.3312, 80.0, 80.0])
+
+
+def _motion(scale: float = 1.0) -> Motion:
+    return Motion(POINTS, np.where(RAPID, FEED, FEED * scale), RAPID, np.full(POINTS.shape[0], np.nan))
+
+
+def _reference(scale: float, seg: int) -> float:
+    """Largest error in the part on ``seg`` over its first WARMUP_TIME_CONSTANTS time constants,
+    from every tick of the whole run (trace_motion)."""
+    machine = load_machine("reference")
+    tr = trace_motion(_motion(scale), machine, ~RAPID)
+    t0 = tr.plan.t_start[seg]
+    span = WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s
+    pick = (tr.tick_segment == seg) & (tr.tick_time_s <= t0 + span + machine.ts_s)
+    return float(tr.contour_mm[pick].max(initial=0.0))
+
+
+def test_floor_errors_equal_the_tick_reference():
+    machine = load_machine("reference")
+    got = floor_errors(_motion(), ~RAPID, machine, np.array([2, 4]))
+    for seg, value in zip((2, 4), got):
+        assert value == pytest.approx(_reference(0.01, seg), abs=1e-3 * 1e-3)
+
+
+def test_a_rapid_entry_keeps_its_error_a_feed_corner_loses_it():
+    machine = load_machine("reference")
+    tol = machine.contour_tol_um * 1e-3
+    at_one = floor_errors(_motion(), ~RAPID, machine, np.array([2, 4]), floor=1.0)
+    at_floor = floor_errors(_motion(), ~RAPID, machine, np.array([2, 4]))
+    assert at_one[0] > tol and at_floor[0] > tol            # the plunge after rapids: no factor fixes it
+    assert at_floor[0] > 0.5 * at_one[0]
+    assert at_one[1] > tol and at_floor[1] < min(tol, 0.1 * at_one[1])   # the feed corner: the factor does
+
+
+def test_floor_is_checked():
+    with pytest.raises(InputError, match="floor = 0"):
+        floor_errors(_motion(), ~RAPID, load_machine("reference"), np.array([2]), floor=0.0)
