@@ -24,7 +24,7 @@ from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.program.coverage import Coverage, program_coverage
 from fuzzyfeed.program.verify import Verification
-from fuzzyfeed.program.feeds import ProgramAdvice, advice_columns, advise_program
+from fuzzyfeed.program.feeds import advice_columns, advise_program
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
 from fuzzyfeed.program.reference import Uniform, check_uniform, limit_reference, uniform_slowdown
@@ -215,13 +215,61 @@ def uniform_row(u: Uniform) -> ValueRow:
 
 
 @dataclass(frozen=True, eq=False)
-class Evaluation:
-    """A program advised for a machine: the advice of every cut, which cuts it is applied to (those
-    that break the tolerance as written), the program text to write and the report. ``uniform``
-    and ``path``: the uniform slowdown and the written program's path, kept when the uniform row
-    is not yet checked by a whole run (:meth:`checked`)."""
+class AdvisedFeeds:
+    """The advice of a program's cuts as the pieces its moves are written as (move, end fraction,
+    feed mm/min, in move order); the per-sample CSV rows are made again piece by piece when asked
+    (:meth:`pieces`: the advice in pieces, :mod:`fuzzyfeed.program.stream_machine`, bit for bit
+    the whole cuts' advice), never held for a whole program."""
 
-    advice: ProgramAdvice
+    piece_move: np.ndarray
+    piece_end: np.ndarray
+    piece_feed_mm_min: np.ndarray
+    remake: object            # () -> iterator of column dicts, in sample order
+
+    def pieces(self):
+        return self.remake()
+
+
+def advised_feeds(program: Program, table: RuleTable, machine: Machine, cuts: list[int], *,
+                  cap_mm_min, step_mm: float, feed_step_mm_min: float, min_piece_mm: float) -> AdvisedFeeds:
+    """The advice of ``cuts`` for ``machine``: in pieces (a machine table with a filter in mm or none,
+    or a plain table), else the whole cuts' (:func:`~fuzzyfeed.program.feeds.advise_program`)."""
+    from fuzzyfeed.fuzzy.rules import MACHINE
+    from fuzzyfeed.program.stream import concat_pieces, stream_program_advice
+    from fuzzyfeed.program.stream_machine import stream_machine_advice, streams
+
+    kw = dict(cuts=cuts, cap_mm_min=cap_mm_min, step_mm=step_mm, feed_step_mm_min=feed_step_mm_min,
+              min_piece_mm=min_piece_mm)
+    if table.inputs == MACHINE and streams(table):
+        def stream():
+            return stream_machine_advice(program, table, machine, **kw)
+    elif table.inputs != MACHINE:
+        def stream():
+            return stream_program_advice(program, table, **kw)
+    else:
+        pa = advise_program(program, table, machine=machine, **kw)
+        return AdvisedFeeds(pa.piece_move, pa.piece_end, pa.piece_feed_mm_min, lambda: iter([advice_columns(pa)]))
+    first = stream()      # arguments checked here; the pieces' rows dropped as they come
+    pm, pe, pf = concat_pieces(list(_feeds_only(first)))
+    return AdvisedFeeds(pm, pe, pf, lambda: (p.columns for p in stream()))
+
+
+def _feeds_only(pieces):
+    from fuzzyfeed.program.stream import AdvicePiece
+
+    for p in pieces:
+        yield AdvicePiece(cut=p.cut, columns={}, piece_move=p.piece_move, piece_end=p.piece_end,
+                          piece_feed_mm_min=p.piece_feed_mm_min)
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """A program advised for a machine: the advice of every cut (:class:`AdvisedFeeds`), which cuts
+    it is applied to (those that break the tolerance as written), the program text to write and the
+    report. ``uniform`` and ``path``: the uniform slowdown and the written program's path, kept when
+    the uniform row is not yet checked by a whole run (:meth:`checked`)."""
+
+    advice: AdvisedFeeds
     advised_cuts: tuple[int, ...]
     text: str
     report: ValueReport
@@ -244,15 +292,23 @@ class Evaluation:
                         reference_deferred=False)
         return replace(self, report=r, uniform=u, path=None)
 
-    def columns(self) -> dict[str, np.ndarray]:
+    def column_pieces(self):
         """The CSV columns (:func:`~fuzzyfeed.program.feeds.advice_columns`) plus ``advised``: 1 on
-        the cuts the advice is applied to; on the others feed_pct is 100 and feed_mm_min the F."""
-        cols = advice_columns(self.advice)
-        applied = np.isin(cols["cut"] - 1, list(self.advised_cuts))
-        cols["feed_pct"] = np.where(applied, cols["feed_pct"], 100.0)
-        cols["feed_mm_min"] = np.where(applied, cols["feed_mm_min"], cols["programmed_feed_mm_min"])
-        cols["advised"] = applied.astype(np.int64)
-        return cols
+        the cuts the advice is applied to; on the others feed_pct is 100 and feed_mm_min the F;
+        piece by piece, in sample order."""
+        advised = list(self.advised_cuts)
+        for cols in self.advice.pieces():
+            cols = dict(cols)
+            applied = np.isin(cols["cut"] - 1, advised)
+            cols["feed_pct"] = np.where(applied, cols["feed_pct"], 100.0)
+            cols["feed_mm_min"] = np.where(applied, cols["feed_mm_min"], cols["programmed_feed_mm_min"])
+            cols["advised"] = applied.astype(np.int64)
+            yield cols
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """:meth:`column_pieces` end to end."""
+        parts = list(self.column_pieces())
+        return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
 
 
 def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, cap_mm_min: float | None = None,
@@ -282,8 +338,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
     over = [k for k in cuts_over(written, tol) if k in chosen]
     step("advice")
-    pa = advise_program(program, table, cuts=chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
-                        feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm, machine=machine)
+    pa = advised_feeds(program, table, machine, chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
+                       feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm)
     keep = np.isin(program.cut[pa.piece_move], over) if pa.piece_move.size else np.zeros(0, bool)
     checked = None
     if verify is None:
