@@ -101,7 +101,10 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
                          f"sampled every {step_mm:g} mm (--step-mm) needs {counts[i] + 1:.4g} points, more "
                          f"than the budget of {MAX_POINTS:,} (a move is advised whole; raise --step-mm)")
     feed = program.feed_mm_min
-    top = float(feed[moves].max()) if cap is None else min(float(feed[moves].max()), cap)
+    # the fastest ceiling of the cut: F (capped), at most what the axes reach along a direction
+    # (min over axes of v_i / |u_i| <= sqrt(3) max v_i for a unit u)
+    top = min(float(feed[moves].max()), cap if cap is not None else np.inf,
+              60.0 * np.sqrt(3.0) * float(np.max(machine.axis_vel_mm_s)))
     lengths = move_lengths(program, moves, kinds, chord)
     plan = plan_pieces(lengths, counts, min(piece_points, MAX_POINTS), machine_margin_mm(table, machine, top / 60.0))
     geo = run_geometry(program, moves, kinds)
