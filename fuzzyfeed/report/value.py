@@ -355,7 +355,9 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         advised_path = path
     else:
         step("advised run")
-        advised_path = program_path(parse_program(text, program.path, tools), machine.chord_tol_mm)
+        advised_path = program_path(_advised_model(program, text, tools, verify is None, pa.piece_move[keep],
+                                                   pa.piece_end[keep], pa.piece_feed_mm_min[keep]),
+                                    machine.chord_tol_mm)
         advised_run = run_program(advised_path, machine)
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, check=check_uniform,
@@ -382,6 +384,18 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     pending = (u is not None and not u.checked) or report.reference_deferred
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report,
                       uniform=u if pending else None, path=path if pending else None)
+
+
+def _advised_model(program: Program, text: str, tools, plain: bool, *pieces) -> Program:
+    """The advised program's model: built from the written one when the text is the plain rewrite
+    and :func:`~fuzzyfeed.program.advised.advised_program` reproduces it, else the text read back."""
+    if plain:
+        from fuzzyfeed.program.advised import advised_program
+
+        model = advised_program(program, *pieces)
+        if model is not None:
+            return model
+    return parse_program(text, program.path, tools)
 
 
 def _along(path: ProgramPath):
