@@ -358,7 +358,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         advised_path = program_path(_advised_model(program, text, tools, verify is None, pa.piece_move[keep],
                                                    pa.piece_end[keep], pa.piece_feed_mm_min[keep]),
                                     machine.chord_tol_mm)
-        advised_run = run_program(advised_path, machine)
+        advised_run = run_program(advised_path, machine, keep_plans=False)   # reported, not searched on
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, check=check_uniform,
                              **({} if max_ticks is None else {"max_ticks": max_ticks}))
