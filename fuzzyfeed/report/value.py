@@ -349,16 +349,21 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         text, checked = verify(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
     u = None
     if not over:
-        advised_run = written
         uniform_factor, u_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
         ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
-        advised_path = path
+        advised_row, worst, air = ValueRow.of("advised", written), written.worst(), written.worst_air()
+        trace = feed_trace(path, written, path, tol)
     else:
         step("advised run")
         advised_path = program_path(_advised_model(program, text, tools, verify is None, pa.piece_move[keep],
                                                    pa.piece_end[keep], pa.piece_feed_mm_min[keep]),
                                     machine.chord_tol_mm)
         advised_run = run_program(advised_path, machine, keep_plans=False)   # reported, not searched on
+        # what the report takes of the advised run, then the run and its path go (a 10⁶-move
+        # program: ~0.2 GB) before the uniform slowdown's search
+        advised_row, worst, air = ValueRow.of("advised", advised_run), advised_run.worst(), advised_run.worst_air()
+        trace = feed_trace(path, written, advised_path, tol)
+        del advised_run, advised_path
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, check=check_uniform,
                              **({} if max_ticks is None else {"max_ticks": max_ticks}))
@@ -368,17 +373,15 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
-    worst = advised_run.worst()
-    air = advised_run.worst_air()
     report = ValueReport(
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
-        advised=ValueRow.of("advised", advised_run),
+        advised=advised_row,
         uniform=u_row,
         uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
-        trace=feed_trace(path, written, advised_path, tol), coverage=program_coverage(program),
+        trace=trace, coverage=program_coverage(program),
         verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
         reference_deferred=bool(over) and reference and not check_uniform)
     pending = (u is not None and not u.checked) or report.reference_deferred
