@@ -53,7 +53,7 @@ def advised_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
     n_lines = len(program.lines)
     if split.size == 0:
         src = np.arange(kind.size)
-        new_line = line.copy()
+        new_line = line
         reps = None
     else:
         if not (kind[split] == LINE).all() or not np.asarray(program.absolute)[line[split]].all():
@@ -66,9 +66,9 @@ def advised_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
         new_line = shift[line[src]] + line[src] + (np.arange(src.size) - first)
         reps = np.ones(n_lines, np.int64)
         reps[line[split]] += count[split] - 1
-    start = program.start[src].copy()
-    end = program.end[src].copy()
-    feed = program.feed_mm_min[src].copy()
+    start = program.start if split.size == 0 else program.start[src]
+    end = program.end if split.size == 0 else program.end[src]
+    feed = program.feed_mm_min[src]
     out_at = np.cumsum(count) - count            # the first new move of every old move
     # advised moves: their pieces' F as written (the text's value: rounded down in mm/min)
     for m in advised.tolist():
@@ -93,14 +93,18 @@ def advised_program(program: Program, piece_move: np.ndarray, piece_end: np.ndar
         end[a:a + hi - lo] = pts
         start[a + 1:a + hi - lo] = pts[:-1]
     stops = None
-    if program.stops is not None:
+    if program.stops is not None and split.size == 0:
+        stops = program.stops
+    elif program.stops is not None:
         last = np.ones(src.size, bool)
         last[:-1] = src[1:] != src[:-1]
         stops = program.stops[src] & last
-    per_move = {k: getattr(program, k)[src] for k in ("kind", "cut", "centre", "turns", "arc_plane", "no_split")}
+    # the written program's own arrays where no move is split (a 10⁶-move program: ~0.1 GB of copies)
+    pick = (lambda v: v) if split.size == 0 else (lambda v: v[src])
+    per_move = {k: pick(getattr(program, k)) for k in ("kind", "cut", "centre", "turns", "arc_plane", "no_split")}
     for k in ("rotary", "known", "comp_unknown"):
         v = getattr(program, k)
-        per_move[k] = None if v is None else v[src]
+        per_move[k] = None if v is None else pick(v)
     per_line = {} if reps is None else {k: np.repeat(getattr(program, k), reps) for k in _PER_LINE}
     end_line = program.end_line + (0 if reps is None else int(reps[:program.end_line].sum() - program.end_line))
     return replace(program, move_line=new_line, start=start, end=end, feed_mm_min=feed, stops=stops,

@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fuzzyfeed.base.memory import release_free_memory
 from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.program.coverage import Coverage, program_coverage
@@ -340,6 +341,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     step("advice")
     pa = advised_feeds(program, table, machine, chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
                        feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm)
+    release_free_memory()
     keep = np.isin(program.cut[pa.piece_move], over) if pa.piece_move.size else np.zeros(0, bool)
     checked = None
     if verify is None:
@@ -364,6 +366,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         advised_row, worst, air = ValueRow.of("advised", advised_run), advised_run.worst(), advised_run.worst_air()
         trace = feed_trace(path, written, advised_path, tol)
         del advised_run, advised_path
+        release_free_memory()
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, check=check_uniform,
                              **({} if max_ticks is None else {"max_ticks": max_ticks}))
