@@ -72,10 +72,13 @@ def stream_machine_advice(program: Program, table: RuleTable, machine: Machine, 
                           cap_mm_min: float | None = None,
                           feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
                           min_piece_mm: float = DEFAULT_MIN_PIECE_MM,
-                          piece_points: int = DEFAULT_PIECE_POINTS) -> Iterator[AdvicePiece]:
+                          piece_points: int = DEFAULT_PIECE_POINTS,
+                          geometry: dict | None = None) -> Iterator[AdvicePiece]:
     """:func:`fuzzyfeed.program.feeds.advise_program` with a machine table, piece by piece (module
     docstring): the same CSV rows and pieces, in order. Arguments and the cuts' F are checked at the
-    call; the pieces are made as the iterator is consumed."""
+    call; the pieces are made as the iterator is consumed. ``geometry``: a dict kept between runs
+    of the same advice, cut -> its :func:`~fuzzyfeed.program.cuts.run_geometry` (17 bytes a move;
+    its fit passes ~0.4 KB a vertex while it runs)."""
     if isinstance(piece_points, bool) or not isinstance(piece_points, (int, np.integer)) or piece_points < 1:
         raise InputError(f"piece_points = {piece_points!r}; must be an integer >= 1")
     if table.inputs != MACHINE:
@@ -88,10 +91,10 @@ def stream_machine_advice(program: Program, table: RuleTable, machine: Machine, 
     engine = compile_table(table)
     return (piece for k in chosen for piece in _advise_cut(program, k, table, machine, engine, step_mm,
                                                            cap_mm_min, feed_step_mm_min, min_piece_mm,
-                                                           int(piece_points)))
+                                                           int(piece_points), geometry))
 
 
-def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min_piece, piece_points):
+def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min_piece, piece_points, cache):
     moves, kinds, chord = cut_moves(program, k)
     n = moves.size
     counts = move_sample_counts(program, moves, kinds, chord, step_mm)
@@ -107,7 +110,11 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
               60.0 * np.sqrt(3.0) * float(np.max(machine.axis_vel_mm_s)))
     lengths = move_lengths(program, moves, kinds, chord)
     plan = plan_pieces(lengths, counts, min(piece_points, MAX_POINTS), machine_margin_mm(table, machine, top / 60.0))
-    geo = run_geometry(program, moves, kinds)
+    geo = cache.get(k) if cache is not None else None
+    if geo is None:
+        geo = run_geometry(program, moves, kinds)
+        if cache is not None:
+            cache[k] = geo
     gstart = np.concatenate([[0], np.cumsum(counts)])
     n_pieces = plan.lo.size
     entry = _entry_direction(program, int(moves[0]))

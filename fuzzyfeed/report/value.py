@@ -242,8 +242,10 @@ def advised_feeds(program: Program, table: RuleTable, machine: Machine, cuts: li
     kw = dict(cuts=cuts, cap_mm_min=cap_mm_min, step_mm=step_mm, feed_step_mm_min=feed_step_mm_min,
               min_piece_mm=min_piece_mm)
     if table.inputs == MACHINE and streams(table):
+        geometry: dict = {}        # the cuts' G1-run fits, made once for the advice and its CSV rows
+
         def stream():
-            return stream_machine_advice(program, table, machine, **kw)
+            return stream_machine_advice(program, table, machine, geometry=geometry, **kw)
     elif table.inputs != MACHINE:
         def stream():
             return stream_program_advice(program, table, **kw)
