@@ -153,6 +153,17 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
     def core_of(ms, a, b, lo):
         return slice(int(ms.vertex_sample[a - lo]), int(ms.vertex_sample[b - lo]) + 1)
 
+    def pass2(sv, span, total, levels, lowest):
+        return _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, cap, feed_step,
+                      min_piece, sv, span, total, levels, lowest)
+
+    if n_pieces == 1:        # the cut in one piece: its own s, levels and guard are the cut's
+        sv = np.full(n + 1, np.nan)
+        sv[0] = 0.0
+        length = float(path_length(piece(0, sv)[2].xyz, 0, 0.0)[-1])
+        span, total = (0.0, length), (length if length > 0 else 1.0)
+        yield from pass2(sv, span, total, None, None)
+        return
     # pass 0: s at every vertex (the cut's length)
     sv = np.full(n + 1, np.nan)
     sv[0] = 0.0
@@ -190,7 +201,14 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
             found.append(raw[core][at])
         pk = np.concatenate(found)
         lowest = float(pk.min()) if pk.size else None
-    # pass 2: the advice, piece by piece
+    yield from pass2(sv, span, total, levels, lowest)
+
+
+def _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, cap, feed_step, min_piece,
+           sv, span, total, levels, lowest):
+    """The advice of every piece of cut ``k`` given what the passes before carried."""
+    feed = program.feed_mm_min
+    n_pieces = plan.lo.size
     carry = CarriedSums()
     for p in range(n_pieces):
         a, b = int(plan.cores[p]), int(plan.cores[p + 1])

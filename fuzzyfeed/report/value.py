@@ -252,17 +252,26 @@ def advised_feeds(program: Program, table: RuleTable, machine: Machine, cuts: li
     else:
         pa = advise_program(program, table, machine=machine, **kw)
         return AdvisedFeeds(pa.piece_move, pa.piece_end, pa.piece_feed_mm_min, lambda: iter([advice_columns(pa)]))
-    first = stream()      # arguments checked here; the pieces' rows dropped as they come
-    pm, pe, pf = concat_pieces(list(_feeds_only(first)))
+    first = stream()      # arguments checked here
+    kept: list | None = []
+    rows = 0
+    pieces = []
+    for p in first:       # the rows kept up to KEEP_ROWS samples (then made again when asked)
+        rows += len(p.columns["s_mm"])
+        if kept is not None and rows <= KEEP_ROWS:
+            kept.append(p.columns)
+        else:
+            kept = None
+        pieces.append((p.piece_move, p.piece_end, p.piece_feed_mm_min))
+    pm, pe, pf = (np.concatenate(c) for c in zip(*pieces)) if pieces else concat_pieces([])
+    if kept is not None:
+        return AdvisedFeeds(pm, pe, pf, lambda: iter(kept))
     return AdvisedFeeds(pm, pe, pf, lambda: (p.columns for p in stream()))
 
 
-def _feeds_only(pieces):
-    from fuzzyfeed.program.stream import AdvicePiece
-
-    for p in pieces:
-        yield AdvicePiece(cut=p.cut, columns={}, piece_move=p.piece_move, piece_end=p.piece_end,
-                          piece_feed_mm_min=p.piece_feed_mm_min)
+#: Samples of the advice whose CSV rows are kept from the advice (~0.1 KB a sample); more are made
+#: again, piece by piece, when the CSV is written.
+KEEP_ROWS = 200_000
 
 
 @dataclass(frozen=True, eq=False)
