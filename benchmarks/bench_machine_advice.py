@@ -2,7 +2,7 @@
 
     python benchmarks/bench_machine_advice.py [--set library tiger raster] [--tiger PATH ...]
         [--raster-lines 1000000 ...] [--modes plain machine report] [--timeout 600] [--mem-gb 8]
-        [--every 1] [--before DIR --modes plain machine before]
+        [--every 1] [--before DIR --modes plain machine before] [--gcode]
 
 For every program three commands, each one child process:
 
@@ -11,6 +11,8 @@ For every program three commands, each one child process:
 - report:  ``fuzzyfeed advise P -o x.csv --machine reference --report r.html``
 - before (only if asked): the machine command with ``PYTHONPATH=DIR`` (``--before DIR``, another
   checkout: the code before a change), its ratios to plain and of machine to it
+
+(each with ``--gcode y.ngc`` too when ``--gcode`` is given).
 
 CPU s = the child's user + system time, peak RSS = its ru_maxrss (``os.wait4``). A run past
 ``--timeout`` s is killed and reported as ``timeout`` (its ratio a lower bound, ``>=``); the child's
@@ -86,8 +88,10 @@ def count_lines(path: Path) -> int:
         return sum(chunk.count(b"\n") for chunk in iter(lambda: handle.read(1 << 20), b""))
 
 
-def command(program: Path, mode: str, out: Path) -> list[str]:
+def command(program: Path, mode: str, out: Path, gcode: bool = False) -> list[str]:
     cmd = [sys.executable, "-m", "fuzzyfeed", "advise", str(program), "-o", str(out / "x.csv")]
+    if gcode:
+        cmd += ["--gcode", str(out / "y.ngc")]
     if mode in ("machine", "report", "before"):
         cmd += ["--machine", "reference"]
     if mode == "report":
@@ -137,6 +141,8 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per run (default: 600)")
     parser.add_argument("--mem-gb", type=float, default=8.0, help="address-space cap per run (default: 8)")
     parser.add_argument("--every", type=int, default=1, help="library: every N-th program by size")
+    parser.add_argument("--gcode", action="store_true", help="every command also writes the advised program "
+                        "(--gcode y.ngc)")
     args = parser.parse_args()
     mem = int(args.mem_gb * 2**30)
     results = []
@@ -167,7 +173,7 @@ def main() -> None:
                     if not args.before:
                         parser.error("mode 'before' needs --before DIR")
                     env = dict(os.environ, PYTHONPATH=args.before)
-                row[mode] = run_child(command(path, mode, tmp), args.timeout, mem, env)
+                row[mode] = run_child(command(path, mode, tmp, args.gcode), args.timeout, mem, env)
             results.append(row)
             rm = ratio(row.get("machine"), row.get("plain"))
             rr = ratio(row.get("report"), row.get("plain"))

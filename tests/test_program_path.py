@@ -123,3 +123,21 @@ def test_program_path_on_random_programs(seed):
     path = program_path(program, 0.002)
     _same(path, reference_program_path(program, 0.002))
     assert path.n_segments > 0
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 100])
+def test_chains_the_same_in_any_chunk(chunk, monkeypatch):
+    """program_path turns its per-segment lists into arrays at every chunk of moves (a chain
+    crossing chunks is joined from parts): the same chains, bit for bit, as in one chunk."""
+    from test_program_stream import raster_text
+
+    program = parse_program(raster_text(600, 3), "r.ngc")
+    whole = program_path(program, 0.002)
+    monkeypatch.setattr(run, "PATH_CHUNK_MOVES", chunk)
+    parts = program_path(program, 0.002)
+    assert len(whole.chains) == len(parts.chains) >= 2
+    for a, b in zip(whole.chains, parts.chains):
+        for x, y in ((a.motion.points, b.motion.points), (a.motion.feed_mm_s, b.motion.feed_mm_s),
+                     (a.motion.rapid, b.motion.rapid), (a.motion.arc_radius_mm, b.motion.arc_radius_mm),
+                     (a.seg_move, b.seg_move), (a.seg_measured, b.seg_measured)):
+            assert x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True)

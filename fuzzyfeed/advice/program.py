@@ -339,19 +339,24 @@ class MachineProgramResult(AdviceResult):
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
         from fuzzyfeed.fuzzy.provenance import provenance
-        from fuzzyfeed.io.csv import write_columns, write_metadata
+        from fuzzyfeed.io.csv import write_metadata
 
         _check_outputs(csv, gcode, gcode_g52, plot)
         if report:
             self.evaluation = self.evaluation.checked()
         cap, machine = self.options.feed_mm_min, self.options.machine
-        if csv is not None:
-            columns = self.columns()
-            write_columns(csv, columns)
-            record = provenance(self.options.table, cap or 0.0, str(self.program.path), len(columns["s_mm"]))
+        if csv is not None:              # rows written as the pieces come (the advice made again)
+            from fuzzyfeed.base.atomic import atomic_write
+            from fuzzyfeed.io.csv import ColumnStream
+
+            with atomic_write(csv, "w", newline="") as handle:
+                out = ColumnStream(handle, csv)
+                for part in (self.evaluation.column_pieces() if self._columns is None else [self._columns]):
+                    out.write(part)
+            record = provenance(self.options.table, cap or 0.0, str(self.program.path), out.rows)
             record["F_mm_min"] = _feed_note(cap)
             record["machine"] = machine.describe()
-            write_metadata(csv, list(columns), record)
+            write_metadata(csv, out.names, record)
         if gcode:
             _write_text(gcode, self.text)
         if plot:

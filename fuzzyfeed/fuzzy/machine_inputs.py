@@ -138,25 +138,32 @@ def machine_features(samples: PathSamples, ceiling_mm_s: np.ndarray, machine: Ma
                            safe_feed_ratio_near=np.nan_to_num(ratio_near, nan=RATIO_TOP, posinf=RATIO_TOP))
 
 
-def settling_min(v_safe: np.ndarray, s: np.ndarray, settle_s: float, ceiling: np.ndarray) -> np.ndarray:
+def hot_spots(v_safe: np.ndarray, ceiling: np.ndarray) -> np.ndarray:
+    """Where a spot is hot: slower than the feed either side of it (at a junction the machine
+    leaves at the next move's F, not at the F of the move that ends there); and that feed."""
+    around = ceiling.copy()
+    if ceiling.size > 1:
+        around[:-1] = np.maximum(around[:-1], ceiling[1:])
+        around[1:] = np.maximum(around[1:], ceiling[:-1])
+    return v_safe < around, around
+
+
+def settling_min(v_safe: np.ndarray, s: np.ndarray, settle_s: float, ceiling: np.ndarray,
+                 levels: tuple[float, float] | None = None,
+                 span: tuple[float, float] | None = None) -> np.ndarray:
     """near_i = min over spots j with |s_i − s_j| ≤ v_safe_j·settle_s + margin of v_safe_j.
 
     Computed per level of safe feed (geometric levels between the slowest spot and the ceiling):
     the spots at or below a level, each reaching at most the level's distance, give a windowed
     minimum; the minimum over levels is ≤ the exact value's window (a spot reaches at most one
-    level's distance further than its own), never above it."""
+    level's distance further than its own), never above it. On a piece of a path (the advice in
+    pieces): ``levels`` = the whole path's (slowest hot spot, fastest feed around a hot spot) and
+    ``span`` its first and last s."""
     out = v_safe.copy()
-    # a spot is hot when it is slower than the feed either side of it: at a junction the machine
-    # leaves at the next move's F, not at the F of the move that ends there
-    around = ceiling.copy()
-    if ceiling.size > 1:
-        around[:-1] = np.maximum(around[:-1], ceiling[1:])
-        around[1:] = np.maximum(around[1:], ceiling[:-1])
-    hot = v_safe < around
+    hot, around = hot_spots(v_safe, ceiling)
     if not hot.any() or s.size < 2:
         return out
-    lo_v = float(v_safe[hot].min())
-    hi_v = float(np.max(around[hot]))
+    lo_v, hi_v = (float(v_safe[hot].min()), float(np.max(around[hot]))) if levels is None else levels
     levels = np.geomspace(max(lo_v, 1e-9), max(hi_v, lo_v * (1 + 1e-9)), NEAR_LEVELS)
     n = s.size
     below = 0.0
@@ -166,6 +173,6 @@ def settling_min(v_safe: np.ndarray, s: np.ndarray, settle_s: float, ceiling: np
         if not pick.any():
             continue
         masked = np.where(pick, v_safe, np.inf)
-        lo, hi = centred_bounds(n, s=s, half_mm=level * settle_s + NEAR_MARGIN_MM, symmetric=False)
+        lo, hi = centred_bounds(n, s=s, half_mm=level * settle_s + NEAR_MARGIN_MM, symmetric=False, span=span)
         out = np.minimum(out, range_min(masked, lo, hi))
     return out

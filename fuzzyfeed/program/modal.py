@@ -88,7 +88,7 @@ def g_columns(fail, n: int, g_line: np.ndarray, g_val: np.ndarray):
             codes = g_val[sel]
             fail(li[dup[0]], f"two G codes of one modal group on one line: G{codes[dup[0]]:g} "
                              f"and G{codes[dup[0] + 1]:g}")
-        c = np.full(n, -1, dtype=np.int64)
+        c = np.full(n, -1, dtype=np.int32)      # G code × 10 (4 bytes a line: 16 groups of a 10⁶-line program)
         c[li] = g10[sel]
         gcol[name] = c
     return g_line, g10, gcol

@@ -240,7 +240,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         c = gcol[name]
         if c is None:
             return np.full(n, default, dtype=np.int64)
-        return _ffill(c, c >= 0, default)
+        return _ffill(c, c >= 0, default).astype(np.int64, copy=False)
 
     units = modal("units", 210)
     inch = units == 200
@@ -444,6 +444,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     for k in range(3):
         epoch_before[:, k] = np.where(pre[k], -(np.arange(n) + 1), epoch_before[:, k])
     known = np.all(epoch_before == epoch_after, axis=1)
+    del epoch_before, epoch_after, sets, incs, v, inc, is_set, given   # a 10⁶-line program: ~100 MB
 
     # --- moves ---
     nurbs_first = np.zeros(n, bool)
@@ -493,6 +494,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
     row_of = {int(r): k for k, r in enumerate(move_rows)} if blocks else {}   # only G5.2 blocks ask
     nurbs, nurbs_lines = nurbs_blocks(fail, blocks, row_of, known, col, any_xyz, xyz_has,
                                       pos_before, pos_after)
+    del pos_before, pos_after
     for m in nurbs:
         endp[m] = nurbs[m].control_points[-1]
     splines = spline_moves(fail, kind, move_rows, motion, plane, start, endp, col, scale, known)

@@ -28,6 +28,8 @@ from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
 from fuzzyfeed.machine.stream import StreamRun, percentile_um, stream_plan
 from fuzzyfeed.program.model import ARC, HOME, LINE, NURBS, RAPID, Program, arc_geometry, arc_points
 
+#: Moves handled per chunk by :func:`program_path` (its per-segment lists become arrays at each).
+PATH_CHUNK_MOVES = 1 << 15
 #: The most servo periods one chain's run may simulate (CPU, not memory: the run keeps no ticks;
 #: 100–300 ns a tick, so a minute or two).
 MAX_STREAM_TICKS = 5e8
@@ -115,19 +117,31 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
         n_pool += block.shape[0]
         return list(range(-n_pool + block.shape[0] - 1, -n_pool - 1, -1))
 
+    done: list[tuple] = []     # the open chain's lists so far as arrays (Python lists: ~100 B a segment)
+
+    def flush() -> None:
+        nonlocal rows, feed, rapid, radius, seg_move, measured
+        if rows:
+            done.append((np.array(rows, dtype=np.int64), np.array(feed, dtype=float), np.array(rapid, dtype=bool),
+                         np.array(radius, dtype=float), np.array(seg_move, dtype=np.int64),
+                         np.array(measured, dtype=bool)))
+        rows, feed, rapid, radius, seg_move, measured = [], [], [], [], [], []
+
     def close() -> None:
-        nonlocal rows, pool, n_pool, feed, rapid, radius, seg_move, measured, last_end
-        if feed:
-            idx = np.array(rows, dtype=np.int64)
+        nonlocal pool, n_pool, last_end
+        has_feed = bool(feed) or any(part[1].size for part in done)
+        flush()
+        if has_feed:
+            idx, f, r, rad, sm, ms = (np.concatenate(c) for c in zip(*done))
             pts = np.empty((idx.size, 3))
             own = idx >= 0
             pts[own] = program.end[idx[own]]
             pts[~own] = np.vstack(pool)[-1 - idx[~own]]
-            chains.append(Chain(Motion(pts, np.array(feed), np.array(rapid), np.array(radius)),
-                                np.array(seg_move), np.array(measured)))
-        rows, pool, n_pool, feed, rapid, radius, seg_move, measured, last_end = [], [], 0, [], [], [], [], [], None
+            chains.append(Chain(Motion(pts, f, r, rad), sm, ms))
+        done.clear()
+        pool, n_pool, last_end = [], 0, None
 
-    chunk = 1 << 15
+    chunk = PATH_CHUNK_MOVES
     for c0 in range(0, kinds.size, chunk):
         c1 = min(c0 + chunk, kinds.size)
         run_l, kind_l, stop_l = run_a[c0:c1].tolist(), kinds[c0:c1].tolist(), stop_a[c0:c1].tolist()
@@ -142,7 +156,7 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
             if last_end is not None and start != last_end:
                 close()
             kind = kind_l[i]
-            if not rows:
+            if not rows and not done:          # a new chain: its start point
                 rows.extend(pooled(program.start[m][None, :]))
                 radius.append(np.nan)
                 prev = tuple(start)
@@ -183,6 +197,7 @@ def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
             last_end = end
             if stop_l[i]:
                 close()
+        flush()
     close()
     return ProgramPath(program=program, chains=tuple(chains), chord_tol_mm=chord_tol_mm)
 
@@ -195,9 +210,14 @@ class ChainRun:
     and segment commanded, the nearest segment and point of the path, the commanded speed and the
     segment commanded a lookback earlier."""
 
-    plan: Plan
+    plan: Plan | None             # None when the run was made without keeping it (``keep_plan``)
     stream: StreamRun
     tick_move: np.ndarray
+    time_s: float = float("nan")   # the plan's time (kept when the plan is not)
+
+    def __post_init__(self):
+        if self.plan is not None and not np.isfinite(self.time_s):
+            object.__setattr__(self, "time_s", float(self.plan.time_s))
 
     @property
     def tick_time_s(self) -> np.ndarray:
@@ -241,7 +261,7 @@ class ProgramRun:
     @property
     def time_s(self) -> float:
         """Time of every chain (rapids and feed moves), as the planner runs them."""
-        return float(sum(r.plan.time_s for r in self.runs))
+        return float(sum(r.time_s for r in self.runs))
 
     @property
     def max_um(self) -> float:
@@ -308,7 +328,7 @@ def chain_motion(chain: Chain, feed_mm_s: np.ndarray | None = None) -> Motion:
 
 def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = None,
               windows: list[tuple[int, int]] | None = None, plan: Plan | None = None,
-              keep_mm: float | None = None) -> ChainRun:
+              keep_mm: float | None = None, keep_plan: bool = True) -> ChainRun:
     """Plan ``chain`` (with ``feed_mm_s`` per segment instead of its own, if given; or take
     ``plan``) and run it through the servo tick by tick (only the tick ``windows`` if given),
     measuring the contour error of its measured ticks; ticks over ``keep_mm`` (default the
@@ -321,17 +341,19 @@ def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = Non
                          f"periods; at most {MAX_STREAM_TICKS:.0e} are simulated (split the program, or "
                          "give a longer --ts-s)")
     sr = stream_plan(plan, machine, chain.seg_measured, keep_mm=keep_mm, windows=windows)
-    return ChainRun(plan=plan, stream=sr, tick_move=chain.seg_move[sr.tick_segment])
+    return ChainRun(plan=plan if keep_plan else None, stream=sr, tick_move=chain.seg_move[sr.tick_segment],
+                    time_s=float(plan.time_s))
 
 
 def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | None = None,
-                feed_scale: float = 1.0) -> ProgramRun:
+                feed_scale: float = 1.0, keep_plans: bool = True) -> ProgramRun:
     """Run every chain of ``path`` on ``machine``: its own feeds times ``feed_scale``, or ``feeds``
-    (one array per chain, mm/s per segment)."""
+    (one array per chain, mm/s per segment). ``keep_plans=False``: the chains' plans (~100 bytes a
+    segment) are dropped once run, their times kept (a run only reported, not searched on)."""
     if not (np.isfinite(feed_scale) and feed_scale > 0):
         raise InputError(f"feed_scale = {feed_scale!r}; must be finite and > 0")
     runs = []
     for i, chain in enumerate(path.chains):
         f = feeds[i] if feeds is not None else (chain.motion.feed_mm_s * feed_scale if feed_scale != 1.0 else None)
-        runs.append(run_chain(chain, machine, f))
+        runs.append(run_chain(chain, machine, f, keep_plan=keep_plans))
     return ProgramRun(path=path, machine=machine, runs=tuple(runs))

@@ -187,7 +187,7 @@ def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, p
             lowest = float(engine.feed_pct(pk, normalise(np.concatenate(peak_raw), clip, (dk_lo, dk_hi))).min())
     # pass 2: the advice, piece by piece, the filter's cumulative sums handed on
     feed = program.feed_mm_min
-    carry_g0, carry_cw, carry_cv = 0, np.zeros(1), np.zeros(1)
+    carry = CarriedSums()
     for p in range(n_pieces):
         a, b = int(plan.cores[p]), int(plan.cores[p + 1])
         lo, hi, ms, s = piece(p, sv)
@@ -198,24 +198,8 @@ def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, p
                                       feats.curvature_1_mm, span=span, lowest=lowest)
         c0 = int(ms.vertex_sample[a - lo])    # the core's first sample
         c1 = int(ms.vertex_sample[b - lo])    # ... and last
-        if wlo is None:
-            smooth = v.copy()
-        else:
-            # the whole cut's cumulative sums up to the core (carried), on from there
-            g_lo = int(gstart[lo])
-            head = slice(g_lo - carry_g0, g_lo - carry_g0 + c0 + 1)
-            cw = np.empty(s.size + 1)
-            cv = np.empty(s.size + 1)
-            cw[:c0 + 1] = carry_cw[head]
-            cv[:c0 + 1] = carry_cv[head]
-            cw[c0:] = np.cumsum(np.concatenate([[cw[c0]], w[c0:]]))
-            cv[c0:] = np.cumsum(np.concatenate([[cv[c0]], w[c0:] * v[c0:]]))
-            smooth = window_mean(v, wlo, whi, w, sums=(cw, cv))
-            if p + 1 < n_pieces:             # hand on the sums the next piece's margin needs
-                nxt = int(gstart[plan.lo[p + 1]])
-                carry_g0 = nxt
-                carry_cw = cw[nxt - g_lo:c1 + 1].copy()
-                carry_cv = cv[nxt - g_lo:c1 + 1].copy()
+        nxt = int(gstart[plan.lo[p + 1]]) if p + 1 < n_pieces else None
+        smooth = carry.smooth(v, wlo, whi, w, int(gstart[lo]), c0, c1, nxt)
         pct = np.clip(smooth, table.feed_floor_pct, 100.0)
         r0 = c0 if a == 0 else c0 + 1
         rows = slice(r0, c1 + 1)
@@ -240,6 +224,35 @@ def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, p
         pm, pe, pf = move_pieces(program, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
                                  ceiling_seg, feed_step, min_piece)
         yield AdvicePiece(cut=k, columns=columns, piece_move=pm, piece_end=pe, piece_feed_mm_min=pf)
+
+
+class CarriedSums:
+    """The filter's cumulative sums (weights, weighted values) of the whole cut, handed from one
+    piece to the next over its margin: a weighted average by cumulative sums depends on where the
+    sum starts, so every piece sums on from the whole cut's value at its core's first sample."""
+
+    def __init__(self) -> None:
+        self.g0, self.cw, self.cv = 0, np.zeros(1), np.zeros(1)
+
+    def smooth(self, v, wlo, whi, w, g_lo: int, c0: int, c1: int, nxt: int | None) -> np.ndarray:
+        """The filtered values of a piece (:func:`~fuzzyfeed.fuzzy.filters.filter_terms`'s
+        ``v, wlo, whi, w``; the plain values when ``wlo`` is None) whose first sample is the cut's
+        sample ``g_lo``, core samples ``c0..c1``; ``nxt``: the next piece's first sample (None: last)."""
+        if wlo is None:
+            return v.copy()
+        head = slice(g_lo - self.g0, g_lo - self.g0 + c0 + 1)
+        cw = np.empty(v.size + 1)
+        cv = np.empty(v.size + 1)
+        cw[:c0 + 1] = self.cw[head]
+        cv[:c0 + 1] = self.cv[head]
+        cw[c0:] = np.cumsum(np.concatenate([[cw[c0]], w[c0:]]))
+        cv[c0:] = np.cumsum(np.concatenate([[cv[c0]], w[c0:] * v[c0:]]))
+        smooth = window_mean(v, wlo, whi, w, sums=(cw, cv))
+        if nxt is not None:             # hand on the sums the next piece's margin needs
+            self.g0 = nxt
+            self.cw = cw[nxt - g_lo:c1 + 1].copy()
+            self.cv = cv[nxt - g_lo:c1 + 1].copy()
+        return smooth
 
 
 def concat_pieces(pieces: list[AdvicePiece]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -20,11 +20,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fuzzyfeed.base.memory import release_free_memory
 from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.program.coverage import Coverage, program_coverage
 from fuzzyfeed.program.verify import Verification
-from fuzzyfeed.program.feeds import ProgramAdvice, advice_columns, advise_program
+from fuzzyfeed.program.feeds import advice_columns, advise_program
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
 from fuzzyfeed.program.reference import Uniform, check_uniform, limit_reference, uniform_slowdown
@@ -215,13 +216,72 @@ def uniform_row(u: Uniform) -> ValueRow:
 
 
 @dataclass(frozen=True, eq=False)
-class Evaluation:
-    """A program advised for a machine: the advice of every cut, which cuts it is applied to (those
-    that break the tolerance as written), the program text to write and the report. ``uniform``
-    and ``path``: the uniform slowdown and the written program's path, kept when the uniform row
-    is not yet checked by a whole run (:meth:`checked`)."""
+class AdvisedFeeds:
+    """The advice of a program's cuts as the pieces its moves are written as (move, end fraction,
+    feed mm/min, in move order); the per-sample CSV rows are made again piece by piece when asked
+    (:meth:`pieces`: the advice in pieces, :mod:`fuzzyfeed.program.stream_machine`, bit for bit
+    the whole cuts' advice), never held for a whole program."""
 
-    advice: ProgramAdvice
+    piece_move: np.ndarray
+    piece_end: np.ndarray
+    piece_feed_mm_min: np.ndarray
+    remake: object            # () -> iterator of column dicts, in sample order
+
+    def pieces(self):
+        return self.remake()
+
+
+def advised_feeds(program: Program, table: RuleTable, machine: Machine, cuts: list[int], *,
+                  cap_mm_min, step_mm: float, feed_step_mm_min: float, min_piece_mm: float) -> AdvisedFeeds:
+    """The advice of ``cuts`` for ``machine``: in pieces (a machine table with a filter in mm or none,
+    or a plain table), else the whole cuts' (:func:`~fuzzyfeed.program.feeds.advise_program`)."""
+    from fuzzyfeed.fuzzy.rules import MACHINE
+    from fuzzyfeed.program.stream import concat_pieces, stream_program_advice
+    from fuzzyfeed.program.stream_machine import stream_machine_advice, streams
+
+    kw = dict(cuts=cuts, cap_mm_min=cap_mm_min, step_mm=step_mm, feed_step_mm_min=feed_step_mm_min,
+              min_piece_mm=min_piece_mm)
+    if table.inputs == MACHINE and streams(table):
+        geometry: dict = {}        # the cuts' G1-run fits, made once for the advice and its CSV rows
+
+        def stream():
+            return stream_machine_advice(program, table, machine, geometry=geometry, **kw)
+    elif table.inputs != MACHINE:
+        def stream():
+            return stream_program_advice(program, table, **kw)
+    else:
+        pa = advise_program(program, table, machine=machine, **kw)
+        return AdvisedFeeds(pa.piece_move, pa.piece_end, pa.piece_feed_mm_min, lambda: iter([advice_columns(pa)]))
+    first = stream()      # arguments checked here
+    kept: list | None = []
+    rows = 0
+    pieces = []
+    for p in first:       # the rows kept up to KEEP_ROWS samples (then made again when asked)
+        rows += len(p.columns["s_mm"])
+        if kept is not None and rows <= KEEP_ROWS:
+            kept.append(p.columns)
+        else:
+            kept = None
+        pieces.append((p.piece_move, p.piece_end, p.piece_feed_mm_min))
+    pm, pe, pf = (np.concatenate(c) for c in zip(*pieces)) if pieces else concat_pieces([])
+    if kept is not None:
+        return AdvisedFeeds(pm, pe, pf, lambda: iter(kept))
+    return AdvisedFeeds(pm, pe, pf, lambda: (p.columns for p in stream()))
+
+
+#: Samples of the advice whose CSV rows are kept from the advice (~0.1 KB a sample); more are made
+#: again, piece by piece, when the CSV is written.
+KEEP_ROWS = 200_000
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """A program advised for a machine: the advice of every cut (:class:`AdvisedFeeds`), which cuts
+    it is applied to (those that break the tolerance as written), the program text to write and the
+    report. ``uniform`` and ``path``: the uniform slowdown and the written program's path, kept when
+    the uniform row is not yet checked by a whole run (:meth:`checked`)."""
+
+    advice: AdvisedFeeds
     advised_cuts: tuple[int, ...]
     text: str
     report: ValueReport
@@ -244,15 +304,23 @@ class Evaluation:
                         reference_deferred=False)
         return replace(self, report=r, uniform=u, path=None)
 
-    def columns(self) -> dict[str, np.ndarray]:
+    def column_pieces(self):
         """The CSV columns (:func:`~fuzzyfeed.program.feeds.advice_columns`) plus ``advised``: 1 on
-        the cuts the advice is applied to; on the others feed_pct is 100 and feed_mm_min the F."""
-        cols = advice_columns(self.advice)
-        applied = np.isin(cols["cut"] - 1, list(self.advised_cuts))
-        cols["feed_pct"] = np.where(applied, cols["feed_pct"], 100.0)
-        cols["feed_mm_min"] = np.where(applied, cols["feed_mm_min"], cols["programmed_feed_mm_min"])
-        cols["advised"] = applied.astype(np.int64)
-        return cols
+        the cuts the advice is applied to; on the others feed_pct is 100 and feed_mm_min the F;
+        piece by piece, in sample order."""
+        advised = list(self.advised_cuts)
+        for cols in self.advice.pieces():
+            cols = dict(cols)
+            applied = np.isin(cols["cut"] - 1, advised)
+            cols["feed_pct"] = np.where(applied, cols["feed_pct"], 100.0)
+            cols["feed_mm_min"] = np.where(applied, cols["feed_mm_min"], cols["programmed_feed_mm_min"])
+            cols["advised"] = applied.astype(np.int64)
+            yield cols
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """:meth:`column_pieces` end to end."""
+        parts = list(self.column_pieces())
+        return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
 
 
 def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, cap_mm_min: float | None = None,
@@ -282,8 +350,9 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
     over = [k for k in cuts_over(written, tol) if k in chosen]
     step("advice")
-    pa = advise_program(program, table, cuts=chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
-                        feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm, machine=machine)
+    pa = advised_feeds(program, table, machine, chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
+                       feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm)
+    release_free_memory()
     keep = np.isin(program.cut[pa.piece_move], over) if pa.piece_move.size else np.zeros(0, bool)
     checked = None
     if verify is None:
@@ -293,14 +362,22 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         text, checked = verify(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
     u = None
     if not over:
-        advised_run = written
         uniform_factor, u_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
         ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
-        advised_path = path
+        advised_row, worst, air = ValueRow.of("advised", written), written.worst(), written.worst_air()
+        trace = feed_trace(path, written, path, tol)
     else:
         step("advised run")
-        advised_path = program_path(parse_program(text, program.path, tools), machine.chord_tol_mm)
-        advised_run = run_program(advised_path, machine)
+        advised_path = program_path(_advised_model(program, text, tools, verify is None, pa.piece_move[keep],
+                                                   pa.piece_end[keep], pa.piece_feed_mm_min[keep]),
+                                    machine.chord_tol_mm)
+        advised_run = run_program(advised_path, machine, keep_plans=False)   # reported, not searched on
+        # what the report takes of the advised run, then the run and its path go (a 10⁶-move
+        # program: ~0.2 GB) before the uniform slowdown's search
+        advised_row, worst, air = ValueRow.of("advised", advised_run), advised_run.worst(), advised_run.worst_air()
+        trace = feed_trace(path, written, advised_path, tol)
+        del advised_run, advised_path
+        release_free_memory()
         step("uniform slowdown")
         u = uniform_slowdown(path, machine, written, check=check_uniform,
                              **({} if max_ticks is None else {"max_ticks": max_ticks}))
@@ -310,22 +387,32 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
-    worst = advised_run.worst()
-    air = advised_run.worst_air()
     report = ValueReport(
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
-        advised=ValueRow.of("advised", advised_run),
+        advised=advised_row,
         uniform=u_row,
         uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
-        trace=feed_trace(path, written, advised_path, tol), coverage=program_coverage(program),
+        trace=trace, coverage=program_coverage(program),
         verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
         reference_deferred=bool(over) and reference and not check_uniform)
     pending = (u is not None and not u.checked) or report.reference_deferred
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report,
                       uniform=u if pending else None, path=path if pending else None)
+
+
+def _advised_model(program: Program, text: str, tools, plain: bool, *pieces) -> Program:
+    """The advised program's model: built from the written one when the text is the plain rewrite
+    and :func:`~fuzzyfeed.program.advised.advised_program` reproduces it, else the text read back."""
+    if plain:
+        from fuzzyfeed.program.advised import advised_program
+
+        model = advised_program(program, *pieces)
+        if model is not None:
+            return model
+    return parse_program(text, program.path, tools)
 
 
 def _along(path: ProgramPath):
