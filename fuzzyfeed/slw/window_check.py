@@ -111,8 +111,9 @@ class BlockCheck:
                 vlim[near] = np.minimum(vlim[near], exact.vlim[part])
                 tan[near], kn[near] = exact.tangent[part], exact.kn[part]
                 self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
-        for i, _ in data:
-            if not self._check(i):
+        for i, d in data:
+            # a block with nothing to judge (None) stays so: no block changes before a failed check
+            if d is not None and not self._check(i):
                 return False
         return True
 
