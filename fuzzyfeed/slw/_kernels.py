@@ -224,3 +224,179 @@ def sample_segments(v0, v1, dur, jerk, start, half_ts):
             at += 1
         offset += 0.5 * (v0[k] + v1[k]) * T
     return s, v, a, seg
+
+
+# ---------------------------------------------------------------------- the block check (window_check.py)
+# The per-block profile check ran ~10 numpy calls per block (interpolations, the axis ratio) on
+# ~10⁵ blocks of a long program: the same arithmetic here, in one call, element for element as
+# numpy computes it (the schedules stay byte-identical).
+@numba.njit(cache=True, nogil=True)
+def _interp_at(x, x0, x1, y0, y1, j, n):
+    """np.interp at one x between (x0, y0) = (xp[j], fp[j]) and (x1, y1) = (xp[j+1], fp[j+1]),
+    j the last index with xp[j] <= x (-1 if none; then y0 = fp[0]; j ≥ n − 1: y0 = fp[n − 1]),
+    with numpy's own arithmetic: slope·(x − xp[j]) + fp[j], from the right end if that is NaN."""
+    if math.isnan(x):
+        return x
+    if j < 0 or j >= n - 1 or x0 == x:
+        return y0
+    slope = (y1 - y0) / (x1 - x0)
+    y = slope * (x - x0) + y0
+    if math.isnan(y):
+        y = slope * (x - x1) + y1
+        if math.isnan(y) and y0 == y1:
+            y = y0
+    return y
+
+
+@numba.njit(cache=True, nogil=True)
+def interp_reference(s, ref_s, ref_vlim, ref_tan, ref_kn):
+    """The path's feed limit, unit tangent and κN at arc lengths ``s``, each linear in s between
+    the reference points: np.interp per column, value for value."""
+    n = s.size
+    m = ref_s.size
+    d = ref_tan.shape[1]
+    vlim = np.empty(n)
+    tan = np.empty((n, d))
+    kn = np.empty((n, d))
+    idx = np.searchsorted(ref_s, s, side="right") - 1
+    for i in range(n):
+        j = idx[i]
+        x = s[i]
+        lo = 0 if j < 0 else min(j, m - 1)
+        hi = min(lo + 1, m - 1)
+        x0, x1 = ref_s[lo], ref_s[hi]
+        vlim[i] = _interp_at(x, x0, x1, ref_vlim[lo], ref_vlim[hi], j, m)
+        for c in range(d):
+            tan[i, c] = _interp_at(x, x0, x1, ref_tan[lo, c], ref_tan[hi, c], j, m)
+            kn[i, c] = _interp_at(x, x0, x1, ref_kn[lo, c], ref_kn[hi, c], j, m)
+    return vlim, tan, kn
+
+
+@numba.njit(cache=True, nogil=True)
+def axis_ratio(v, a, tan, kn, axis_acc):
+    """Worst |a·T_j + v²·κN_j|/A_j per sample, its axis (the first NaN's, as np.argmax), and the
+    centripetal parts v²·κN."""
+    n, d = tan.shape
+    r = np.empty(n)
+    worst = np.empty(n, np.int64)
+    cen = np.empty((n, d))
+    for i in range(n):
+        vv = v[i] * v[i]
+        best = -np.inf
+        at = 0
+        for j in range(d):
+            c = vv * kn[i, j]
+            cen[i, j] = c
+            x = abs(a[i] * tan[i, j] + c) / axis_acc[j]
+            if math.isnan(x):
+                if not math.isnan(best):
+                    best, at = x, j
+            elif x > best and not math.isnan(best):
+                best, at = x, j
+        r[i] = best
+        worst[i] = at
+    return r, worst, cen
+
+
+@numba.njit(cache=True, nogil=True)
+def near_limits(v, vlim, r, feed, near):
+    """Indices of the samples within ``near`` of a limit: r > near, or v > near·vlim where the
+    feed limit is below the command feed."""
+    n = v.size
+    out = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        if r[i] > near or (v[i] > near * vlim[i] and vlim[i] < feed):
+            out[m] = i
+            m += 1
+    return out[:m]
+
+
+# ---------------------------------------------------------------------- the window's junction feeds (lookahead.py)
+# profile.max_rise, _bisect_speed and lowest_end_speed, and SlidingWindow._plan's two scans over the
+# window, compiled with the same arithmetic in the same order (Python's min/max spelled out): the
+# window re-plans ~10⁵ times on a long program, each a Python call per block.
+@numba.njit(cache=True, nogil=True)
+def depressed_cubic(p, c):
+    """profile._depressed_cubic: the real root w ≥ 0 of w³ + p·w − c = 0."""
+    if p * p * p <= 1e-12 * c * c:
+        w = c ** (1.0 / 3.0)
+    else:
+        r = math.sqrt(p / 3.0)
+        w = 2.0 * r * math.sinh(math.asinh(1.5 * c / (p * r)) / 3.0)
+    for _ in range(2):
+        f = w * w * w + p * w - c
+        w -= f / (3.0 * w * w + p) if w > 0.0 else 0.0
+    return w
+
+
+@numba.njit(cache=True, nogil=True)
+def _pos(x):
+    """Python's max(x, 0.0)."""
+    return 0.0 if 0.0 > x else x
+
+
+@numba.njit(cache=True, nogil=True)
+def max_rise(v, length, acc, jerk, seven):
+    """profile.max_rise: the largest Δv ≥ 0 with transition_distance(v, v + Δv) ≤ length."""
+    if length <= 0.0:
+        return 0.0
+    if seven:
+        w = depressed_cubic(2.0 * v, length * math.sqrt(jerk))
+        if w * w * jerk <= acc * acc:
+            return _pos(w * w)
+        b = 2.0 * v / acc + acc / jerk
+        c0 = 2.0 * length - 2.0 * v * acc / jerk
+        return _pos(2.0 * c0 / (b + math.sqrt(b * b + 4.0 * c0 / acc)))
+    q = 4.0 * acc * length / math.pi
+    d_a = q / (v + math.sqrt(v * v + q))
+    w = depressed_cubic(2.0 * v, 2.0 * length * math.sqrt(2.0 * jerk) / math.pi)
+    ww = w * w
+    return _pos(ww if ww < d_a else d_a)
+
+
+@numba.njit(cache=True, nogil=True)
+def bisect_speed(fixed, length, cap, acc, jerk, seven, steps):
+    """profile._bisect_speed: the largest v in [fixed, cap] with transition_distance(fixed, v) ≤
+    length (max_end_speed, max_start_speed)."""
+    if cap <= fixed:
+        return cap
+    rise = max_rise(fixed, length, acc, jerk, seven)
+    if fixed + rise >= cap:
+        return cap
+    v = fixed
+    for shrink in (0.0, 1e-9, 1e-6, 1e-3):
+        v = fixed + rise * (1.0 - shrink)
+        if transition_distance(fixed, v, acc, jerk, seven) <= length:
+            return v
+    return bisect_end(fixed, length, fixed, v, acc, jerk, seven, steps)
+
+
+@numba.njit(cache=True, nogil=True)
+def lowest_end_speed(v_s, length, floor, acc, jerk, seven, steps):
+    """profile.lowest_end_speed: an end speed near ``floor`` (≤ v_s) reachable within ``length``."""
+    if floor >= v_s or transition_distance(v_s, floor, acc, jerk, seven) <= length:
+        return v_s if v_s < floor else floor
+    if transition_distance(v_s, 0.0, acc, jerk, seven) <= length:
+        return bisect_end(v_s, length, 0.0, floor, acc, jerk, seven, steps)
+    return bisect_end(v_s, length, v_s, floor, acc, jerk, seven, steps)
+
+
+@numba.njit(cache=True, nogil=True)
+def plan_window(lengths, accs, caps, v_first, end_feed, jerk, seven, steps):
+    """SlidingWindow._plan: the junction feeds of a window of n blocks (n + 1 junctions with caps
+    ``caps``): a backward scan from min(cap, end_feed) at the last junction (max_start_speed), then
+    a forward scan from the committed ``v_first`` (max_end_speed, or the hardest braking the block
+    allows where a later junction is lower than the committed one can reach)."""
+    n = lengths.size
+    v = np.empty(n + 1)
+    v[n] = end_feed if end_feed < caps[n] else caps[n]
+    for i in range(n - 1, -1, -1):
+        v[i] = bisect_speed(v[i + 1], lengths[i], caps[i], accs[i], jerk, seven, steps)
+    v[0] = v_first
+    for i in range(n):
+        if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], accs[i], jerk, seven) > lengths[i]:
+            v[i + 1] = lowest_end_speed(v[i], lengths[i], v[i + 1], accs[i], jerk, seven, steps)
+        else:
+            v[i + 1] = bisect_speed(v[i], lengths[i], v[i + 1], accs[i], jerk, seven, steps)
+    return v

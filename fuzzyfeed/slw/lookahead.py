@@ -28,8 +28,8 @@ from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.slw.feed_cap import FeedCap
 from fuzzyfeed.slw.preprocess import Block, corner_plan, joins
-from fuzzyfeed.slw.profile import (COSINE, check_shape, lowest_end_speed, max_end_speed, max_start_speed,
-                                   stop_distance, transition_distance)
+from fuzzyfeed.slw.profile import (BISECTION_STEPS, COSINE, SEVEN_PHASE, check_shape, lowest_end_speed,
+                                   max_end_speed, max_start_speed, stop_distance, transition_distance)
 from fuzzyfeed.slw.window_blocks import (KINK_MIN, LookaheadStats, ScheduledBlock,  # noqa: F401
                                          WindowContent, _Junction, _WBlock)
 from fuzzyfeed.slw.window_check import BlockCheck, CHECK_RTOL  # noqa: F401
@@ -88,6 +88,20 @@ class SlidingWindow(WindowContent, BlockCheck):
         return v
 
     def _plan(self, end_feed: float) -> None:
+        """Junction feeds of the window: a backward scan (each junction no faster than what
+        reaches the next within its block) and a forward scan from the committed first junction
+        (compiled: _kernels.plan_window, the arithmetic of :meth:`_plan_python`)."""
+        import fuzzyfeed.slw._kernels as kernels
+
+        blocks, juncs = self.blocks, self.juncs
+        v = kernels.plan_window(np.array([b.length for b in blocks]), np.array([b.acc for b in blocks]),
+                                np.array([j.cap for j in juncs]), float(juncs[0].v), float(end_feed),
+                                float(self.jerk), self.shape == SEVEN_PHASE, BISECTION_STEPS)
+        for j, vj in zip(juncs, v.tolist()):
+            j.v = vj
+
+    def _plan_python(self, end_feed: float) -> None:
+        """The reference of :meth:`_plan` in Python (profile.py's functions; tests compare)."""
         v = self._backward(end_feed)
         v[0] = self.juncs[0].v  # committed
         for i, b in enumerate(self.blocks):

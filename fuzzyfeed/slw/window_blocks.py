@@ -41,18 +41,16 @@ class _WBlock:
     vmax: float
     checked: tuple | None = None
     pending: tuple | None = None  # (key, samples …) of a check not yet judged (_sample)
+    # the ends and length, read ~10⁷ times on a long program: kept, not recomputed (ref is never
+    # replaced: a split or merge makes new blocks)
+    s0: float = field(init=False)
+    s1: float = field(init=False)
+    length: float = field(init=False)
 
-    @property
-    def s0(self) -> float:
-        return float(self.ref.s[0])
-
-    @property
-    def s1(self) -> float:
-        return float(self.ref.s[-1])
-
-    @property
-    def length(self) -> float:
-        return self.s1 - self.s0
+    def __post_init__(self) -> None:
+        self.s0 = float(self.ref.s[0])
+        self.s1 = float(self.ref.s[-1])
+        self.length = self.s1 - self.s0
 
 
 @dataclass(frozen=True)

@@ -80,11 +80,9 @@ class BlockCheck:
         s, v, a, seg_id = kernels.sample_segments(seg_arr[:, 0], seg_arr[:, 1], seg_arr[:, 2], seg_arr[:, 3],
                                                   b.s0, 0.5 * self.limits.ts_s)
         ref = b.ref
-        vlim = np.interp(s, ref.s, ref.vlim)
-        tan = np.stack([np.interp(s, ref.s, ref.tangent[:, j]) for j in range(3)], axis=1)
-        kn = np.stack([np.interp(s, ref.s, ref.kn[:, j]) for j in range(3)], axis=1)
-        r, _, _ = self._axis_ratio(v, a, tan, kn)
-        near = np.flatnonzero((r > EXACT_NEAR) | ((v > EXACT_NEAR * vlim) & (vlim < self.limits.feed_mm_s)))
+        vlim, tan, kn = kernels.interp_reference(s, ref.s, ref.vlim, ref.tangent, ref.kn)
+        r, _, _ = kernels.axis_ratio(v, a, tan, kn, self.axis_acc)
+        near = kernels.near_limits(v, vlim, r, float(self.limits.feed_mm_s), EXACT_NEAR)
         if self.curve is None:
             near = near[:0]
         b.pending = (key, segs, s, v, a, seg_id, vlim, tan, kn, near)
@@ -113,8 +111,9 @@ class BlockCheck:
                 vlim[near] = np.minimum(vlim[near], exact.vlim[part])
                 tan[near], kn[near] = exact.tangent[part], exact.kn[part]
                 self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
-        for i, _ in data:
-            if not self._check(i):
+        for i, d in data:
+            # a block with nothing to judge (None) stays so: no block changes before a failed check
+            if d is not None and not self._check(i):
                 return False
         return True
 
@@ -231,10 +230,9 @@ class BlockCheck:
 
     def _axis_ratio(self, v: np.ndarray, a: np.ndarray, tan: np.ndarray, kn: np.ndarray):
         """Worst |a·T_j + v²·κN_j|/A_j per sample, its axis, and the centripetal parts v²·κN."""
-        cen = (v * v)[:, None] * kn
-        ratio = np.abs(a[:, None] * tan + cen) / self.axis_acc[None, :]
-        worst_axis = np.argmax(ratio, axis=1)
-        return ratio[np.arange(ratio.shape[0]), worst_axis], worst_axis, cen
+        import fuzzyfeed.slw._kernels as kernels
+
+        return kernels.axis_ratio(v, a, tan, kn, self.axis_acc)
 
     def _invalidate(self) -> None:
         """Nothing to do: a block's check is keyed by everything its profile depends on (junction
