@@ -244,10 +244,10 @@ def gap_accelerations(curve: Nurbs, limits: MachineLimits, s: np.ndarray) -> np.
     """Per gap [s_i, s_i+1], a bound on the tangential acceleration any motion within the axes'
     limits has there: s̈ = a·T (the centripetal part is normal to T), so
     |s̈| ≤ Σ_j |a_j|·|T_j| ≤ Σ_j A_j·|T_j(s)| =: G(s), and over the gap max G. The max is read on
-    the bound's adaptive grid (every knot and corner on it, the tangent turning at most
-    bound.TURN_RAD between points, else split) from the point before the gap to the point after
-    it (a corner's two tangents both count), plus ‖A‖₂·θ for the turn θ between neighbouring
-    points (|G(s) − G(s_k)| ≤ ‖A‖₂·|T(s) − T(s_k)|; at a true corner, on the grid, each side's
+    the bound's adaptive grid (every knot, corner and minimum of the limit on it, the tangent
+    turning at most bound.TURN_RAD between points, else split) over the grid intervals the gap
+    spans, each at most the larger G of its ends plus ‖A‖₂·θ for its turn θ (the angle between
+    its end tangents, at least ds·κ) (|G(s) − G(s_k)| ≤ ‖A‖₂·|T(s) − T(s_k)|; at a true corner, on the grid, each side's
     own tangent: the jump is no turn); never above ‖A‖₂ (Cauchy-Schwarz). A straight
     gap along one axis of a machine with a slow axis gets that axis's own A_j, not ‖A‖₂."""
     from fuzzyfeed.slw.bound import _grid
