@@ -75,3 +75,35 @@ def test_floor_stays_below_the_schedule(seed):
         chain = fl.corner_chain_s(traj.curve, lim)
         assert 0.0 < chain <= traj.cycle_time_s
         assert fl.jerk_floor(traj.curve, lim) <= traj.cycle_time_s
+
+
+def test_gap_acceleration_is_each_direction_own():
+    """Along a straight leg the tangential acceleration is the axes' own (s̈ = a·T): a leg along Y
+    of a slow-Y machine gets A_y, a diagonal one A_x|T_x| + A_y|T_y|, a curve at most ‖A‖₂."""
+    lim = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+    along_y = slw_cases.polyline(np.array([[0.0, 0.0], [0.0, 30.0]]))
+    assert np.allclose(fl.gap_accelerations(along_y, lim, np.array([0.0, 30.0])), [250.0])
+    diagonal = slw_cases.polyline(np.array([[0.0, 0.0], [30.0, 40.0]]))
+    got = fl.gap_accelerations(diagonal, lim, np.array([0.0, 20.0, 50.0]))
+    assert np.allclose(got, 1000.0 * 0.6 + 250.0 * 0.8)
+    # an L: the gap that holds the corner sees both legs, each gap alone its own leg
+    ell = slw_cases.polyline(np.array([[0.0, 0.0], [20.0, 0.0], [20.0, 20.0]]))
+    from fuzzyfeed.slw.preprocess import corners
+
+    corner = corners(ell, lim)[0]  # the chain cuts at the corner's own arc length
+    got = fl.gap_accelerations(ell, lim, np.array([0.0, corner[0], ell.length]))
+    assert np.allclose(got, [1000.0, 250.0], rtol=1e-6), got
+    assert got[0] <= 1000.0 * (1 + 1e-6) and got.max() <= np.linalg.norm([1000, 250]) * (1 + 1e-9)
+
+
+def test_slow_axis_leg_floor_is_its_rest_to_rest():
+    """A leg along Y alone: the chain's floor is the jerk-limited rest-to-rest time under A_y
+    (free end accelerations only relax it), so no more than that time, and above what ‖A‖₂ gives."""
+    lim = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+    leg = slw_cases.polyline(np.array([[0.0, 0.0], [0.0, 5.0], [3.0, 5.0]]))
+    s = np.array([0.0, 5.0])
+    own = float(fl.gap_times(np.array([5.0]), np.zeros(1), np.zeros(1), 50.0,
+                             fl.gap_accelerations(leg, lim, s), lim.jerk_mm_s3)[0])
+    loose = float(fl.gap_times(np.array([5.0]), np.zeros(1), np.zeros(1), 50.0,
+                               np.linalg.norm([1000, 250]), lim.jerk_mm_s3)[0])
+    assert loose < own <= fl.rest_to_rest_s(5.0, 50.0, 250.0, lim.jerk_mm_s3)

@@ -104,7 +104,7 @@ def _crossing(t, r, dc, acc: float, jerk: float):
     m1, m2 = np.minimum(b1, b2), np.maximum(b1, b2)
     root = np.zeros(np.broadcast(t, r, dc).shape)
     found = at_lo | at_hi
-    for x0, x1 in ((np.full_like(m1, -acc), m1), (m1, m2), (m2, np.full_like(m2, acc))):
+    for x0, x1 in ((-acc * np.ones_like(m1), m1), (m1, m2), (m2, acc * np.ones_like(m2))):
         mid = 0.5 * (x0 + x1)
         quad_rise, quad_fall = mid >= b1, mid <= b2
         qa = np.where(quad_rise, -0.5 / jerk, 0.0) + np.where(quad_fall, 0.5 / jerk, 0.0)
@@ -135,6 +135,7 @@ def max_distance(T, c1, c2, feed: float, acc: float, jerk: float, points: int = 
     h(w₀ + w₁)/2 + (A²h² − min(|w₁ − w₀|, Ah)²)/(4A) (the tent), nondecreasing in w₀ and w₁, and
     at most hF. Arrays T, c1, c2 of one shape (gaps)."""
     T, c1, c2 = (np.asarray(x, dtype=float)[:, None] for x in (T, c1, c2))
+    acc = _per_gap(acc, T)
     t = T * np.linspace(0.0, 1.0, points + 1)[None, :]
     r = T - t
     root, at_lo, at_hi = _crossing(t, r, c1 - c2, acc, jerk)
@@ -150,12 +151,19 @@ def max_distance(T, c1, c2, feed: float, acc: float, jerk: float, points: int = 
     return np.minimum(tent, h * feed).sum(axis=1)
 
 
+def _per_gap(acc, T):
+    """The acceleration bound as a column: one value for every gap, or one per gap."""
+    acc = np.asarray(acc, dtype=float)
+    return acc if acc.ndim == 0 else acc.reshape(-1, 1) * np.ones_like(T)
+
+
 def _max_distance_bisect(T, c1, c2, feed: float, acc: float, jerk: float, points: int = CHAIN_POINTS):
     """:func:`max_distance` with α* by bisection (the tests' reference for the closed form)."""
     T, c1, c2 = (np.asarray(x, dtype=float)[:, None] for x in (T, c1, c2))
+    acc = _per_gap(acc, T)
     t = T * np.linspace(0.0, 1.0, points + 1)[None, :]
     r = T - t
-    lo, hi = np.full(t.shape, -acc), np.full(t.shape, acc)
+    lo, hi = -acc * np.ones(t.shape), acc * np.ones(t.shape)
     for _ in range(ALPHA_STEPS):
         mid = 0.5 * (lo + hi)
         up = c1 + _rise(mid, t, acc, jerk) >= c2 + _fall(mid, r, acc, jerk)
@@ -185,13 +193,14 @@ def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float):
     assumed). It starts from the acceleration-only time (where the bound confirms it, else the
     gap at F) and widens the bracket by steps of A/J."""
     gaps, c1, c2 = (np.asarray(x, dtype=float) for x in (gaps, c1, c2))
+    acc = np.broadcast_to(np.asarray(acc, dtype=float), gaps.shape)
     lo = 0.999 * _acc_only_s(gaps, c1, c2, feed, acc)
     lo = np.where(max_distance(lo, c1, c2, feed, acc, jerk) < gaps, lo, gaps / feed * (1.0 - 1e-12))
     step = np.full(gaps.size, acc / jerk)
     hi = lo + step
     todo = np.arange(gaps.size)
     for _ in range(200):
-        short = max_distance(hi[todo], c1[todo], c2[todo], feed, acc, jerk) < gaps[todo]
+        short = max_distance(hi[todo], c1[todo], c2[todo], feed, acc[todo], jerk) < gaps[todo]
         todo = todo[short]
         if not todo.size:
             break
@@ -231,25 +240,74 @@ def chain_points(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.nd
     return s_all[order], np.concatenate([v_c, v_m])[order]
 
 
+def gap_accelerations(curve: Nurbs, limits: MachineLimits, s: np.ndarray) -> np.ndarray:
+    """Per gap [s_i, s_i+1], a bound on the tangential acceleration any motion within the axes'
+    limits has there: s̈ = a·T (the centripetal part is normal to T), so
+    |s̈| ≤ Σ_j |a_j|·|T_j| ≤ Σ_j A_j·|T_j(s)| =: G(s), and over the gap max G. The max is read on
+    the bound's adaptive grid (every knot, corner and minimum of the limit on it, the tangent
+    turning at most bound.TURN_RAD between points, else split) over the grid intervals the gap
+    spans, each at most the larger G of its ends plus ‖A‖₂·θ for its turn θ (the angle between
+    its end tangents, at least ds·κ) (|G(s) − G(s_k)| ≤ ‖A‖₂·|T(s) − T(s_k)|; at a true corner, on the grid, each side's
+    own tangent: the jump is no turn); never above ‖A‖₂ (Cauchy-Schwarz). A straight
+    gap along one axis of a machine with a slow axis gets that axis's own A_j, not ‖A‖₂."""
+    from fuzzyfeed.slw.bound import _grid
+    from fuzzyfeed.slw.preprocess import corners, joins
+
+    acc = np.asarray(limits.axis_acc_mm_s2, dtype=float)[:curve.dim]
+    norm = float(np.linalg.norm(acc))
+    gs, _, tangent, kn = _grid(curve, limits, None)
+    tangent = np.asarray(tangent, dtype=float)[:, :curve.dim]
+    finite = np.isfinite(tangent).all(axis=1)
+    if gs.size < 2 or not finite.all():  # a stationary point: no direction to bound it by
+        return np.full(s.size - 1, norm)
+    start, end = tangent[:-1].copy(), tangent[1:].copy()  # each grid interval's end tangents
+    s_c, _ = corners(curve, limits)
+    if s_c.size:  # a corner's grid point: the interval after it starts on the tangent after it
+        s_j, t_j, _, _ = joins(curve)
+        n = s_j.size
+        at = np.searchsorted(gs, s_c)
+        on = (at < gs.size) & (gs[np.minimum(at, gs.size - 1)] == s_c)
+        k, jn = at[on], np.clip(np.searchsorted(s_j, s_c[on]), 0, n - 1)
+        after, before = k < gs.size - 1, k > 0
+        start[k[after]] = t_j[n:][jn[after]][:, :curve.dim]
+        end[k[before] - 1] = t_j[:n][jn[before]][:, :curve.dim]
+    g = np.maximum(np.abs(start) @ acc, np.abs(end) @ acc)
+    # the turn over an interval: the angle between its end tangents, at least ds·κ (the grid's
+    # own measure of what it resolves)
+    kappa = np.nan_to_num(np.linalg.norm(np.asarray(kn, dtype=float), axis=1), nan=np.inf, posinf=np.inf)
+    turn = np.maximum(np.arccos(np.clip(np.einsum("ij,ij->i", start, end), -1.0, 1.0)),
+                      np.diff(gs) * np.maximum(kappa[:-1], kappa[1:]))
+    seg = g + norm * np.minimum(turn, np.pi)  # ≥ G over grid interval k
+    m = seg.size
+    # gap i spans the grid intervals k0_i … k0_i+1 − 1 (its ends are grid points: corners and the
+    # limit's minima are on the grid), and interval k0_i+1 too where its end falls inside it
+    k0 = np.clip(np.searchsorted(gs, s, side="right") - 1, 0, m - 1)
+    out = np.maximum.reduceat(seg, k0[:-1])  # seg[k0_i] alone where the gap is in one interval
+    inside = gs[k0[1:]] < s[1:]
+    out = np.where(inside, np.maximum(out, seg[k0[1:]]), out)
+    return np.minimum(out, norm)
+
+
 def corner_chain_s(curve: Nurbs, limits: MachineLimits) -> float:
-    """A lower bound (s) on any schedule with tangential |j| ≤ J, |a| ≤ ‖A_j‖₂ and v ≤ F that
-    passes each of :func:`chain_points` no faster than its feed and rests at both ends: the path
-    is cut at those points and each gap run alone, accelerations at its ends free (a
-    relaxation: the gaps' times add up)."""
+    """A lower bound (s) on any schedule with tangential |j| ≤ J, |a| within the axes' limits
+    (per gap: :func:`gap_accelerations`, at most ‖A_j‖₂) and v ≤ F that passes each of
+    :func:`chain_points` no faster than its feed and rests at both ends: the path is cut at
+    those points and each gap run alone, accelerations at its ends free (a relaxation: the gaps'
+    times add up)."""
     s_p, v_p = chain_points(curve, limits)
     if s_p.size == 0:
         return 0.0
     jerk, feed = limits.jerk_mm_s3, limits.feed_mm_s
-    acc = float(np.linalg.norm(np.asarray(limits.axis_acc_mm_s2)[:curve.dim]))
     s = np.concatenate([[0.0], s_p, [curve.length]])
     v = np.concatenate([[0.0], v_p, [0.0]])
+    acc = gap_accelerations(curve, limits, s)
     gaps = np.diff(s)
     keep = gaps > 0.0
-    g, v1, v2 = gaps[keep], v[:-1][keep], v[1:][keep]
+    g, v1, v2, a = gaps[keep], v[:-1][keep], v[1:][keep], acc[keep]
     total = 0.0
     for k in range(0, g.size, CHAIN_BATCH):
         part = slice(k, k + CHAIN_BATCH)
-        total += float(gap_times(g[part], v1[part], v2[part], feed, acc, jerk).sum())
+        total += float(gap_times(g[part], v1[part], v2[part], feed, a[part], jerk).sum())
     return total
 
 
