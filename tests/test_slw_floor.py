@@ -12,12 +12,12 @@ from fuzzyfeed.slw import schedule
 from fuzzyfeed.slw import floor as fl
 
 
-def random_motion(rng, acc, jerk, steps=400):
+def random_motion(rng, acc, jerk, steps=400, with_accelerations=False):
     """A motion with |a| ≤ A, |j| ≤ J (piecewise constant jerk, integrated exactly), mostly
-    bang-bang: (T, v(0), v(T), distance, max feed)."""
+    bang-bang: (T, v(0), v(T), distance, max feed[, a(0), a(T), least feed])."""
     dt = rng.uniform(1e-4, 2e-3)
     a, v, s, vmax = rng.uniform(-acc, acc), rng.uniform(0.0, 50.0), 0.0, 0.0
-    v0 = v
+    v0, a_start, vmin = v, a, v
     sign = rng.choice([-1.0, 1.0])
     for _ in range(steps):
         if rng.random() < 0.03:
@@ -28,6 +28,9 @@ def random_motion(rng, acc, jerk, steps=400):
         v += a * dt + j * dt * dt / 2.0
         a += j * dt
         vmax = max(vmax, v + acc * dt)
+        vmin = min(vmin, v - acc * dt)
+    if with_accelerations:
+        return steps * dt, v0, v, s, vmax, a_start, a, vmin
     return steps * dt, v0, v, s, vmax
 
 
@@ -107,3 +110,67 @@ def test_slow_axis_leg_floor_is_its_rest_to_rest():
     loose = float(fl.gap_times(np.array([5.0]), np.zeros(1), np.zeros(1), 50.0,
                                np.linalg.norm([1000, 250]), lim.jerk_mm_s3)[0])
     assert loose < own <= fl.rest_to_rest_s(5.0, 50.0, 250.0, lim.jerk_mm_s3)
+
+
+def test_reach_is_the_capped_tent_integral():
+    """_reach against the integral summed on a fine grid, and A-Lipschitz in t (the tent rule
+    of the integration needs it)."""
+    rng = np.random.default_rng(11)
+    acc, jerk = 800.0, 2e4
+    for _ in range(200):
+        a0, alpha, t_end = rng.uniform(-acc, acc), rng.uniform(-acc, acc), rng.uniform(1e-3, 0.3)
+        sig = np.linspace(0.0, t_end, 200_001)
+        a = np.minimum(np.minimum(acc, alpha + jerk * (t_end - sig)), a0 + jerk * sig)
+        assert abs(fl._reach(alpha, t_end, a0, acc, jerk) - np.trapezoid(a, sig)) <= 1e-6 * (1 + abs(a).max())
+        t = np.linspace(0.0, t_end, 401)
+        slope = np.abs(np.diff(fl._reach(alpha, t, a0, acc, jerk))) / np.diff(t)
+        assert slope.max() <= acc * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_no_motion_covers_more_than_the_held_bound(seed):
+    """Random jerk-limited motions against max_distance_held at their own end accelerations (and
+    at looser ones), and the held bound is below the free one (it knows more)."""
+    rng = np.random.default_rng(100 + seed)
+    acc, jerk = rng.uniform(200.0, 2000.0), rng.uniform(2e3, 1e5)
+    rows = [random_motion(rng, acc, jerk, with_accelerations=True) for _ in range(400)]
+    rows = [r for r in rows if r[-1] >= 0.0][:150]  # forward motions only (v ≥ 0 is assumed)
+    T, v0, v1, dist, vmax, a0, a1, _ = (np.array(c) for c in zip(*rows))
+    feed = float(vmax.max())
+    held = fl.max_distance_held(T, v0, v1, a0, a1, feed, acc, jerk)
+    assert (dist <= held * (1 + 1e-9) + 1e-12).all(), np.max(dist / held)
+    looser = fl.max_distance_held(T, v0, v1, np.maximum(a0, 0.0), np.minimum(a1, 0.0), feed, acc, jerk)
+    assert (held <= looser * (1 + 1e-12)).all()
+    free = fl.max_distance(T, v0, v1, feed, acc, jerk)
+    assert (held <= free * (1 + 1e-6)).all()
+    assert np.max(dist / held) > 0.8  # near the best of them (it can fail: not slack)
+
+
+def test_held_chain_through_a_stop_is_two_rest_to_rest_moves():
+    """Two gaps meeting at a full stop: any motion has a = 0 there (v has its minimum 0), so the
+    truth is two seven-phase rest-to-rest moves. The held chain stays below it (a bound) and
+    above the free chain, which lets the first gap brake at −A into the stop and the second
+    leave it at +A."""
+    feed, acc, jerk = 100.0, 1000.0, 1e4
+    for gap in (0.5, 4.0, 30.0):
+        gaps, v, a = np.array([gap, gap]), np.zeros(3), np.full(2, acc)
+        exact = 2.0 * fl.rest_to_rest_s(gap, feed, acc, jerk)
+        free = float(fl.gap_times(gaps, v[:-1], v[1:], feed, a, jerk).sum())
+        held = fl.held_chain_s(gaps, v, a, feed, jerk)
+        assert free < held <= exact, (gap, free, held, exact)
+        finer = fl.held_chain_s(gaps, v, a, feed, jerk, bins=8)
+        assert held <= finer * (1 + 1e-9) and finer <= exact
+
+
+def test_held_chain_of_one_gap_is_the_free_gap():
+    feed, acc, jerk = 100.0, 1000.0, 1e4
+    for gap in (0.05, 3.0, 40.0):
+        free = float(fl.gap_times(np.array([gap]), np.zeros(1), np.zeros(1), feed, acc, jerk)[0])
+        held = fl.held_chain_s(np.array([gap]), np.zeros(2), np.array([acc]), feed, jerk)
+        assert held == pytest.approx(free, rel=2e-3)
+
+
+def test_gap_times_refuses_end_accelerations_that_break_the_time_scaling():
+    with pytest.raises(ValueError, match="a_start >= 0 >= a_end"):
+        fl.gap_times(np.array([1.0]), np.zeros(1), np.zeros(1), 100.0, 1000.0, 1e4,
+                     np.array([-1.0]), np.array([0.0]))

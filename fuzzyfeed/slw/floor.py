@@ -77,6 +77,11 @@ ALPHA_STEPS = 40
 TIME_STEPS = 16
 #: Gaps per vectorised batch (bounds the memory: batch × CHAIN_POINTS floats per array).
 CHAIN_BATCH = 2048
+#: The chain's coupling: the tangential acceleration at each chain point lies in one of
+#: 2·HELD_BINS bins of [−A, A] (HELD_BINS a sign), shared by the gaps on either side;
+#: bisection steps for the crossing of :func:`max_distance_held`.
+HELD_BINS = 3
+HELD_ALPHA_STEPS = 14
 
 
 def _rise(alpha, t, acc: float, jerk: float):
@@ -186,21 +191,35 @@ def _acc_only_s(gaps, c1, c2, feed: float, acc: float):
     return ramps + np.where(peak > feed, cruise, 0.0)
 
 
-def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float):
+def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float, a_start=None, a_end=None):
     """Per gap, a time no motion of :func:`max_distance`'s kind covers the gap in less than:
     bisection on T keeping max_distance(lo) < gap, which alone proves lo (a motion covering the
     gap in T' ≤ lo, run slower by lo/T', would cover it in lo; no monotonicity of the bound is
     assumed). It starts from the acceleration-only time (where the bound confirms it, else the
-    gap at F) and widens the bracket by steps of A/J."""
+    gap at F) and widens the bracket by steps of A/J. With ``a_start`` ≥ 0 ≥ ``a_end`` (per gap)
+    the motions start with a ≤ a_start and end with a ≥ a_end (:func:`max_distance_held`): run
+    slower by ρ = T'/lo < 1 their end accelerations become ρ²·a, still within both (the signs)."""
     gaps, c1, c2 = (np.asarray(x, dtype=float) for x in (gaps, c1, c2))
     acc = np.broadcast_to(np.asarray(acc, dtype=float), gaps.shape)
+    if a_start is None:
+        def reach(T, i):
+            return max_distance(T, c1[i], c2[i], feed, acc[i], jerk)
+    else:
+        a_start = np.broadcast_to(np.asarray(a_start, dtype=float), gaps.shape)
+        a_end = np.broadcast_to(np.asarray(a_end, dtype=float), gaps.shape)
+        if (a_start < 0.0).any() or (a_end > 0.0).any():
+            raise ValueError("held end accelerations: a_start >= 0 >= a_end (the time-scaling proof)")
+
+        def reach(T, i):
+            return max_distance_held(T, c1[i], c2[i], a_start[i], a_end[i], feed, acc[i], jerk)
+    every = np.arange(gaps.size)
     lo = 0.999 * _acc_only_s(gaps, c1, c2, feed, acc)
-    lo = np.where(max_distance(lo, c1, c2, feed, acc, jerk) < gaps, lo, gaps / feed * (1.0 - 1e-12))
-    step = np.full(gaps.size, acc / jerk)
+    lo = np.where(reach(lo, every) < gaps, lo, gaps / feed * (1.0 - 1e-12))
+    step = np.full(gaps.size, 1.0) * acc / jerk
     hi = lo + step
-    todo = np.arange(gaps.size)
+    todo = every
     for _ in range(200):
-        short = max_distance(hi[todo], c1[todo], c2[todo], feed, acc[todo], jerk) < gaps[todo]
+        short = reach(hi[todo], todo) < gaps[todo]
         todo = todo[short]
         if not todo.size:
             break
@@ -208,9 +227,52 @@ def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float):
         lo[todo], hi[todo] = hi[todo], hi[todo] + step[todo]
     for _ in range(TIME_STEPS):
         mid = 0.5 * (lo + hi)
-        covers = max_distance(mid, c1, c2, feed, acc, jerk) >= gaps
+        covers = reach(mid, every) >= gaps
         lo, hi = np.where(covers, lo, mid), np.where(covers, mid, hi)
     return lo
+
+
+def _capped_integral(width, start, end, acc):
+    """∫ min(A, L) over an interval of ``width`` where L is linear from ``start`` to ``end``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.clip((acc - start) / (end - start), 0.0, 1.0)  # where L crosses A
+    crossing = np.where(start < acc, 0.5 * (start + acc) * f + acc * (1.0 - f),
+                        acc * f + 0.5 * (acc + end) * (1.0 - f)) * width
+    return np.where((start <= acc) & (end <= acc), 0.5 * (start + end) * width,
+                    np.where((start >= acc) & (end >= acc), acc * width, crossing))
+
+
+def _reach(alpha, t, a0, acc: float, jerk: float):
+    """Largest v(t) − v(0) of any motion with a(t) = α, a(0) ≤ a₀, |a| ≤ A, |j| ≤ J:
+    ∫₀ᵗ min(A, α + J(t − σ), a₀ + Jσ) dσ (the jerk bounds a from both ends); the two lines meet at
+    σ* = (α + Jt − a₀)/(2J), clipped to [0, t]. A-Lipschitz in t for a₀ ≥ −A."""
+    sig = np.clip((alpha + jerk * t - a0) / (2.0 * jerk), 0.0, t)
+    return (_capped_integral(sig, a0, a0 + jerk * sig, acc)
+            + _capped_integral(t - sig, alpha + jerk * (t - sig), alpha, acc))
+
+
+def max_distance_held(T, c1, c2, a0, a1, feed: float, acc, jerk: float, points: int = CHAIN_POINTS,
+                      steps: int = HELD_ALPHA_STEPS):
+    """:func:`max_distance` for motions that also start with a(0) ≤ a₀ and end with a(T) ≥ a₁
+    (a₀ ≥ −A, a₁ ≤ A): v(t) ≤ c1 + reach(α, t, a₀) (increasing in α) and
+    v(t) − v(T) = −∫ₜᵀ a ≤ reach(−a₁, T − t, −α) (decreasing in α), so for any bracket lo ≤ α* ≤ hi
+    of their crossing v(t) ≤ min(c1 + reach(hi), c2 + reach at lo) (every α is ≤ hi or ≥ lo):
+    bisection, each step sound. Integrated as :func:`max_distance` (the same tent)."""
+    T, c1, c2, a0, a1 = (np.asarray(x, dtype=float)[:, None] for x in (T, c1, c2, a0, a1))
+    acc = _per_gap(acc, T)
+    t = T * np.linspace(0.0, 1.0, points + 1)[None, :]
+    r = T - t
+    lo, hi = -acc * np.ones(t.shape), acc * np.ones(t.shape)
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        up = c1 + _reach(mid, t, a0, acc, jerk) >= c2 + _reach(-a1, r, -mid, acc, jerk)
+        lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
+    w = np.minimum(np.minimum(c1 + _reach(hi, t, a0, acc, jerk), c2 + _reach(-a1, r, -lo, acc, jerk)), feed)
+    w = np.maximum(w, 0.0)  # v ≥ 0: where the bound is below, no motion; 0 only loosens it
+    h = T / points
+    d = np.minimum(np.abs(np.diff(w, axis=1)), acc * h)
+    tent = h * 0.5 * (w[:, :-1] + w[:, 1:]) + (acc * acc * h * h - d * d) / (4.0 * acc)
+    return np.minimum(tent, h * feed).sum(axis=1)
 
 
 def chain_points(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:
@@ -292,23 +354,62 @@ def corner_chain_s(curve: Nurbs, limits: MachineLimits) -> float:
     """A lower bound (s) on any schedule with tangential |j| ≤ J, |a| within the axes' limits
     (per gap: :func:`gap_accelerations`, at most ‖A_j‖₂) and v ≤ F that passes each of
     :func:`chain_points` no faster than its feed and rests at both ends: the path is cut at
-    those points and each gap run alone, accelerations at its ends free (a relaxation: the gaps'
-    times add up)."""
+    those points and each gap run alone (a relaxation: the gaps' times add up), either with
+    its end accelerations free or held to the bins of :func:`held_chain_s` (the larger)."""
     s_p, v_p = chain_points(curve, limits)
     if s_p.size == 0:
         return 0.0
     jerk, feed = limits.jerk_mm_s3, limits.feed_mm_s
-    s = np.concatenate([[0.0], s_p, [curve.length]])
-    v = np.concatenate([[0.0], v_p, [0.0]])
+    s, inverse = np.unique(np.concatenate([[0.0], s_p, [curve.length]]), return_inverse=True)
+    v = np.full(s.size, np.inf)
+    np.minimum.at(v, inverse, np.concatenate([[0.0], v_p, [0.0]]))  # one point, the lower feed
     acc = gap_accelerations(curve, limits, s)
-    gaps = np.diff(s)
-    keep = gaps > 0.0
-    g, v1, v2, a = gaps[keep], v[:-1][keep], v[1:][keep], acc[keep]
-    total = 0.0
+    g, v1, v2 = np.diff(s), v[:-1], v[1:]
+    free = 0.0
     for k in range(0, g.size, CHAIN_BATCH):
         part = slice(k, k + CHAIN_BATCH)
-        total += float(gap_times(g[part], v1[part], v2[part], feed, a[part], jerk).sum())
-    return total
+        free += float(gap_times(g[part], v1[part], v2[part], feed, acc[part], jerk).sum())
+    return max(free, held_chain_s(g, v, acc, feed, jerk))
+
+
+def held_chain_s(gaps: np.ndarray, v: np.ndarray, acc: np.ndarray, feed: float, jerk: float,
+                 bins: int = HELD_BINS) -> float:
+    """The chain with each point's tangential acceleration shared by its two gaps (s̈ is
+    continuous under a jerk limit): at interior point k, α_k ∈ [−A_k, A_k] (A_k the smaller of its
+    gaps' bounds) lies in one of 2·``bins`` bins [lo, hi]; the gap after it starts with
+    a ≤ max(hi, 0), the gap before it ends with a ≥ min(lo, 0) (the signs keep the time-scaling
+    proof of :func:`gap_times`), and Σ gap times is least over the bins' sequence (dynamic
+    programming, exact over the bins). ``gaps`` (m, all > 0), ``v`` the m + 1 points' feeds
+    (rest at both ends: their accelerations free), ``acc`` per gap."""
+    m = gaps.size
+    if m == 0:
+        return 0.0
+    edge = np.linspace(0.0, 1.0, bins + 1)[1:]  # e_1 … e_n, fractions of A_k
+    a_point = np.concatenate([[acc[0]], np.minimum(acc[:-1], acc[1:]), [acc[-1]]])
+    # option c of a gap's start: c = 0 → a ≤ 0, c ≥ 1 → a ≤ e_c·A; of its end f: a ≥ −e_f·A (f ≥ 1)
+    frac = np.concatenate([[0.0], edge])
+    n = bins + 1
+    c_idx, f_idx = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    c_idx, f_idx = c_idx.ravel(), f_idx.ravel()
+    rows = np.repeat(np.arange(m), n * n)
+    a_start = frac[np.tile(c_idx, m)] * a_point[rows]
+    a_end = -frac[np.tile(f_idx, m)] * a_point[rows + 1]
+    cost = np.empty(rows.size)
+    for k in range(0, rows.size, CHAIN_BATCH):
+        part = slice(k, k + CHAIN_BATCH)
+        r = rows[part]
+        cost[part] = gap_times(gaps[r], v[r], v[r + 1], feed, acc[r], jerk, a_start[part], a_end[part])
+    cost = cost.reshape(m, n, n)  # [gap, start option, end option]
+    # an interior point's bin b: negative bins j = 1…n end the gap before at −e_j, start the next
+    # at 0; positive bins start the next at e_j and end the gap before at 0
+    ends = np.concatenate([np.arange(1, n), np.zeros(n - 1, dtype=int)])
+    starts = np.concatenate([np.zeros(n - 1, dtype=int), np.arange(1, n)])
+    if m == 1:  # rest to rest: both accelerations free
+        return float(cost[0, n - 1, n - 1])
+    best = cost[0, n - 1, ends]  # point 1's bins; the start at rest, its acceleration free (≤ A)
+    for i in range(1, m - 1):  # point i + 1's bins
+        best = (best[:, None] + cost[i][starts][:, ends]).min(axis=0)
+    return float((best + cost[m - 1][starts, n - 1]).min())  # the end's acceleration free
 
 
 def jerk_floor(curve: Nurbs, limits: MachineLimits, bound_s: float | None = None) -> float:
