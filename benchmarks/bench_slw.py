@@ -138,7 +138,7 @@ def run_case(name: str, curve, limits: MachineLimits, transition: str, cap=None,
         return {"name": name, "fail": f"{type(exc).__name__}: {exc}"[:240], "cpu": time.process_time() - t0}
     cpu = time.process_time() - t0
     bound = path_bound(traj.curve, limits, feed_cap=cap, halve=False)  # the path followed
-    floor = jerk_floor(traj.curve, limits, bound.time_s)
+    floor = jerk_floor(traj.curve, limits, bound)
     old = max(bound.time_s, legs_s(traj.curve, limits))  # the floor before the corner chain
     m = measure(traj)
     return {"name": name, "length": traj.curve.length, "cpu": cpu, "time": traj.cycle_time_s,

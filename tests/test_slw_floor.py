@@ -174,3 +174,23 @@ def test_gap_times_refuses_end_accelerations_that_break_the_time_scaling():
     with pytest.raises(ValueError, match="a_start >= 0 >= a_end"):
         fl.gap_times(np.array([1.0]), np.zeros(1), np.zeros(1), 100.0, 1000.0, 1e4,
                      np.array([-1.0]), np.array([0.0]))
+
+
+def test_bound_gap_times_sum_to_the_bound_and_raise_the_chain():
+    """Each gap's share of the acceleration-limited bound (the chain points are on its grid) adds
+    up to the bound's time; the chain taking the larger per gap is above both the proven chain
+    and the bound, and still below the schedule."""
+    from fuzzyfeed.slw import path_bound
+
+    curve = slw_cases.corner_polyline(np.random.default_rng(5))
+    lim = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+    traj = schedule(curve, lim)
+    bound = path_bound(traj.curve, lim, halve=False)
+    s_p, _ = fl.chain_points(traj.curve, lim)
+    s = np.unique(np.concatenate([[0.0], s_p, [traj.curve.length]]))
+    share = fl.bound_gap_times(bound, s)
+    assert share.sum() == pytest.approx(bound.time_s, rel=1e-9)
+    both = fl.corner_chain_s(traj.curve, lim, bound)
+    assert both >= max(bound.time_s, fl.corner_chain_s(traj.curve, lim)) * (1 - 1e-12)
+    assert fl.jerk_floor(traj.curve, lim, bound) == max(both, fl.legs_s(traj.curve, lim))
+    assert both <= traj.cycle_time_s

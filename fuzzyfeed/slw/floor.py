@@ -350,37 +350,57 @@ def gap_accelerations(curve: Nurbs, limits: MachineLimits, s: np.ndarray) -> np.
     return np.minimum(out, norm)
 
 
-def corner_chain_s(curve: Nurbs, limits: MachineLimits) -> float:
+def corner_chain_s(curve: Nurbs, limits: MachineLimits, bound=None) -> float:
     """A lower bound (s) on any schedule with tangential |j| ≤ J, |a| within the axes' limits
     (per gap: :func:`gap_accelerations`, at most ‖A_j‖₂) and v ≤ F that passes each of
     :func:`chain_points` no faster than its feed and rests at both ends: the path is cut at
     those points and each gap run alone (a relaxation: the gaps' times add up), either with
-    its end accelerations free or held to the bins of :func:`held_chain_s` (the larger)."""
+    its end accelerations free or held to the bins of :func:`held_chain_s` (the larger).
+    Proven, no grid error. With ``bound`` (a :class:`fuzzyfeed.slw.bound.Bound` of the same
+    curve and limits), each gap takes at least the bound's own time over it
+    (:func:`bound_gap_times`): as exact as the bound itself (its grid)."""
     s_p, v_p = chain_points(curve, limits)
     if s_p.size == 0:
-        return 0.0
+        return 0.0 if bound is None else float(bound.time_s)
     jerk, feed = limits.jerk_mm_s3, limits.feed_mm_s
     s, inverse = np.unique(np.concatenate([[0.0], s_p, [curve.length]]), return_inverse=True)
     v = np.full(s.size, np.inf)
     np.minimum.at(v, inverse, np.concatenate([[0.0], v_p, [0.0]]))  # one point, the lower feed
     acc = gap_accelerations(curve, limits, s)
     g, v1, v2 = np.diff(s), v[:-1], v[1:]
-    free = 0.0
+    least = np.zeros(g.size) if bound is None else bound_gap_times(bound, s)
+    free = np.empty(g.size)
     for k in range(0, g.size, CHAIN_BATCH):
         part = slice(k, k + CHAIN_BATCH)
-        free += float(gap_times(g[part], v1[part], v2[part], feed, acc[part], jerk).sum())
-    return max(free, held_chain_s(g, v, acc, feed, jerk))
+        free[part] = gap_times(g[part], v1[part], v2[part], feed, acc[part], jerk)
+    return max(float(np.maximum(free, least).sum()), held_chain_s(g, v, acc, feed, jerk, least=least))
+
+
+def bound_gap_times(bound, s: np.ndarray) -> np.ndarray:
+    """Per gap [s_i, s_i+1], the acceleration-limited bound's time over its grid intervals wholly
+    inside the gap (Σ 2·ds/(v_k + v_k+1), as the bound's own time): every schedule within the
+    limits is at most the bound's feed at every point (the phase-plane envelope), so it spends at
+    least that long there."""
+    gs, v = np.asarray(bound.s_mm, dtype=float), np.asarray(bound.feed_mm_s, dtype=float)
+    pair = v[:-1] + v[1:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dt = np.where(pair > 0.0, 2.0 * np.diff(gs) / pair, 0.0)  # 0: a rest point proves nothing
+    cum = np.concatenate([[0.0], np.cumsum(dt)])
+    first = np.searchsorted(gs, s[:-1], side="left")       # the first grid point ≥ s_i
+    last = np.searchsorted(gs, s[1:], side="right") - 1     # the last grid point ≤ s_i+1
+    return np.where(last > first, cum[np.minimum(last, cum.size - 1)] - cum[np.minimum(first, cum.size - 1)], 0.0)
 
 
 def held_chain_s(gaps: np.ndarray, v: np.ndarray, acc: np.ndarray, feed: float, jerk: float,
-                 bins: int = HELD_BINS) -> float:
+                 bins: int = HELD_BINS, least: np.ndarray | None = None) -> float:
     """The chain with each point's tangential acceleration shared by its two gaps (s̈ is
     continuous under a jerk limit): at interior point k, α_k ∈ [−A_k, A_k] (A_k the smaller of its
     gaps' bounds) lies in one of 2·``bins`` bins [lo, hi]; the gap after it starts with
     a ≤ max(hi, 0), the gap before it ends with a ≥ min(lo, 0) (the signs keep the time-scaling
     proof of :func:`gap_times`), and Σ gap times is least over the bins' sequence (dynamic
     programming, exact over the bins). ``gaps`` (m, all > 0), ``v`` the m + 1 points' feeds
-    (rest at both ends: their accelerations free), ``acc`` per gap."""
+    (rest at both ends: their accelerations free), ``acc`` per gap; ``least`` (optional, per gap)
+    a time each gap takes anyway, whatever its bins (each gap's cost is the larger)."""
     m = gaps.size
     if m == 0:
         return 0.0
@@ -400,6 +420,8 @@ def held_chain_s(gaps: np.ndarray, v: np.ndarray, acc: np.ndarray, feed: float, 
         r = rows[part]
         cost[part] = gap_times(gaps[r], v[r], v[r + 1], feed, acc[r], jerk, a_start[part], a_end[part])
     cost = cost.reshape(m, n, n)  # [gap, start option, end option]
+    if least is not None:
+        cost = np.maximum(cost, np.asarray(least, dtype=float)[:, None, None])
     # an interior point's bin b: negative bins j = 1…n end the gap before at −e_j, start the next
     # at 0; positive bins start the next at e_j and end the gap before at 0
     ends = np.concatenate([np.arange(1, n), np.zeros(n - 1, dtype=int)])
@@ -412,11 +434,14 @@ def held_chain_s(gaps: np.ndarray, v: np.ndarray, acc: np.ndarray, feed: float, 
     return float((best + cost[m - 1][starts, n - 1]).min())  # the end's acceleration free
 
 
-def jerk_floor(curve: Nurbs, limits: MachineLimits, bound_s: float | None = None) -> float:
-    """max(acceleration-limited bound, Σ legs rest-to-rest, corner chain) in s; ``bound_s`` if
-    already known."""
-    if bound_s is None:
-        from fuzzyfeed.slw.bound import path_bound
+def jerk_floor(curve: Nurbs, limits: MachineLimits, bound=None) -> float:
+    """max(acceleration-limited bound, Σ legs rest-to-rest, corner chain) in s. ``bound``: the
+    :class:`~fuzzyfeed.slw.bound.Bound` of the same curve and limits (then every gap of the
+    chain takes at least the bound's time over it), or its time alone (s), or None (computed)."""
+    from fuzzyfeed.slw.bound import Bound, path_bound
 
-        bound_s = path_bound(curve, limits, halve=False).time_s
-    return max(bound_s, legs_s(curve, limits), corner_chain_s(curve, limits))
+    if bound is None:
+        bound = path_bound(curve, limits, halve=False)
+    if isinstance(bound, Bound):
+        return max(bound.time_s, legs_s(curve, limits), corner_chain_s(curve, limits, bound))
+    return max(float(bound), legs_s(curve, limits), corner_chain_s(curve, limits))
