@@ -14,6 +14,21 @@ import math
 import numba
 import numpy as np
 
+from fuzzyfeed.geometry._nurbs_jit import evaluate_power_basis
+
+
+@numba.njit(cache=True, nogil=True)
+def derivatives(spans, coeffs, u, out, speed):
+    """C, C′, C″ at ``u`` into out[0..2] (the NURBS kernel, as Nurbs.evaluate) and |C′| into
+    ``speed`` (np.linalg.norm: the squares added in order)."""
+    evaluate_power_basis(spans, coeffs, u, 2, out)
+    dim = out.shape[2]
+    for i in range(u.size):
+        acc = out[1, i, 0] * out[1, i, 0]
+        for j in range(1, dim):
+            acc += out[1, i, j] * out[1, i, j]
+        speed[i] = math.sqrt(acc)
+
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _cap_at(x, xp, fp, left):

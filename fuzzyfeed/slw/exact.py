@@ -25,8 +25,12 @@ def evaluate_exact(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: Feed
 
     s = np.asarray(s, dtype=float)
     u = np.asarray(u, dtype=float)
-    _, d1, d2 = curve.evaluate(u, order=2)   # validates u against the domain, as samples_at
-    speed = np.linalg.norm(d1, axis=1)
+    lo, hi = curve.domain
+    if not (u.size and u.min() >= lo and u.max() <= hi):   # (NaN too) Nurbs.evaluate's error
+        return _evaluate(curve, limits, s, cap, u)
+    out, speed = np.empty((3, u.size, curve.dim)), np.empty(u.size)
+    kernel.derivatives(curve.span_breaks, curve._coeffs, u, out, speed)
+    d1, d2 = out[1], out[2]
     with np.errstate(over="ignore", invalid="ignore"):
         speed3 = speed ** 3                  # numpy's power (not the compiled one's) as in curvature_from_derivatives
     n = s.size
