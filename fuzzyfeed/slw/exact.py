@@ -1,6 +1,8 @@
-"""The path read exactly at given parameters for the look-ahead's check: preprocess._evaluate's
-values (feed limit of eq. (8)-(12), unit tangent, κN), computed in one compiled pass
-(slw/_exact_jit.py) instead of ~30 numpy calls; value for value the same (tests/test_slw_exact.py)."""
+"""The path read exactly at given parameters: preprocess._evaluate's values (feed limit of
+eq. (8)-(12), unit tangent, κN), computed in one compiled pass (slw/_exact_jit.py) instead of ~30
+numpy calls; value for value the same (tests/test_slw_exact.py). Every read of the path by the
+scheduler goes through it: the preprocessor's reference points, the machine's cap, and the
+look-ahead's ~10⁷ near-limit samples of a long program (a third of its scheduling in numpy)."""
 
 from __future__ import annotations
 
@@ -10,29 +12,25 @@ import numpy as np
 
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.machine.limits import MachineLimits
-from fuzzyfeed.slw.feed_cap import FeedCap
-from fuzzyfeed.slw.preprocess import Reference, _evaluate
 
 _EMPTY = np.empty(0)
 
 
-def evaluate_exact(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: FeedCap | None,
-                   u: np.ndarray) -> Reference:
-    """preprocess._evaluate(curve, limits, s, cap, u): the reference data at arc lengths ``s``
-    read at parameters ``u`` (the caller's estimate of u(s)). Falls back to it where a derivative
-    is not finite (curvature_vectors' other branch)."""
+def exact_arrays(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap, u: np.ndarray):
+    """(feed limit, unit tangent (n, 3), κN (n, 3)) at arc lengths ``s`` and parameters ``u``, as
+    preprocess._evaluate computes them with numpy (``cap``: a FeedCap or None); None where that
+    code must run instead (a parameter outside the domain: its error; a derivative that is not
+    finite: curvature_vectors' other branch)."""
     from fuzzyfeed.slw import _exact_jit as kernel
 
-    s = np.asarray(s, dtype=float)
-    u = np.asarray(u, dtype=float)
     lo, hi = curve.domain
-    if not (u.size and u.min() >= lo and u.max() <= hi):   # (NaN too) Nurbs.evaluate's error
-        return _evaluate(curve, limits, s, cap, u)
+    if not (u.size and u.min() >= lo and u.max() <= hi):   # (NaN too)
+        return None
     out, speed = np.empty((3, u.size, curve.dim)), np.empty(u.size)
     kernel.derivatives(curve.span_breaks, curve._coeffs, u, out, speed)
     d1, d2 = out[1], out[2]
     with np.errstate(over="ignore", invalid="ignore"):
-        speed3 = speed ** 3                  # numpy's power (not the compiled one's) as in curvature_from_derivatives
+        speed3 = speed ** 3                  # numpy's power, as curvature_from_derivatives
     n = s.size
     vlim, tangent, kn = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     cap_s, cap_v = (cap.s_mm, cap.feed_mm_s) if cap is not None else (_EMPTY, _EMPTY)
@@ -41,6 +39,4 @@ def evaluate_exact(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: Feed
                              np.asarray(limits.axis_acc_mm_s2, dtype=float), float(limits.feed_mm_s),
                              float(limits.chord_tol_mm), 2.0 / limits.ts_s, sys.float_info.max,
                              vlim, tangent, kn)
-    if not ok:
-        return _evaluate(curve, limits, s, cap, u)
-    return Reference(s, u, vlim, tangent, kn)
+    return (vlim, tangent, kn) if ok else None

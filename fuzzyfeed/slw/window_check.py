@@ -14,8 +14,7 @@ import math
 
 import numpy as np
 
-from fuzzyfeed.slw.exact import evaluate_exact
-from fuzzyfeed.slw.preprocess import Reference, evaluate_reference
+from fuzzyfeed.slw.preprocess import Reference, _evaluate, evaluate_reference
 from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration
 from fuzzyfeed.slw.window_blocks import CRAWL, _Junction, _WBlock
 
@@ -93,7 +92,7 @@ class BlockCheck:
         """Check blocks ``indices`` in order, repairing the first that breaks a limit (False).
         The samples within reach of a limit of every block still to judge are read from the path
         in one evaluation (one call instead of one per block: the calls' overhead was half of
-        a long program's scheduling), compiled (slw/exact.py: preprocess._evaluate's values)."""
+        a long program's scheduling), compiled (slw/exact.py)."""
         blocks, juncs = self.blocks, self.juncs
         data = []
         for i in indices:
@@ -110,7 +109,7 @@ class BlockCheck:
             s_all = np.concatenate([d[2][d[9]] for d in todo])
             u_all = np.concatenate([np.interp(d[2][d[9]], self.blocks[i].ref.s, self.blocks[i].ref.u)
                                     for i, d in data if d is not None and d[9].size])
-            exact = evaluate_exact(self.curve, self.limits, s_all, self.cap, u_all)
+            exact = _evaluate(self.curve, self.limits, s_all, self.cap, u_all)
             at = 0
             for i, d in data:
                 if d is None or not d[9].size:
@@ -142,7 +141,7 @@ class BlockCheck:
             # between reference points (a product of interpolated T and κN missed a block's
             # peak: wm on a slow Y axis, 100.4 % of A_y between two points 0.1 mm apart)
             # (at u interpolated between the points: no arc-length inversion, second-order close)
-            exact = evaluate_exact(self.curve, self.limits, s[near], self.cap, np.interp(s[near], ref.s, ref.u))
+            exact = _evaluate(self.curve, self.limits, s[near], self.cap, np.interp(s[near], ref.s, ref.u))
             vlim, tan, kn = vlim.copy(), tan.copy(), kn.copy()
             vlim[near] = np.minimum(vlim[near], exact.vlim)
             tan[near], kn[near] = exact.tangent, exact.kn
