@@ -23,6 +23,7 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.limits import MachineLimits, curvature_vectors, feed_limits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.sampling import samples_at
+from fuzzyfeed.slw.exact import exact_arrays
 from fuzzyfeed.slw.feed_cap import STAIR_RATIO, FeedCap
 from fuzzyfeed.slw.profile import transition_distance
 
@@ -152,6 +153,9 @@ def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap: FeedCap |
     """Reference data at arc lengths ``s``; at parameters ``u`` instead of u(s) when given (the
     caller's estimate of u(s): no arc-length inversion)."""
     u = np.asarray(curve.param_at_length(s) if u is None else u, dtype=float)
+    fast = exact_arrays(curve, limits, np.asarray(s, dtype=float), cap, u)  # compiled, same values
+    if fast is not None:
+        return Reference(np.asarray(s, dtype=float), u, *fast)
     smp = samples_at(curve, u, s=np.asarray(s, dtype=float))
     tangent = np.nan_to_num(np.asarray(smp.tangent), nan=0.0)
     kn = np.nan_to_num(curvature_vectors(smp), nan=np.inf)
