@@ -152,7 +152,7 @@ def _verify(path, machine, tol, lo, lo_max, runs, max_ticks, checks_left) -> Uni
     time_s = _planned_time(path, machine, lo)
     if time_s / machine.ts_s > max_ticks:
         return Uniform(lo, None, runs, time_s, lo_max)
-    run = run_program(path, machine, feed_scale=lo)
+    run = run_program(path, machine, feed_scale=lo, keep_plans=False)   # its rows, not its plans (~0.1 KB a segment)
     runs += 1
     if run.max_um <= tol:
         return Uniform(lo, run, runs, run.time_s, run.max_um)
@@ -205,7 +205,7 @@ def _whole_search(path: ProgramPath, machine: Machine, tol: float, hi: float, hi
     lo, lo_run = None, None
     c = hi * min(1.0, tol / hi_max)
     while lo is None:
-        r = run_program(path, machine, feed_scale=c)
+        r = run_program(path, machine, feed_scale=c, keep_plans=False)
         runs += 1
         if r.max_um <= tol:
             lo, lo_run = c, r
@@ -214,7 +214,7 @@ def _whole_search(path: ProgramPath, machine: Machine, tol: float, hi: float, hi
             c *= max(0.1, min(0.7, tol / r.max_um))
     while hi / lo > 1.0 + UNIFORM_RTOL:
         c = math.sqrt(lo * hi)
-        r = run_program(path, machine, feed_scale=c)
+        r = run_program(path, machine, feed_scale=c, keep_plans=False)
         runs += 1
         if r.max_um <= tol:
             lo, lo_run = c, r
