@@ -348,7 +348,9 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     tol = machine.contour_tol_um
     step("as written")
     path = program_path(program, machine.chord_tol_mm)
-    written = run_program(path, machine)
+    # its rows, times and hot segments, not its plans (~0.1 KB a segment): the uniform slowdown
+    # plans its trials afresh at each factor
+    written = run_program(path, machine, keep_plans=False)
     chosen = list(range(program.n_cuts)) if cuts is None else list(cuts)
     over = [k for k in cuts_over(written, tol) if k in chosen]
     step("advice")
