@@ -14,7 +14,7 @@ controller and servo model (:mod:`fuzzyfeed.program.run`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -152,7 +152,7 @@ def _verify(path, machine, tol, lo, lo_max, runs, max_ticks, checks_left) -> Uni
     time_s = _planned_time(path, machine, lo)
     if time_s / machine.ts_s > max_ticks:
         return Uniform(lo, None, runs, time_s, lo_max)
-    run = run_program(path, machine, feed_scale=lo, keep_plans=False)   # its rows, not its plans (~0.1 KB a segment)
+    run = run_program(path, machine, feed_scale=lo)
     runs += 1
     if run.max_um <= tol:
         return Uniform(lo, run, runs, run.time_s, run.max_um)
@@ -205,7 +205,7 @@ def _whole_search(path: ProgramPath, machine: Machine, tol: float, hi: float, hi
     lo, lo_run = None, None
     c = hi * min(1.0, tol / hi_max)
     while lo is None:
-        r = run_program(path, machine, feed_scale=c, keep_plans=False)
+        r = run_program(path, machine, feed_scale=c)
         runs += 1
         if r.max_um <= tol:
             lo, lo_run = c, r
@@ -214,7 +214,7 @@ def _whole_search(path: ProgramPath, machine: Machine, tol: float, hi: float, hi
             c *= max(0.1, min(0.7, tol / r.max_um))
     while hi / lo > 1.0 + UNIFORM_RTOL:
         c = math.sqrt(lo * hi)
-        r = run_program(path, machine, feed_scale=c, keep_plans=False)
+        r = run_program(path, machine, feed_scale=c)
         runs += 1
         if r.max_um <= tol:
             lo, lo_run = c, r
@@ -320,7 +320,10 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     first: list[ChainRun] = [run_chain(c, machine, keep_mm=tol) for c in chains]
     state = [_Measured.of(r) for r in first]
     touched = [False] * len(chains)
-    runs = list(first)
+    # the runs' rows without their plans (~0.1 KB a segment): ``state`` keeps the plan each pass
+    # compares with, and only that one
+    runs = [replace(r, plan=None) for r in first]
+    del first
     passes = 1
     while passes < REFERENCE_PASSES:
         changed = False
@@ -346,14 +349,16 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             # a fraction of a µm): the passes end on whole runs, as they began
             stale = [i for i, t in enumerate(touched) if t]
             for i in stale:
-                runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
-                state[i] = _Measured.of(runs[i])
+                r = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
+                state[i] = _Measured.of(r)
+                runs[i] = replace(r, plan=None)
                 touched[i] = False
             if not any((state[i].contour_mm > tol).any() for i in stale):
                 break
+    del state
     for i, t in enumerate(touched):
         if t:
-            runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
+            runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol, keep_plan=False)
     final = ProgramRun(path=refined, machine=machine, runs=tuple(runs))
     return Reference(path=refined, feeds=tuple(feeds), run=final, passes=passes,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
