@@ -46,6 +46,15 @@ kernels, :mod:`fuzzyfeed.geometry._kernels`), below in numpy without importing n
 same search; their sums run in another order, so on a near-straight stretch whose fit residual
 equals the tolerance to the last bits they can cut the runs differently (both within the
 tolerance of the points).
+
+A sequence longer than :data:`WINDOW_VERTICES` (a cut of 10⁶ G1 moves) is fitted window after
+window, with the whole sequence's result bit for bit and memory bounded by the window: the global
+quantities are cheap first passes (the rounding quantum counted in chunks, the merge clusters, the
+extent); the run search (compiled) stops before any trial that would reach a window's last vertex
+and resumes in the next window from where it stopped, the last run found carried (the next may
+merge into it), so each of its trials is one the whole search makes; the per-vertex pass needs of
+other windows only the runs (their meets' tangent breaks, the smooth chains and their middles' arc
+length, one cumulative sum carried). The full-precision branch (no quantum) is not windowed.
 """
 
 from __future__ import annotations

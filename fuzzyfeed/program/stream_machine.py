@@ -78,7 +78,7 @@ def stream_machine_advice(program: Program, table: RuleTable, machine: Machine, 
     docstring): the same CSV rows and pieces, in order. Arguments and the cuts' F are checked at the
     call; the pieces are made as the iterator is consumed. ``geometry``: a dict kept between runs
     of the same advice, cut -> its :func:`~fuzzyfeed.program.cuts.run_geometry` (17 bytes a move;
-    its fit passes ~0.4 KB a vertex while it runs)."""
+    its fit runs window by window, :data:`~fuzzyfeed.geometry.polyline.WINDOW_VERTICES`)."""
     if isinstance(piece_points, bool) or not isinstance(piece_points, (int, np.integer)) or piece_points < 1:
         raise InputError(f"piece_points = {piece_points!r}; must be an integer >= 1")
     if table.inputs != MACHINE:
