@@ -299,6 +299,9 @@ class Evaluation:
             return self
         if u is not None and not u.checked:
             u = check_uniform(self.path, r.machine, u)
+            if u.run is not None:      # its rows, not its plans (~0.1 KB a segment), during the reference
+                u = replace(u, run=ProgramRun(u.run.path, u.run.machine,
+                                              tuple(replace(c, plan=None) for c in u.run.runs)))
             r = replace(r, uniform=uniform_row(u), uniform_factor=u.factor)
         if r.reference_deferred:
             ref = limit_reference(self.path, r.machine)
