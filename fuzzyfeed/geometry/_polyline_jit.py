@@ -212,9 +212,16 @@ def _fits(pts, next_sharp, i, j, tol, path_tol, fit, work, cov, a, b, sol):
 
 
 @numba.njit(cache=True, nogil=True)
-def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit):
+def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit, i0, count0, limit, stop):
     """polyline._runs: fills out_ij[r] = (i, j), out_kind[r] (1 line, 2 circle), out_fit[r]
-    (κ, centre, axis) for the merged runs; returns their count."""
+    (κ, centre, axis) for the merged runs; returns their count.
+
+    Windowed use (:func:`fuzzyfeed.geometry.polyline._runs_windowed`): the search starts at vertex
+    ``i0`` with ``count0`` runs already in the outputs (0, or 1: the previous window's last run,
+    which the next run may still merge into), and stops before any trial fit reaching vertex
+    ``limit`` or beyond (``limit`` ≥ n: never), leaving in stop[0] the vertex the search is to
+    resume from (n when it ran to the end). A search whose trials all stay below n - 1 makes the
+    same trials, and so finds the same runs, as on the points that continue past n."""
     n = pts.shape[0]
     next_sharp = np.full(n + 1, n)
     for k in range(n - 1, -1, -1):
@@ -226,10 +233,16 @@ def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit):
     a = np.empty((3, 3))
     b = np.empty(3)
     sol = np.empty(3)
-    count = 0
-    i = 0
-    while i + MIN_RUN - 1 < n:
+    count = count0
+    i = i0
+    stop[0] = n
+    while True:
         good_j = i + MIN_RUN - 1
+        if good_j >= limit and limit < n:      # a trial would reach the window's last vertex
+            stop[0] = i
+            return count
+        if good_j >= n:
+            break
         kind = _fits(pts, next_sharp, i, good_j, tol, path_tol, fit, work, cov, a, b, sol) if maybe[i] else 0
         if kind == 0:
             i += 1
@@ -238,6 +251,9 @@ def find_runs(pts, turn, maybe, tol, path_tol, out_ij, out_kind, out_fit):
         bad_j = -1
         while good_j < n - 1:
             j = min(good_j + step, n - 1)
+            if j >= limit:
+                stop[0] = i
+                return count
             k2 = _fits(pts, next_sharp, i, j, tol, path_tol, trial, work, cov, a, b, sol)
             if k2 == 0:
                 bad_j = j

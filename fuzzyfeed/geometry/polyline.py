@@ -46,6 +46,15 @@ kernels, :mod:`fuzzyfeed.geometry._kernels`), below in numpy without importing n
 same search; their sums run in another order, so on a near-straight stretch whose fit residual
 equals the tolerance to the last bits they can cut the runs differently (both within the
 tolerance of the points).
+
+A sequence longer than :data:`WINDOW_VERTICES` (a cut of 10⁶ G1 moves) is fitted window after
+window, with the whole sequence's result bit for bit and memory bounded by the window: the global
+quantities are cheap first passes (the rounding quantum counted in chunks, the merge clusters, the
+extent); the run search (compiled) stops before any trial that would reach a window's last vertex
+and resumes in the next window from where it stopped, the last run found carried (the next may
+merge into it), so each of its trials is one the whole search makes; the per-vertex pass needs of
+other windows only the runs (their meets' tangent breaks, the smooth chains and their middles' arc
+length, one cumulative sum carried). The full-precision branch (no quantum) is not windowed.
 """
 
 from __future__ import annotations
@@ -72,6 +81,10 @@ FIT_SLACK = 1.5
 #: 10⁵ vertices): importing numba and LAPACK and loading the cached kernel costs ~1 s of CPU once
 #: per process, what the numpy form (~0.3 ms per vertex on short runs) spends on ~4000 vertices.
 COMPILED_MIN_VERTICES = 4096
+#: Vertices one window of the fit holds (the run search and the per-vertex pass): a longer point
+#: sequence (a cut of 10⁶ G1 moves) is fitted window after window, with the whole sequence's result
+#: (:func:`_runs_windowed`, :func:`_vertex_pass`), its memory bounded by the window.
+WINDOW_VERTICES = 1 << 16
 #: Share of coordinates that must be multiples of a quantum for it to be taken as the rounding.
 QUANTUM_SHARE = 0.9
 #: (point tolerance, path tolerance P) in mm used where a caller passes None (the CLI's
@@ -94,18 +107,28 @@ class PolylineCurvature:
 
 def rounding_quantum(points: np.ndarray) -> float | None:
     """The coarsest q in {10⁻ᵈ : d = 2…9} ∪ {25.4·10⁻ᵈ : d = 4…10} mm that ≥ :data:`QUANTUM_SHARE` of the
-    coordinates are integer multiples of (to 1e-6 q), or None (full-precision values)."""
-    v = np.asarray(points, dtype=float).ravel()
-    v = v[np.isfinite(v)]
-    if v.size == 0:
+    coordinates are integer multiples of (to 1e-6 q), or None (full-precision values). The counts
+    are summed over chunks of :data:`WINDOW_VERTICES` points (exact integers: the same share)."""
+    pts = np.asarray(points, dtype=float)
+    pts = pts.reshape(len(pts), -1) if pts.ndim > 1 else pts.reshape(-1, 1)
+    size = int(sum(int(np.isfinite(pts[c:c + WINDOW_VERTICES]).sum())
+                   for c in range(0, len(pts), WINDOW_VERTICES)))
+    if size == 0:
         return None
     candidates = sorted({10.0 ** -d for d in range(2, 10)} | {25.4 * 10.0 ** -d for d in range(4, 11)},
                         reverse=True)
     for q in candidates:
-        r = v / q
-        if np.abs(r).max() > 1e12:
+        count, big = 0, False
+        for c in range(0, len(pts), WINDOW_VERTICES):
+            v = pts[c:c + WINDOW_VERTICES].ravel()
+            r = v[np.isfinite(v)] / q
+            if r.size and np.abs(r).max() > 1e12:
+                big = True
+                break
+            count += int(np.count_nonzero(np.abs(r - np.round(r)) <= 1e-6))
+        if big:
             return None
-        if np.mean(np.abs(r - np.round(r)) <= 1e-6) >= QUANTUM_SHARE:
+        if count / size >= QUANTUM_SHARE:
             return q
     return None
 
@@ -220,6 +243,75 @@ class _Runs(NamedTuple):
     axis: np.ndarray
 
 
+class _Window(NamedTuple):
+    """Chords around vertices lo..hi-1 of the reduced path: ``unit``/``chord`` of chords
+    c0..c0+len-1 (chord c joins vertices c, c+1), and per vertex the turning angle and the lengths of
+    the chords before (``a``) and after (``b``) it (ends: the seam's chords)."""
+
+    c0: int
+    unit: np.ndarray
+    chord: np.ndarray
+    turn: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class _Chords:
+    """The reduced vertices (m ≥ 2) and what their ends need (the first and last chord, the seam
+    of a closed path), from which any window's chords and turning angles are made the same way,
+    row by row, as over the whole path."""
+
+    reduced: np.ndarray
+    closed: bool
+    first_chord: float
+    last_chord: float
+    first_unit: np.ndarray
+    last_unit: np.ndarray
+
+    @property
+    def m(self) -> int:
+        return len(self.reduced)
+
+    @staticmethod
+    def of(reduced: np.ndarray, tol: float) -> _Chords:
+        m = len(reduced)
+        ends = np.diff(reduced[[0, 1, m - 2, m - 1]], axis=0)[[0, 2]]
+        length = np.linalg.norm(ends, axis=1)
+        unit = ends / length[:, None]
+        closed = m > 3 and np.linalg.norm(reduced[-1] - reduced[0]) <= 2.0 * tol
+        return _Chords(reduced, bool(closed), float(length[0]), float(length[1]), unit[0], unit[1])
+
+    def window(self, lo: int, hi: int) -> _Window:
+        m = self.m
+        c0, c1 = max(lo - 1, 0), min(hi, m - 1)            # chords c0..c1-1 touch vertices lo..hi-1
+        vec = np.diff(self.reduced[c0:c1 + 1], axis=0)
+        chord = np.linalg.norm(vec, axis=1)
+        unit = vec / chord[:, None]
+        w = hi - lo
+        turn = np.zeros(w)
+        a = np.empty(w)
+        b = np.empty(w)
+        v0, v1 = max(lo, 1), min(hi, m - 1)                 # inner vertices: chords v-1 and v
+        turn[v0 - lo:v1 - lo] = _angle(unit[v0 - 1 - c0:v1 - 1 - c0], unit[v0 - c0:v1 - c0])
+        a[v0 - lo:] = chord[v0 - 1 - c0:hi - 1 - c0]
+        b[:v1 - lo] = chord[lo - c0:v1 - c0]
+        if lo == 0:
+            a[0] = self.last_chord
+        if hi == m:
+            b[-1] = self.first_chord
+        if self.closed and (lo == 0 or hi == m):
+            seam = _angle(self.last_unit, self.first_unit)
+            if lo == 0:
+                turn[0] = seam
+            if hi == m:
+                turn[-1] = seam
+        return _Window(c0, unit, chord, turn, a, b)
+
+    def turn(self, lo: int, hi: int) -> np.ndarray:
+        return self.window(lo, hi).turn
+
+
 def _tangent_of(axis: np.ndarray, center: np.ndarray, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
     """Unit tangents (row-wise) of fitted runs (line direction or circle normal ``axis``, circle
     ``center``, NaN for a line) at ``point``, oriented along ``toward``."""
@@ -284,8 +376,14 @@ def _runs_kernel():
     from fuzzyfeed.geometry._polyline_jit import find_runs
 
     f8, i8 = numba.float64, numba.int64
-    sig = i8(f8[:, ::1], f8[::1], numba.boolean[::1], f8, f8, i8[:, ::1], i8[::1], f8[:, ::1])
+    sig = i8(f8[:, ::1], f8[::1], numba.boolean[::1], f8, f8, i8[:, ::1], i8[::1], f8[:, ::1], i8, i8, i8,
+             i8[::1])
     return compile_once(find_runs, sig, "the polyline run search", 10)
+
+
+def _runs_from(ij: np.ndarray, kind: np.ndarray, fit: np.ndarray) -> _Runs:
+    center = np.where(kind[:, None] == 1, np.nan, fit[:, 1:4])
+    return _Runs(ij[:, 0].astype(int), ij[:, 1].astype(int), fit[:, 0].copy(), center, fit[:, 4:7].copy())
 
 
 def _runs_compiled(pts, turn, maybe, tol, path_tol) -> _Runs:
@@ -293,12 +391,60 @@ def _runs_compiled(pts, turn, maybe, tol, path_tol) -> _Runs:
     ij = np.zeros((n, 2), dtype=np.int64)
     kind = np.zeros(n, dtype=np.int64)
     fit = np.zeros((n, 7))
+    stop = np.zeros(1, dtype=np.int64)
     count = _runs_kernel()(np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(turn, dtype=float),
-                           np.ascontiguousarray(maybe, dtype=bool), float(tol), float(path_tol), ij, kind, fit)
-    fit = fit[:count]
-    center = np.where(kind[:count, None] == 1, np.nan, fit[:, 1:4])
-    return _Runs(ij[:count, 0].astype(int), ij[:count, 1].astype(int), fit[:, 0].copy(), center,
-                 fit[:, 4:7].copy())
+                           np.ascontiguousarray(maybe, dtype=bool), float(tol), float(path_tol), ij, kind, fit,
+                           0, 0, n, stop)
+    return _runs_from(ij[:count], kind[:count], fit[:count])
+
+
+def _runs_windowed(geo: _Chords, tol: float, path_tol: float, window: int) -> _Runs:
+    """The compiled run search window after window: each window holds ``window`` vertices past the
+    vertex the search resumes from (and the last run found, which the next may still merge into);
+    the kernel stops before a trial reaching the window's last vertex, so every trial is the one the
+    search over the whole sequence makes, and the runs are its runs, bit for bit (a window without
+    progress, inside one long run, is doubled)."""
+    m = geo.m
+    kernel = _runs_kernel()
+    done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    pend = None                  # (ij, kind, fit) of the last run found, global vertex indices
+    stop = np.zeros(1, dtype=np.int64)
+    i, extra = 0, window
+    while i + MIN_RUN - 1 < m:
+        carry = pend is not None and int(pend[0][1]) == i
+        lo = int(pend[0][0]) if carry else i
+        hi = min(m, i + extra)
+        pts = np.ascontiguousarray(geo.reduced[lo:hi])
+        turn = geo.turn(lo, hi)
+        size = (hi - lo) // (MIN_RUN - 1) + 2
+        ij = np.zeros((size, 2), dtype=np.int64)
+        kind = np.zeros(size, dtype=np.int64)
+        fit = np.zeros((size, 7))
+        if carry:
+            ij[0], kind[0], fit[0] = pend[0] - lo, pend[1], pend[2]
+        elif pend is not None:
+            done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
+            pend = None
+        limit = hi - lo if hi == m else hi - lo - 1
+        count = kernel(pts, turn, _run_candidates(pts, tol), float(tol), float(path_tol), ij, kind, fit,
+                       i - lo, int(carry), limit, stop)
+        resume = int(stop[0]) + lo
+        if resume == i and hi < m:                  # no trial fitted in the window: widen it
+            extra *= 2
+            continue
+        extra = window
+        if count:
+            done.append((ij[:count - 1] + lo, kind[:count - 1], fit[:count - 1]))
+            pend = (ij[count - 1] + lo, int(kind[count - 1]), fit[count - 1].copy())
+        i = resume
+        if hi == m:
+            break
+    if pend is not None:
+        done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
+    if not done:
+        return _runs_from(np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros((0, 7)))
+    return _runs_from(np.concatenate([d[0] for d in done]), np.concatenate([d[1] for d in done]),
+                      np.concatenate([d[2] for d in done]))
 
 
 def _runs_numpy(pts, turn, maybe, tol, path_tol) -> _Runs:
@@ -381,25 +527,6 @@ def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum("...i,...i->...", u, v))
 
 
-def _interpolate_smooth_chains(kappa: np.ndarray, runs: _Runs, theta: np.ndarray, s: np.ndarray) -> None:
-    """Where arc runs of similar κ (ratio ≤ 2) meet without a tangent break (a free-form curve cut
-    into arcs), κ varies linearly in arc length between the runs' middles instead of in steps.
-    One circle is one run and keeps its constant κ; lines and corners are left alone."""
-    first, last, k = runs.first, runs.last, runs.kappa
-    if first.size < 2:
-        return
-    k0, k1 = k[:-1], k[1:]
-    lo_k, hi_k = np.minimum(k0, k1), np.maximum(k0, k1)
-    smooth = (last[:-1] == first[1:]) & (theta[last[:-1]] == 0) & (lo_k > 0) & (hi_k <= 2 * lo_k)
-    ends = np.flatnonzero(~smooth) + 1                      # chain c: runs starts[c] .. ends[c] - 1
-    starts = np.concatenate([[0], ends])
-    ends = np.concatenate([ends, [first.size]])
-    mids = (s[first] + s[last]) / 2
-    for c0, c1 in zip(starts[ends - starts > 1].tolist(), ends[ends - starts > 1].tolist()):
-        lo, hi = first[c0] + 1, last[c1 - 1]
-        kappa[lo:hi] = np.interp(s[lo:hi], mids[c0:c1], k[c0:c1])
-
-
 def _circumcurvature(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
     """1/R of the circle through three points, row-wise (0 for collinear points)."""
     d1, d2, d3 = p1 - p0, p2 - p1, p2 - p0
@@ -441,7 +568,7 @@ def _exact_curvature(pts: np.ndarray, turn: np.ndarray, closed: bool, path_tol: 
 
 
 def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
-                       path_tolerance_mm: float | None = None) -> PolylineCurvature:
+                       path_tolerance_mm: float | None = None, window: int = WINDOW_VERTICES) -> PolylineCurvature:
     """κ, tangent and corners of a point sequence (module docstring); ``tolerance_mm`` is the
     coordinates' rounding (read from the values when None), ``path_tolerance_mm`` the controller's
     blend tolerance P (default :data:`DEFAULT_PATH_TOLERANCE_MM`)."""
@@ -468,79 +595,206 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
             raise InputError(f"tolerance_mm = {tolerance_mm!r}; must be finite and >= 0")
     tol = max(tol, 1e-9 * max(1.0, extent))      # float noise at least
     pts3 = _pad3(raw)
-    ids = _clusters(pts3, 0.1 * path_tol)
-    m = int(ids[-1]) + 1
-    counts = np.bincount(ids, minlength=m).astype(float)
-    reduced = np.column_stack([np.bincount(ids, weights=pts3[:, k], minlength=m) for k in range(3)])
-    reduced /= counts[:, None]
+    ids, reduced = _reduce(pts3, 0.1 * path_tol)
+    m = len(reduced)
     if m == 1:   # the whole path lies within the merge distance: a point
         tangent = np.zeros((len(raw), 3))
         tangent[:, 0] = 1.0
         return PolylineCurvature(np.zeros(len(raw)), tangent, np.zeros(len(raw), bool), tol,
                                  path_tol, quantum)
-    chord_vec = np.diff(reduced, axis=0)
-    chord = np.linalg.norm(chord_vec, axis=1)
-    unit = chord_vec / chord[:, None]
-    closed = m > 3 and np.linalg.norm(reduced[-1] - reduced[0]) <= 2.0 * tol
-    # turning angle and neighbouring chords per vertex (ends: the seam of a closed path, or none)
-    turn = np.zeros(m)
-    a = np.empty(m)
-    b = np.empty(m)
-    turn[1:-1] = _angle(unit[:-1], unit[1:])
-    a[1:], b[:-1] = chord, chord
-    a[0], b[-1] = chord[-1], chord[0]
-    if closed:
-        turn[0] = turn[-1] = _angle(unit[-1], unit[0])
+    geo = _Chords.of(reduced, tol)
     if tolerance_mm is None and quantum is None:
-        kappa, corner = _exact_curvature(reduced, turn, closed, path_tol, extent)
-        return _result(kappa, corner, unit, ids, m, tol, path_tol, quantum)
-    runs = _runs(reduced, turn, FIT_SLACK * tol, path_tol)
+        w = geo.window(0, m)
+        kappa, corner = _exact_curvature(reduced, w.turn, geo.closed, path_tol, extent)
+        return _result(kappa, corner, _tangents(geo, 0, m, w), ids, tol, path_tol, quantum)
+    if m <= window:
+        w = geo.window(0, m)
+        runs = _runs(reduced, w.turn, FIT_SLACK * tol, path_tol)
+    else:
+        runs = _runs_windowed(geo, FIT_SLACK * tol, path_tol, window)
+    kappa = np.empty(m)
+    corner = np.empty(m, dtype=bool)
+    tangent = np.empty((m, 3))
+    whole = _RunContext.of(geo, runs, tol)
+    carry = 0.0
+    for lo in range(0, m, window):
+        hi = min(lo + window, m)
+        w = geo.window(lo, hi)
+        s, carry = _arc_lengths(w, lo, hi, carry)
+        kappa[lo:hi], corner[lo:hi] = _vertex_pass(geo, whole, lo, hi, w, s, tol, path_tol)
+        tangent[lo:hi] = _tangents(geo, lo, hi, w)
+    return _result(kappa, corner, tangent, ids, tol, path_tol, quantum)
 
-    kappa = np.full(m, np.nan)
-    run_kappa_left = np.zeros(m)    # κ of a run ending at the vertex
-    run_kappa_right = np.zeros(m)   # κ of a run starting at the vertex
-    theta = turn.copy()
-    if runs.first.size:
-        first, last, run_k, center, axis = runs
-        inner = last - first - 1
-        at = np.repeat(first + 1 - np.cumsum(inner) + inner, inner) + np.arange(inner.sum())
-        kappa[at] = np.repeat(run_k, inner)
-        run_kappa_right[first] = run_k
-        run_kappa_left[last] = run_k
-        meet = np.flatnonzero(last[:-1] == first[1:])     # two runs meet: the break between their tangents
-        v = first[meet + 1]
-        t_in = _tangent_of(axis[meet], center[meet], reduced[v], unit[v - 1])
-        t_out = _tangent_of(axis[meet + 1], center[meet + 1], reduced[v], unit[v])
-        theta[v] = _angle(t_in, t_out)
-        if closed and first[0] == 0 and last[-1] == m - 1:   # the seam joins two runs
-            t_in = _tangent_of(axis[-1:], center[-1:], reduced[-1:], unit[-1:])
-            t_out = _tangent_of(axis[:1], center[:1], reduced[:1], unit[:1])
-            theta[0] = theta[-1] = float(_angle(t_in, t_out)[0])
+
+def _reduce(pts3: np.ndarray, merge_mm: float) -> tuple[np.ndarray | None, np.ndarray]:
+    """Cluster ids (None: every point its own vertex) and the vertices (cluster means; see
+    :func:`_clusters`). Without a cluster the vertices are the points (+ 0.0, as the means' sums
+    make -0.0)."""
+    n = len(pts3)
+    merges = any(bool((np.linalg.norm(np.diff(pts3[c:c + WINDOW_VERTICES + 1], axis=0), axis=1) < merge_mm).any())
+                 for c in range(0, n - 1, WINDOW_VERTICES))
+    if not merges:
+        return None, pts3 + 0.0
+    ids = _clusters(pts3, merge_mm)
+    m = int(ids[-1]) + 1
+    counts = np.bincount(ids, minlength=m).astype(float)
+    reduced = np.column_stack([np.bincount(ids, weights=pts3[:, k], minlength=m) for k in range(3)])
+    reduced /= counts[:, None]
+    return ids, reduced
+
+
+class _RunContext(NamedTuple):
+    """What the per-vertex pass needs of the runs beyond its window: each meet's tangent break
+    (angle between the fitted tangents, thresholded like any vertex's turn), the seam's, and the
+    chains of smooth arc runs with their middles' arc length (s summed chord after chord from the
+    path's start, as one cumulative sum)."""
+
+    runs: _Runs
+    meet_theta: np.ndarray          # (R-1,) at vertex last[r] == first[r+1] (else unused)
+    seam_theta: float | None        # a closed path whose seam joins two runs
+    chains: np.ndarray              # (C, 2) run ranges c0..c1-1 of the smooth chains (> 1 run)
+    mids: np.ndarray                # (R,) s at each run's middle
+
+    @staticmethod
+    def of(geo: _Chords, runs: _Runs, tol: float) -> _RunContext:
+        first, last, k = runs.first, runs.last, runs.kappa
+        count = first.size
+        meet_theta = np.zeros(max(count - 1, 0))
+        seam = None
+        if count:
+            meet = np.flatnonzero(last[:-1] == first[1:])
+            v = first[meet + 1]
+            vec_in = geo.reduced[v] - geo.reduced[v - 1]
+            vec_out = geo.reduced[v + 1] - geo.reduced[v]
+            len_in, len_out = np.linalg.norm(vec_in, axis=1), np.linalg.norm(vec_out, axis=1)
+            u_in, u_out = vec_in / len_in[:, None], vec_out / len_out[:, None]
+            axis, center = runs.axis, runs.center
+            t_in = _tangent_of(axis[meet], center[meet], geo.reduced[v], u_in)
+            t_out = _tangent_of(axis[meet + 1], center[meet + 1], geo.reduced[v], u_out)
+            theta = _angle(t_in, t_out)
+            noise = tol * FIT_SLACK * (1.0 / len_in + 1.0 / len_out)
+            meet_theta[meet] = np.where(theta > noise, theta, 0.0)
+            m = geo.m
+            if geo.closed and first[0] == 0 and last[-1] == m - 1:   # the seam joins two runs
+                t_in = _tangent_of(axis[-1:], center[-1:], geo.reduced[-1:], geo.last_unit[None, :])
+                t_out = _tangent_of(axis[:1], center[:1], geo.reduced[:1], geo.first_unit[None, :])
+                seam = float(_angle(t_in, t_out)[0])
+        chains = np.zeros((0, 2), dtype=int)
+        mids = np.zeros(count)
+        if count >= 2:
+            k0, k1 = k[:-1], k[1:]
+            lo_k, hi_k = np.minimum(k0, k1), np.maximum(k0, k1)
+            smooth = (last[:-1] == first[1:]) & (meet_theta == 0) & (lo_k > 0) & (hi_k <= 2 * lo_k)
+            ends = np.flatnonzero(~smooth) + 1                  # chain c: runs starts[c] .. ends[c] - 1
+            starts = np.concatenate([[0], ends])
+            ends = np.concatenate([ends, [count]])
+            chains = np.column_stack([starts, ends])[ends - starts > 1]
+            if chains.size:
+                s_first, s_last = _arc_length_at(geo, first), _arc_length_at(geo, last)
+                mids = (s_first + s_last) / 2
+        return _RunContext(runs, meet_theta, seam, chains, mids)
+
+
+def _arc_lengths(w: _Window, lo: int, hi: int, carry: float) -> tuple[np.ndarray, float]:
+    """s = Σ chords from vertex 0 at vertices lo..hi-1 of window ``w``, ``carry`` being s at lo - 1:
+    one cumulative sum carried from window to window (each partial sum the same float as in one
+    cumsum over the whole path); and s at hi - 1."""
+    if lo == 0:
+        s = np.cumsum(np.concatenate([[0.0], w.chord[:hi - 1]]))
+    else:
+        s = np.cumsum(np.concatenate([[carry], w.chord[:hi - lo]]))[1:]
+    return s, float(s[-1])
+
+
+def _arc_length_at(geo: _Chords, at: np.ndarray) -> np.ndarray:
+    """s at the (sorted) vertices ``at`` (:func:`_arc_lengths` window after window)."""
+    out = np.empty(at.size)
+    carry = 0.0
+    for lo in range(0, geo.m, WINDOW_VERTICES):
+        hi = min(lo + WINDOW_VERTICES, geo.m)
+        s, carry = _arc_lengths(geo.window(lo, hi), lo, hi, carry)
+        sel = slice(np.searchsorted(at, lo), np.searchsorted(at, hi))
+        out[sel] = s[at[sel] - lo]
+    return out
+
+
+def _vertex_pass(geo: _Chords, ctx: _RunContext, lo: int, hi: int, w: _Window, s: np.ndarray, tol: float,
+                 path_tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """κ and corner flag of vertices lo..hi-1 from the runs (module docstring, steps 3-4): a run's
+    inner vertices its κ, every other vertex the blend of its turn (at a meet: of the fitted
+    tangents), smooth chains of arc runs interpolated in s, open ends their run's κ or 0."""
+    m = geo.m
+    first, last, run_k = ctx.runs.first, ctx.runs.last, ctx.runs.kappa
+    r0, r1 = int(np.searchsorted(last, lo)), int(np.searchsorted(first, hi))   # runs touching lo..hi-1
+    F, L, K = first[r0:r1], last[r0:r1], run_k[r0:r1]
+    size = hi - lo
+    kappa = np.full(size, np.nan)
+    run_kappa_left = np.zeros(size)    # κ of a run ending at the vertex
+    run_kappa_right = np.zeros(size)   # κ of a run starting at the vertex
+    theta = w.turn.copy()
+    if F.size:
+        st = np.maximum(F + 1, lo) - lo
+        inner = np.maximum(np.minimum(L, hi) - lo - st, 0)
+        at = np.repeat(st - np.cumsum(inner) + inner, inner) + np.arange(inner.sum())
+        kappa[at] = np.repeat(K, inner)
+        own = F >= lo
+        run_kappa_right[F[own] - lo] = K[own]
+        own = L < hi
+        run_kappa_left[L[own] - lo] = K[own]
+        pair = np.arange(r0, r1 - 1)
+        pair = pair[(last[pair] == first[pair + 1]) & (last[pair] >= lo)]
+        theta[last[pair] - lo] = ctx.meet_theta[pair]
+        if ctx.seam_theta is not None:
             seam = max(run_k[0], run_k[-1])
-            run_kappa_left[0] = run_kappa_right[-1] = seam
-            run_kappa_left[-1] = run_kappa_right[0] = seam
-    noise_angle = tol * FIT_SLACK * (1.0 / a + 1.0 / b)
+            for v in {0, m - 1} & {lo, hi - 1}:
+                theta[v - lo] = ctx.seam_theta
+                run_kappa_left[v - lo] = run_kappa_right[v - lo] = seam
+    noise_angle = tol * FIT_SLACK * (1.0 / w.a + 1.0 / w.b)
     theta = np.where(theta > noise_angle, theta, 0.0)
-    k_blend, corner = blend_curvature(theta, a, b, path_tol)
+    k_blend, corner = blend_curvature(theta, w.a, w.b, path_tol)
     free = np.isnan(kappa)
     kappa[free] = np.maximum(k_blend[free], np.maximum(run_kappa_left[free], run_kappa_right[free]))
     corner &= free & (k_blend >= kappa)
-    _interpolate_smooth_chains(kappa, runs, theta, np.concatenate([[0.0], np.cumsum(chord)]))
-    if not closed:   # open ends: no turning; the κ of their run, or 0
-        kappa[0] = run_kappa_right[0]
-        kappa[-1] = run_kappa_left[-1]
-        corner[0] = corner[-1] = False
-    return _result(kappa, corner, unit, ids, m, tol, path_tol, quantum)
+    if ctx.chains.size:        # smooth chains: κ linear in s between the runs' middles
+        c_lo = first[ctx.chains[:, 0]] + 1
+        c_hi = last[ctx.chains[:, 1] - 1]
+        touch = np.flatnonzero((c_hi > lo) & (c_lo < hi))
+        if touch.size:
+            for c in touch.tolist():
+                c0, c1 = ctx.chains[c]
+                a, b = max(int(c_lo[c]), lo), min(int(c_hi[c]), hi)
+                kappa[a - lo:b - lo] = np.interp(s[a - lo:b - lo], ctx.mids[c0:c1], run_k[c0:c1])
+    if not geo.closed:   # open ends: no turning; the κ of their run, or 0
+        if lo == 0:
+            kappa[0] = run_kappa_right[0]
+            corner[0] = False
+        if hi == m:
+            kappa[-1] = run_kappa_left[-1]
+            corner[-1] = False
+    return kappa, corner
 
 
-def _result(kappa, corner, unit, ids, m, tol, path_tol, quantum) -> PolylineCurvature:
-    """Per-point values from the per-vertex ones; tangent: the bisector of the chords, at a
-    reversal (bisector ≈ 0) the incoming chord."""
-    t_red = np.empty((m, 3))
-    t_red[0], t_red[-1] = unit[0], unit[-1]
-    if m > 2:
-        bis = unit[:-1] + unit[1:]
+def _tangents(geo: _Chords, lo: int, hi: int, w: _Window) -> np.ndarray:
+    """Unit tangent at vertices lo..hi-1: the bisector of the chords, at a reversal (bisector ≈ 0)
+    the incoming chord; the ends their chord."""
+    m = geo.m
+    t = np.empty((hi - lo, 3))
+    v0, v1 = max(lo, 1), min(hi, m - 1)
+    if v1 > v0:
+        u_in, u_out = w.unit[v0 - 1 - w.c0:v1 - 1 - w.c0], w.unit[v0 - w.c0:v1 - w.c0]
+        bis = u_in + u_out
         norm = np.linalg.norm(bis, axis=1)
         ok = norm > 1e-9
-        t_red[1:-1] = np.where(ok[:, None], bis / np.where(ok, norm, 1.0)[:, None], unit[:-1])
-    return PolylineCurvature(kappa[ids], t_red[ids], corner[ids], tol, path_tol, quantum)
+        t[v0 - lo:v1 - lo] = np.where(ok[:, None], bis / np.where(ok, norm, 1.0)[:, None], u_in)
+    if lo == 0:
+        t[0] = geo.first_unit
+    if hi == m:
+        t[-1] = geo.last_unit
+    return t
+
+
+def _result(kappa, corner, tangent, ids, tol, path_tol, quantum) -> PolylineCurvature:
+    """Per-point values from the per-vertex ones (``ids``: each point's vertex; None: the same)."""
+    if ids is None:
+        return PolylineCurvature(kappa, tangent, corner, tol, path_tol, quantum)
+    return PolylineCurvature(kappa[ids], tangent[ids], corner[ids], tol, path_tol, quantum)

@@ -176,14 +176,16 @@ def format_feed_exact(value: float) -> str:
 
 
 def feed_texts_down(values: np.ndarray, inch: np.ndarray) -> list[str]:
-    """:func:`format_feed_down` for many values at once."""
+    """:func:`format_feed_down` for many values at once (one string per distinct value, shared:
+    a 10⁶-piece advice has a few hundred feeds)."""
     values = np.asarray(values, dtype=float)
     d = np.where(inch, 2, 1)
     q = np.floor(values * 10.0 ** d + 1e-9)
     mm = (d == 1) & (q > 0)
     out = np.empty(values.size, dtype=object)
     if mm.any():
-        out[mm] = np.char.mod("%.1f", q[mm] / 10.0).tolist()
+        distinct, which = np.unique(q[mm], return_inverse=True)
+        out[mm] = np.array(np.char.mod("%.1f", distinct / 10.0).tolist(), dtype=object)[which]
     for i in np.flatnonzero(~mm):
         out[i] = format_feed_down(float(values[i]), bool(inch[i]))
     return out.tolist()

@@ -146,8 +146,10 @@ class Program:
     def move_lengths(self) -> np.ndarray:
         """Length (mm) of every move: chord for lines and rapids, exact for arcs (helical
         included), the NURBS's arc length for G5.2 blocks."""
-        d = self.end - self.start
-        out = np.linalg.norm(d, axis=1)
+        out = np.empty(self.kind.size)
+        block = 1 << 16        # by blocks: no (M, 3) temporaries (row by row the same floats)
+        for lo in range(0, out.size, block):
+            out[lo:lo + block] = np.linalg.norm(self.end[lo:lo + block] - self.start[lo:lo + block], axis=1)
         for m in np.flatnonzero(self.kind == ARC):
             out[m] = arc_geometry(self, m)["length"]
         for m, curve in self.nurbs.items():

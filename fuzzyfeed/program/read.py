@@ -131,9 +131,9 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | 
     if n == 0 or not body.strip():
         raise PathFormatError(f"{path}: the program has no words (empty or only comments); "
                               "nothing to advise")
-    tl, tc, tv = tokenise(body, path, lines)
+    tokens = list(tokenise(body, path, lines))
     del body
-    return _interpret(path, lines, newline, end_line, n, tl, tc, tv, tools=tools)
+    return _interpret(path, lines, newline, end_line, n, tokens, tools=tools)
 
 
 def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | None) -> Program:
@@ -146,12 +146,15 @@ def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | No
         last = int(ex.row_line[-1])
         end_line = last if ex.ended else len(lines)
         n = last + 1 if ex.ended else len(lines)
-        return _interpret(path, lines, newline, end_line, n, ex.row_line[ex.tl], ex.tc, ex.tv, tools=tools)
-    return _interpret(path, lines, newline, len(lines), ex.n_rows, ex.tl, ex.tc, ex.tv, rows=ex, tools=tools)
+        return _interpret(path, lines, newline, end_line, n, [ex.row_line[ex.tl], ex.tc, ex.tv], tools=tools)
+    return _interpret(path, lines, newline, len(lines), ex.n_rows, [ex.tl, ex.tc, ex.tv], rows=ex, tools=tools)
 
 
-def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=None) -> Program:
-    """The program from its tokens: per line (or, with ``rows``, per executed row) the words."""
+def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None) -> Program:
+    """The program from its tokens ``[line, letter, value]`` (the list is emptied: the words go once
+    their columns are made, ~24 B a word): per line (or, with ``rows``, per executed row) the words."""
+    tl, tc, tv = tokens
+    tokens.clear()
     def fail(i: int, message: str):
         if rows is None:
             fail_at(path, int(i) + 1, message)
@@ -189,6 +192,7 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         col = np.full(n, np.nan)
         col[li] = tv[mask]
         cols[ch] = col
+    li = dup = None
 
     def col(ch):
         c = cols[ch]
@@ -230,6 +234,9 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
             i = int(np.argmax(stray))
             fail(i, f"E word with no M66, M67 or M68 to use it in {text_of(i)!r} (LinuxCNC "
                     "refuses it; a number written as 1e6 reads as 1 E6)")
+    polar = np.zeros(n, bool)     # polar words (@, ^), see below
+    polar[tl[tc >= 26]] = True
+    del tl, tc, tv, letter, gmask, mmask, big, mask   # the words: in columns from here
     m_stop = np.zeros(n, bool)
     m_stop[m_line[np.isin(m_int, list(M_STOP))]] = True
     m_break = np.zeros(n, bool)
@@ -323,8 +330,6 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         abc_has |= has(ch)
     # polar words (@ radius, ^ angle): the XY they reach depends on where the tool is; the move is
     # kept as written and X, Y are unknown after it (LinuxCNC: G17 only, never beside X or Y)
-    polar = np.zeros(n, bool)
-    polar[tl[tc >= 26]] = True
     bad_polar = polar & (xyz_has[0] | xyz_has[1] | (plane != 17))
     if bad_polar.any():
         i = int(np.argmax(bad_polar))
@@ -542,6 +547,13 @@ def _interpret(path, lines, newline, end_line, n, tl, tc, tv, rows=None, tools=N
         stops = stops[src] & (np.append(src[1:] != src[:-1], True))   # after the line's last move
         fmode = fmode[src]
         comp_unknown = comp_unknown[src]
+
+    # the letters' and groups' columns and the per-line modal arrays the model does not keep go
+    # before the cuts and the model's own arrays are made (a 10⁶-line program: ~0.2 GB)
+    cols.clear()
+    gcol.clear()
+    del motion, comp_side, comp_radius, loaded, feed_scale, units, scale, comp_code, f_col, t_col, mo, g10, g_line
+    m_val = m_int = drain = m_drain = dcum = None
 
     # --- cuts ---
     moved = np.any(endp != start, axis=1) | (turns != 0) | (kind == NURBS)

@@ -14,7 +14,7 @@ controller and servo model (:mod:`fuzzyfeed.program.run`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -320,7 +320,10 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     first: list[ChainRun] = [run_chain(c, machine, keep_mm=tol) for c in chains]
     state = [_Measured.of(r) for r in first]
     touched = [False] * len(chains)
-    runs = list(first)
+    # the runs' rows without their plans (~0.1 KB a segment): ``state`` keeps the plan each pass
+    # compares with, and only that one
+    runs = [replace(r, plan=None) for r in first]
+    del first
     passes = 1
     while passes < REFERENCE_PASSES:
         changed = False
@@ -346,14 +349,16 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             # a fraction of a µm): the passes end on whole runs, as they began
             stale = [i for i, t in enumerate(touched) if t]
             for i in stale:
-                runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
-                state[i] = _Measured.of(runs[i])
+                r = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
+                state[i] = _Measured.of(r)
+                runs[i] = replace(r, plan=None)
                 touched[i] = False
             if not any((state[i].contour_mm > tol).any() for i in stale):
                 break
+    del state
     for i, t in enumerate(touched):
         if t:
-            runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
+            runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol, keep_plan=False)
     final = ProgramRun(path=refined, machine=machine, runs=tuple(runs))
     return Reference(path=refined, feeds=tuple(feeds), run=final, passes=passes,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))

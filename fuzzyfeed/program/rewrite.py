@@ -70,19 +70,22 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
     f_inch = feed_units_inch(program)
     f_scale = np.where(f_inch, 25.4, 1.0)
     scale = program.scale
-    # per feed move: the F text wanted on its line (first piece) and in force after it (last)
-    want_first = {}
-    want_last = {}
+    # per line with a feed move: that move, the F text wanted on the line (first piece) and in force
+    # after it (last); arrays over the lines, not dicts (a 10⁶-line program: ~0.2 GB of entries)
+    want_move = np.full(n_lines, -1, dtype=np.int64)
+    want_text = np.empty(n_lines, dtype=object)
+    want_last = np.empty(n_lines, dtype=object)
     feed_kind = ~np.isin(kind, NO_F_KINDS)
     advised = piece_lo >= 0
     for m in np.flatnonzero(feed_kind & advised).tolist():
         li = int(move_line[m])
-        if li in want_first:   # several moves on one line (a corner arc of cutter compensation):
-            slowest = min(want_first[li][1], p_text[piece_lo[m]], key=float)    # one F, the slowest
-            want_first[li] = (want_first[li][0], slowest)
+        if want_move[li] >= 0:   # several moves on one line (a corner arc of cutter compensation):
+            slowest = min(want_text[li], p_text[piece_lo[m]], key=float)    # one F, the slowest
+            want_text[li] = slowest
             want_last[li] = slowest
             continue
-        want_first[li] = (m, p_text[piece_lo[m]])
+        want_move[li] = m
+        want_text[li] = p_text[piece_lo[m]]
         want_last[li] = p_text[piece_hi[m] - 1]
     for m in np.flatnonzero(feed_kind & ~advised).tolist():
         li = int(move_line[m])
@@ -92,7 +95,8 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
         mm = float(program.feed_mm_min[m])
         if np.isfinite(mm) and abs(float(feed_value[li]) * f_scale[li] - mm) > 1e-9 * max(mm, 1.0):
             text = format_feed_down(mm / f_scale[li], bool(f_inch[li]))   # F in force read in other units
-        want_first[li] = (m, text)
+        want_move[li] = m
+        want_text[li] = text
         want_last[li] = text
     mode_change = program.feed_reset
     out_lines = []
@@ -104,8 +108,8 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
         raw = lines[li]
         if li in change_lines:
             f_in_force = 0.0
-        hit = want_first.get(li)
-        if hit is None:
+        m = int(want_move[li])
+        if m < 0:
             if f_lines[li]:
                 f_in_force = float(feed_value[li]) * f_scale[li]
             out_lines.append(raw)
@@ -113,7 +117,7 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
                 yield out_lines
                 out_lines = []
             continue
-        m, want = hit
+        want = want_text[li]
         split = piece_lo[m] >= 0 and piece_hi[m] - piece_lo[m] > 1
         if split:
             lo, hi = piece_lo[m], piece_hi[m]

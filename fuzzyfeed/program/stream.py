@@ -107,6 +107,20 @@ def plan_pieces(lengths: np.ndarray, counts: np.ndarray, piece_points: int, marg
     return _Plan(cores=cores, lo=lo, hi=hi)
 
 
+def cut_arc_lengths(plan: _Plan, n: int, piece) -> np.ndarray:
+    """Pass 0 of the advice in pieces: s at every vertex 0..n of the cut (its length at n), summed
+    piece after piece. ``piece(p, sv) -> (lo, hi, samples, s)`` samples piece p with s anchored at
+    its first vertex whose sample is the whole cut's (``sv`` known there: the pieces' cores follow
+    each other)."""
+    sv = np.full(n + 1, np.nan)
+    sv[0] = 0.0
+    for p in range(plan.lo.size):
+        a, b = int(plan.cores[p]), int(plan.cores[p + 1])
+        lo, _, ms, s = piece(p, sv)
+        sv[a + 1:b + 1] = s[ms.vertex_sample[a + 1 - lo:b + 1 - lo]]
+    return sv
+
+
 def stream_program_advice(program: Program, table: RuleTable, *, cuts: list[int] | None = None,
                           step_mm: float = DEFAULT_STEP_MM, cap_mm_min: float | None = None,
                           feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
@@ -153,13 +167,7 @@ def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, p
         s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), float(sv[va]))
         return lo, hi, ms, s
 
-    # pass 0: s at every vertex (the cut's length), summed piece after piece
-    sv = np.full(n + 1, np.nan)
-    sv[0] = 0.0
-    for p in range(n_pieces):
-        a, b = int(plan.cores[p]), int(plan.cores[p + 1])
-        lo, _, ms, s = piece(p, sv)
-        sv[a + 1:b + 1] = s[ms.vertex_sample[a + 1 - lo:b + 1 - lo]]
+    sv = cut_arc_lengths(plan, n, piece)      # pass 0
     length = float(sv[-1])
     span = (0.0, length)
     total = length if length > 0 else 1.0

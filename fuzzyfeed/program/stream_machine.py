@@ -46,7 +46,7 @@ from fuzzyfeed.program.cuts import (DEFAULT_STEP_MM, _entry_direction, cut_moves
 from fuzzyfeed.program.feeds import (DEFAULT_MIN_PIECE_MM, DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
                                      checked_cuts, move_pieces)
 from fuzzyfeed.program.model import Program
-from fuzzyfeed.program.stream import DEFAULT_PIECE_POINTS, AdvicePiece, CarriedSums, plan_pieces
+from fuzzyfeed.program.stream import DEFAULT_PIECE_POINTS, AdvicePiece, CarriedSums, cut_arc_lengths, plan_pieces
 
 
 def streams(table: RuleTable) -> bool:
@@ -78,7 +78,7 @@ def stream_machine_advice(program: Program, table: RuleTable, machine: Machine, 
     docstring): the same CSV rows and pieces, in order. Arguments and the cuts' F are checked at the
     call; the pieces are made as the iterator is consumed. ``geometry``: a dict kept between runs
     of the same advice, cut -> its :func:`~fuzzyfeed.program.cuts.run_geometry` (17 bytes a move;
-    its fit passes ~0.4 KB a vertex while it runs)."""
+    its fit runs window by window, :data:`~fuzzyfeed.geometry.polyline.WINDOW_VERTICES`)."""
     if isinstance(piece_points, bool) or not isinstance(piece_points, (int, np.integer)) or piece_points < 1:
         raise InputError(f"piece_points = {piece_points!r}; must be an integer >= 1")
     if table.inputs != MACHINE:
@@ -157,23 +157,13 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
         return _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, cap, feed_step,
                       min_piece, sv, span, total, levels, lowest)
 
-    if n_pieces == 1:        # the cut in one piece: its own s, levels and guard are the cut's
-        sv = np.full(n + 1, np.nan)
-        sv[0] = 0.0
-        length = float(path_length(piece(0, sv)[2].xyz, 0, 0.0)[-1])
-        span, total = (0.0, length), (length if length > 0 else 1.0)
-        yield from pass2(sv, span, total, None, None)
-        return
-    # pass 0: s at every vertex (the cut's length)
-    sv = np.full(n + 1, np.nan)
-    sv[0] = 0.0
-    for p in range(n_pieces):
-        a, b = int(plan.cores[p]), int(plan.cores[p + 1])
-        lo, _, ms, s = piece(p, sv)
-        sv[a + 1:b + 1] = s[ms.vertex_sample[a + 1 - lo:b + 1 - lo]]
+    sv = cut_arc_lengths(plan, n, piece)      # pass 0: s at every vertex (the cut's length)
     length = float(sv[-1])
     span = (0.0, length)
     total = length if length > 0 else 1.0
+    if n_pieces == 1:        # the cut in one piece: its own levels and guard are the cut's
+        yield from pass2(sv, span, total, None, None)
+        return
     # pass 1: the settling levels (slowest hot spot, fastest feed around a hot spot) over the cut
     lo_v, hi_v = np.inf, -np.inf
     for p in range(n_pieces):
