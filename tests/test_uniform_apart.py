@@ -104,3 +104,28 @@ def test_a_place_the_floor_does_not_clear_is_not_set_apart(tmp_path, monkeypatch
     monkeypatch.setattr(apart, "floor_errors", lambda motion, measured, machine, segments: np.zeros(len(segments)))
     u = reference.uniform_slowdown(path, machine, max_ticks=2e6)
     assert u.bounded and u.apart == ()
+
+
+def test_the_value_report_lists_the_places_set_apart(tmp_path):
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.report.value import evaluate_program
+    from fuzzyfeed.report.value_files import report_table_html
+
+    f = tmp_path / "p.ngc"
+    f.write_text(PLUNGE_FROM_RAPIDS)
+    machine = load_machine("reference")
+    program = read_program(f)
+    table = load_rule_table("machine")
+    r = evaluate_program(program, machine, table, reference=False).report
+    assert len(r.uniform_apart) == 1 and r.uniform.max_um <= r.tol_um
+    text = "\n".join(r.lines())
+    assert "uniform: 1 place(s) set apart" in text and "line 9 (-0.12, 19.46, 10), s = " in text
+    row = r.csv_row()
+    assert row["uniform_set_apart"] == 1 and row["uniform_set_apart_max_um"] == r.uniform_apart[0].floor_um
+    assert not row["uniform_is_bound"]
+    assert "<li>line 9 (-0.12, 19.46, 10)" in report_table_html([r])
+    # left for later (advise --machine without --report), then checked: the same places
+    ev = evaluate_program(program, machine, table, reference=False, check_uniform=False)
+    assert [p.line for p in ev.report.uniform_apart] == [8]
+    done = ev.checked().report
+    assert done.uniform_apart == r.uniform_apart and done.uniform == r.uniform and done.lines() == r.lines()

@@ -81,6 +81,7 @@ class ValueReport:
     verification: Verification | None = None   # what rs274 said of the rewrite (--verify-rs274)
     worst_air: tuple[int, tuple[float, float, float]] | None = None
     reference_deferred: bool = False     # the limit reference left to the report (Evaluation.checked)
+    uniform_apart: tuple = ()            # places no uniform factor holds (program/apart.Apart), left out of its row
 
     @property
     def partial(self) -> bool:
@@ -114,6 +115,7 @@ class ValueReport:
         air = self.air_line()
         if air:
             out.append("  " + air)
+        out.extend("  " + line for line in self.apart_lines(APART_SHOWN))
         if self.reference_deferred:
             out.append("  limit reference: not run (--report runs it)")
         if self.uniform.label.endswith(UNCHECKED):
@@ -124,6 +126,23 @@ class ValueReport:
             out.append(f"  {UNCHECKED} uniform: the error does not come down with the feed there (at half the "
                        "factor it stayed above 0.9 of itself): the search stopped at this bound (--report "
                        "searches on)")
+        return out
+
+    def apart_lines(self, shown: int | None = None) -> list[str]:
+        """The places the uniform slowdown set apart (no factor holds the tolerance there: the
+        error at every F x 0.01 is still over it), their errors left out of its row: one line, then
+        one per place (the ``shown`` largest at F x 0.01, the count of the others)."""
+        places = self.uniform_apart
+        if not places:
+            return []
+        out = [f"uniform: {len(places)} place(s) set apart, where even every F x 0.01 leaves the error over "
+               "the tolerance (a feed move entered from rapids: the tool still lags them; no F changes it); "
+               "its max leaves them out:"]
+        order = sorted(places, key=lambda p: -p.floor_um)
+        for p in order[:shown]:
+            out.append("  " + p.text())
+        if shown is not None and len(order) > shown:
+            out.append(f"  and {len(order) - shown} more (the HTML report lists them all)")
         return out
 
     def air_line(self) -> str:
@@ -182,6 +201,8 @@ class ValueReport:
                                   "holds_as_written": self.holds_as_written,
                                   "uniform_factor": self.uniform_factor}
         row["uniform_is_bound"] = self.uniform.label.endswith("(at least)")
+        row["uniform_set_apart"] = len(self.uniform_apart)
+        row["uniform_set_apart_max_um"] = max((p.floor_um for p in self.uniform_apart), default=0.0)
         for key, r in (("written", self.written), ("advised", self.advised), ("uniform", self.uniform),
                        ("reference", self.reference)):
             row[f"{key}_time_s"] = r.time_s if r is not None else float("nan")
@@ -201,6 +222,8 @@ def cuts_over(run: ProgramRun, tol_um: float) -> list[int]:
 
 #: The mark of a uniform row found on the hot stretches and not checked by a whole run.
 UNCHECKED = "*"
+#: Places set apart by the uniform slowdown listed in the text report (the HTML lists them all).
+APART_SHOWN = 5
 
 
 def uniform_row(u: Uniform) -> ValueRow:
@@ -212,6 +235,8 @@ def uniform_row(u: Uniform) -> ValueRow:
     if u.run is None:
         mark = "" if u.checked else UNCHECKED
         return ValueRow(f"uniform x{_factor(u.factor)}{mark}", u.time_s, u.max_um, float("nan"))
+    if u.apart:              # its max outside the places set apart (ValueReport.apart_lines)
+        return ValueRow(f"uniform x{_factor(u.factor)}", u.run.time_s, u.max_um, u.run.p99_um, u.run.air_max_um)
     return ValueRow.of(f"uniform x{_factor(u.factor)}", u.run)
 
 
@@ -297,7 +322,7 @@ class Evaluation:
             return self
         if u is not None and not u.checked:
             u = check_uniform(self.path, r.machine, u)
-            r = replace(r, uniform=uniform_row(u), uniform_factor=u.factor)
+            r = replace(r, uniform=uniform_row(u), uniform_factor=u.factor, uniform_apart=u.apart)
         if r.reference_deferred:
             ref = limit_reference(self.path, r.machine)
             r = replace(r, reference=ValueRow.of("limit reference", ref.run), reference_converged=ref.converged,
@@ -397,7 +422,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
         trace=trace, coverage=program_coverage(program),
         verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
-        reference_deferred=bool(over) and reference and not check_uniform)
+        reference_deferred=bool(over) and reference and not check_uniform,
+        uniform_apart=() if u is None else u.apart)
     pending = (u is not None and not u.checked) or report.reference_deferred
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report,
                       uniform=u if pending else None, path=path if pending else None)
