@@ -129,3 +129,14 @@ def test_the_value_report_lists_the_places_set_apart(tmp_path):
     assert [p.line for p in ev.report.uniform_apart] == [8]
     done = ev.checked().report
     assert done.uniform_apart == r.uniform_apart and done.uniform == r.uniform and done.lines() == r.lines()
+
+
+def test_the_limit_reference_stopped_at_a_place_set_apart_says_so(tmp_path):
+    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.report.value import evaluate_program
+
+    f = tmp_path / "p.ngc"
+    f.write_text(PLUNGE_FROM_RAPIDS)
+    r = evaluate_program(read_program(f), load_machine("reference"), load_rule_table("machine")).report
+    assert not r.reference_converged and r.reference_apart      # its passes cannot fix the plunge either
+    assert "the limit reference ends at" in r.verdict() and "a place the uniform slowdown sets apart" in r.verdict()

@@ -82,6 +82,7 @@ class ValueReport:
     worst_air: tuple[int, tuple[float, float, float]] | None = None
     reference_deferred: bool = False     # the limit reference left to the report (Evaluation.checked)
     uniform_apart: tuple = ()            # places no uniform factor holds (program/apart.Apart), left out of its row
+    reference_apart: bool = False        # the limit reference's largest error is on a line of those places
 
     @property
     def partial(self) -> bool:
@@ -186,7 +187,10 @@ class ValueReport:
             text += (f"; {a.max_um:.1f} um at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)}) is "
                      "over the tolerance")
         if self.reference is not None and not self.reference_converged:
-            if a.max_um <= tol * (1 + 1e-9) or u.max_um <= tol * (1 + 1e-9):
+            if self.reference_apart:
+                text += (f"; the limit reference ends at {self.reference.max_um:.1f} um at a place the uniform "
+                         "slowdown sets apart (no feed holds it there)")
+            elif a.max_um <= tol * (1 + 1e-9) or u.max_um <= tol * (1 + 1e-9):
                 text += f"; the limit reference stopped at {self.reference.max_um:.1f} um (its passes ran out)"
             else:
                 text += (f"; even the limit reference ends at {self.reference.max_um:.1f} um: no feed holds "
@@ -326,6 +330,7 @@ class Evaluation:
         if r.reference_deferred:
             ref = limit_reference(self.path, r.machine)
             r = replace(r, reference=ValueRow.of("limit reference", ref.run), reference_converged=ref.converged,
+                        reference_apart=_at_apart(ref.run, r.uniform_apart),
                         reference_deferred=False)
         return replace(self, report=r, uniform=u, path=None)
 
@@ -385,7 +390,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     else:
         step("rs274")
         text, checked = verify(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
-    u = None
+    u, ref_apart = None, False
     if not over:
         uniform_factor, u_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
         ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
@@ -407,11 +412,12 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         u = uniform_slowdown(path, machine, written, check=check_uniform,
                              **({} if max_ticks is None else {"max_ticks": max_ticks}))
         uniform_factor, u_row = u.factor, uniform_row(u)
-        ref_row, converged = None, True
+        ref_row, converged, ref_apart = None, True, False
         if reference and check_uniform:
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
+            ref_apart = _at_apart(ref.run, u.apart)
     report = ValueReport(
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
@@ -423,10 +429,16 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         trace=trace, coverage=program_coverage(program),
         verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
         reference_deferred=bool(over) and reference and not check_uniform,
-        uniform_apart=() if u is None else u.apart)
+        uniform_apart=() if u is None else u.apart, reference_apart=ref_apart)
     pending = (u is not None and not u.checked) or report.reference_deferred
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report,
                       uniform=u if pending else None, path=path if pending else None)
+
+
+def _at_apart(run: ProgramRun, apart: tuple) -> bool:
+    """The largest error of ``run`` (the limit reference's) is on a program line of a place set apart."""
+    worst = run.worst()
+    return bool(apart) and worst is not None and worst[0] in {p.line for p in apart}
 
 
 def _advised_model(program: Program, text: str, tools, plain: bool, *pieces) -> Program:
