@@ -14,10 +14,10 @@ reference's floor), run only over the ticks from the start of each given segment
 :data:`~fuzzyfeed.machine.stream.WARMUP_TIME_CONSTANTS` servo time constants after it (each window
 warmed up from rest as :func:`~fuzzyfeed.machine.stream.segment_windows`: the state there is the
 rapids', the feed's own motion at that speed has barely started). A place whose floor error is over
-the tolerance is one no uniform factor fixes; the uniform search can leave it out and say so, as the
-value report does with errors in the air. This is a measurement at one small factor, not a proof
-that the error stays above it for every c below: it is what "found" should be defined against
-(see the module's tests and issue 36's notes).
+the tolerance is one no uniform factor fixes: the uniform search sets it apart and says so
+(:mod:`fuzzyfeed.program.apart`), as the value report does with errors in the air. This is a
+measurement at one small factor, not a proof that the error stays above it for every c below: it is
+what "found" is defined against.
 """
 
 from __future__ import annotations

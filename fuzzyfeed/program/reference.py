@@ -3,6 +3,8 @@ controller and servo model (:mod:`fuzzyfeed.program.run`):
 
 - :func:`uniform_slowdown`: every F of the program times one factor c ≤ 1, the largest c whose run
   holds the contour tolerance — what a machinist does without any tool. A bisection on log c.
+  Places no factor holds (the error at every F × 0.01 still over the tolerance: a feed move entered
+  from rapids) are set apart and listed (:mod:`fuzzyfeed.program.apart`); the factor holds the rest.
 - :func:`limit_reference`: feeds lowered only where the simulated error passes the tolerance, on
   short pieces of the path, until none does: every feed move is cut into pieces of at most
   ``piece_mm``; after each run, every tick over the tolerance lowers the pieces the tool was
