@@ -140,3 +140,13 @@ def test_the_limit_reference_stopped_at_a_place_set_apart_says_so(tmp_path):
     r = evaluate_program(read_program(f), load_machine("reference"), load_rule_table("machine")).report
     assert not r.reference_converged and r.reference_apart      # its passes cannot fix the plunge either
     assert "the limit reference ends at" in r.verdict() and "a place the uniform slowdown sets apart" in r.verdict()
+
+
+def test_a_result_left_for_later_is_checked_the_same_twice(tmp_path):
+    machine, path = _path(tmp_path, PLUNGE_FROM_RAPIDS)
+    hot = reference.uniform_slowdown(path, machine, check=False)
+    assert not hot.checked and len(hot.apart) == 1 and np.isnan(hot.apart[0].factor_um)
+    one = reference.check_uniform(path, machine, hot)
+    two = reference.check_uniform(path, machine, hot)
+    assert one.factor == two.factor and one.runs == two.runs and one.apart == two.apart
+    assert one.apart[0].factor_um > machine.contour_tol_um

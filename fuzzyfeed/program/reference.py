@@ -15,6 +15,7 @@ controller and servo model (:mod:`fuzzyfeed.program.run`):
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 
@@ -132,6 +133,12 @@ class _Search:
             out.append(np.flatnonzero(seg_max > self.tol_mm))
         return worst, out
 
+    def copy(self) -> _Search:
+        """A copy to go on from (a kept state is never changed: check_uniform twice gives the same)."""
+        out = copy.copy(self)
+        out.apart, out.floor, out.seen = list(self.apart), list(self.floor), list(self.seen)
+        return out
+
     def set_apart(self, hot: list[np.ndarray]) -> bool:
         return set_apart(self.path, self.machine, hot, self.apart, self.floor, self.seen, self.tol_mm)
 
@@ -183,13 +190,18 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
 
 
 def check_uniform(path: ProgramPath, machine: Machine, u: Uniform, tol_um: float | None = None,
-                  max_ticks: float = MAX_TICKS) -> Uniform:
+                  max_ticks: float | None = None) -> Uniform:
     """``u`` (from :func:`uniform_slowdown` with ``check=False``) checked by a whole run, the search
     going on below should a place outside the hot stretches break it: what
-    ``uniform_slowdown(..., check=True)`` returns."""
+    ``uniform_slowdown(..., check=True)`` returns. The search's path, machine, tolerance and tick
+    budget are ``u``'s (``tol_um``, ``max_ticks``: others instead, if given)."""
     if u.checked:
         return u
-    st = u.resume[0]
+    st = u.resume[0].copy()
+    if tol_um is not None:
+        st.tol, st.tol_mm = tol_um, tol_um * 1e-3
+    if max_ticks is not None:
+        st.max_ticks = max_ticks
     if u.bounded:           # a bound the search stopped at early: the search goes on
         _, hi, hi_max, hot, c = u.resume
         return _search(st, hi, hi_max, hot, True, c)
