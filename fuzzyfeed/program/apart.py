@@ -119,3 +119,19 @@ def describe(path: ProgramPath, apart: list[np.ndarray], floor: list[np.ndarray]
                                  floor_um=f * 1e3, factor_um=e))
         offset += float(lengths.sum())
     return tuple(out)
+
+
+def apart_lines(places: tuple[Apart, ...], shown: int | None = None) -> list[str]:
+    """The places set apart as text, their errors left out of the uniform row: one line, then one
+    per place (the ``shown`` largest at F × the floor, and the count of the others)."""
+    if not places:
+        return []
+    out = [f"uniform: {len(places)} place(s) set apart, where even every F x {FLOOR:g} leaves the error over "
+           "the tolerance (a feed move entered from rapids: the tool still lags them; no F changes it); "
+           "its max leaves them out:"]
+    order = sorted(places, key=lambda p: -p.floor_um)
+    for p in order[:shown]:
+        out.append("  " + p.text())
+    if shown is not None and len(order) > shown:
+        out.append(f"  and {len(order) - shown} more (the HTML report lists them all)")
+    return out

@@ -28,6 +28,7 @@ from fuzzyfeed.program.verify import Verification
 from fuzzyfeed.program.feeds import advice_columns, advise_program
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
+from fuzzyfeed.program.apart import apart_lines
 from fuzzyfeed.program.reference import Uniform, check_uniform, limit_reference, uniform_slowdown
 from fuzzyfeed.program.rewrite import rewrite_program
 from fuzzyfeed.program.run import ProgramPath, ProgramRun, program_path, run_program
@@ -130,21 +131,8 @@ class ValueReport:
         return out
 
     def apart_lines(self, shown: int | None = None) -> list[str]:
-        """The places the uniform slowdown set apart (no factor holds the tolerance there: the
-        error at every F x 0.01 is still over it), their errors left out of its row: one line, then
-        one per place (the ``shown`` largest at F x 0.01, the count of the others)."""
-        places = self.uniform_apart
-        if not places:
-            return []
-        out = [f"uniform: {len(places)} place(s) set apart, where even every F x 0.01 leaves the error over "
-               "the tolerance (a feed move entered from rapids: the tool still lags them; no F changes it); "
-               "its max leaves them out:"]
-        order = sorted(places, key=lambda p: -p.floor_um)
-        for p in order[:shown]:
-            out.append("  " + p.text())
-        if shown is not None and len(order) > shown:
-            out.append(f"  and {len(order) - shown} more (the HTML report lists them all)")
-        return out
+        """The places the uniform slowdown set apart (:func:`~fuzzyfeed.program.apart.apart_lines`)."""
+        return apart_lines(self.uniform_apart, shown)
 
     def air_line(self) -> str:
         """Where the rows' errors are: max and p99 are in the part (the tool nearest a feed move);
