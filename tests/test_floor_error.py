@@ -57,3 +57,15 @@ def test_a_rapid_entry_keeps_its_error_a_feed_corner_loses_it():
 def test_floor_is_checked():
     with pytest.raises(InputError, match="floor = 0"):
         floor_errors(_motion(), ~RAPID, load_machine("reference"), np.array([2]), floor=0.0)
+
+
+def test_the_floor_is_of_the_feed_the_machine_can_run():
+    # an F far above the axes' speed (F1e6: "as fast as the machine goes") runs at that speed: its
+    # floor is 1 % of it, where the plunge's lag still shows and the corner's error is gone
+    machine = load_machine("reference")
+    fast = Motion(POINTS, np.where(RAPID, FEED, 1e6 / 60.0), RAPID, np.full(POINTS.shape[0], np.nan))
+    reach = np.minimum(fast.feed_mm_s, machine.speed_along(POINTS))
+    slow = Motion(POINTS, np.where(RAPID, FEED, reach), RAPID, np.full(POINTS.shape[0], np.nan))
+    got = floor_errors(fast, ~RAPID, machine, np.array([2, 4]))
+    assert np.array_equal(got, floor_errors(slow, ~RAPID, machine, np.array([2, 4])))
+    assert got[1] < machine.contour_tol_um * 1e-3 < got[0]

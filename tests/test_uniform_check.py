@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fuzzyfeed.cli import main
@@ -18,6 +19,7 @@ from fuzzyfeed.program.run import program_path, run_program
 from fuzzyfeed.report.value import UNCHECKED, evaluate_program
 
 GRBL02 = Path(__file__).parent / "programs" / "corpus" / "grbl_02.ngc"
+LIBRARY = Path(__file__).parent.parent / "benchmarks" / "library" / "programs"
 
 
 @pytest.fixture(scope="module")
@@ -47,8 +49,6 @@ def test_a_check_that_breaks_goes_on_below(grbl02, monkeypatch):
     # the hot stretches of the program as written cut down to its mildest segment's: the factor they hold
     # breaks the tolerance elsewhere, the checking run finds it and the search goes on below it,
     # the same way with the check made later as with it made at once
-    import numpy as np
-
     machine, _, path, written = grbl02
     real_hot = reference._hot
     seen = []
@@ -102,16 +102,35 @@ def test_cli_marks_the_uniform_row_unchecked_without_report(tmp_path, capsys):
     assert not row.split()[1].endswith(UNCHECKED) and "nan" not in row
 
 
-def test_an_early_bound_is_true_and_the_check_searches_on():
-    # gSender's KB-35: the lag of a rapid at a plunge, which no F changes; without the check the
-    # search stops at the first factor (half or less) whose error stayed flat, a true bound (that
-    # factor breaks the tolerance); check_uniform searches on to what the search with its check gives
+def test_a_place_no_factor_holds_is_set_apart_and_the_check_agrees():
+    # gSender's KB-35: the lag of a rapid at a plunge, which no F changes (issue 36 item 3): those
+    # places are set apart and the factor found without them, the same with the check made later
     machine = load_machine("reference")
-    library = Path(__file__).parent.parent / "benchmarks" / "library" / "programs"
-    path = program_path(read_program(library / "gsender" / "KB-35 test.nc"), machine.chord_tol_mm)
+    path = program_path(read_program(LIBRARY / "gsender" / "KB-35 test.nc"), machine.chord_tol_mm)
+    written = run_program(path, machine)
+    hot = reference.uniform_slowdown(path, machine, written, check=False)
+    assert not hot.bounded and not hot.checked and hot.apart
+    at_once = reference.uniform_slowdown(path, machine, written)
+    later = reference.check_uniform(path, machine, hot)
+    assert not at_once.bounded and at_once.run is not None and at_once.max_um <= machine.contour_tol_um
+    assert at_once.run.max_um > machine.contour_tol_um              # only at the places set apart
+    assert later.factor == at_once.factor and later.runs == at_once.runs and later.apart == at_once.apart
+    assert all(p.floor_um > machine.contour_tol_um and p.factor_um > machine.contour_tol_um for p in at_once.apart)
+
+
+def test_an_early_bound_is_true_and_the_check_searches_on(monkeypatch):
+    # KB-35 with nothing set apart (the floor measure made to clear every place): without the check
+    # the search stops at the first factor (half or less) whose error stayed flat, a true bound
+    # (that factor breaks the tolerance); check_uniform searches on to what the search with its
+    # check gives
+    import fuzzyfeed.program.apart as apart
+
+    monkeypatch.setattr(apart, "floor_errors", lambda motion, measured, machine, segments: np.zeros(len(segments)))
+    machine = load_machine("reference")
+    path = program_path(read_program(LIBRARY / "gsender" / "KB-35 test.nc"), machine.chord_tol_mm)
     written = run_program(path, machine)
     early = reference.uniform_slowdown(path, machine, written, check=False)
-    assert early.bounded and not early.checked and early.factor <= 0.5
+    assert early.bounded and not early.checked and early.factor <= 0.5 and early.apart == ()
     slower = run_program(path, machine, feed_scale=early.factor)          # the bound is true
     assert slower.max_um > machine.contour_tol_um
     at_once = reference.uniform_slowdown(path, machine, written)

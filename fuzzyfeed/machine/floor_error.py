@@ -14,10 +14,10 @@ reference's floor), run only over the ticks from the start of each given segment
 :data:`~fuzzyfeed.machine.stream.WARMUP_TIME_CONSTANTS` servo time constants after it (each window
 warmed up from rest as :func:`~fuzzyfeed.machine.stream.segment_windows`: the state there is the
 rapids', the feed's own motion at that speed has barely started). A place whose floor error is over
-the tolerance is one no uniform factor fixes; the uniform search can leave it out and say so, as the
-value report does with errors in the air. This is a measurement at one small factor, not a proof
-that the error stays above it for every c below: it is what "found" should be defined against
-(see the module's tests and issue 36's notes).
+the tolerance is one no uniform factor fixes: the uniform search sets it apart and says so
+(:mod:`fuzzyfeed.program.apart`), as the value report does with errors in the air. This is a
+measurement at one small factor, not a proof that the error stays above it for every c below: it is
+what "found" is defined against.
 """
 
 from __future__ import annotations
@@ -36,13 +36,17 @@ FLOOR = 0.01
 def floor_errors(motion: Motion, measured: np.ndarray, machine: Machine, segments: np.ndarray,
                  floor: float = FLOOR) -> np.ndarray:
     """Largest contour error (mm) in the part of each of ``segments`` (indices into ``motion``)
-    with every feed × ``floor``, over its first WARMUP_TIME_CONSTANTS servo time constants."""
+    with every feed × ``floor`` (of the feed the machine can run there, min(F, the axes' speed
+    along the segment): as the limit reference's floor), over its first WARMUP_TIME_CONSTANTS
+    servo time constants."""
     if not (np.isfinite(floor) and 0.0 < floor <= 1.0):
         raise InputError(f"floor = {floor!r}; must be finite, > 0 and <= 1")
     seg = np.unique(np.asarray(segments, dtype=np.int64))
     if seg.size == 0:
         return np.zeros(0)
-    scaled = Motion(motion.points, np.where(motion.rapid, motion.feed_mm_s, motion.feed_mm_s * floor),
+    # the floor of the feed the machine can run (an F far above it, F1e6, runs at the axes' speed)
+    reachable = np.minimum(motion.feed_mm_s, machine.speed_along(motion.points))
+    scaled = Motion(motion.points, np.where(motion.rapid, motion.feed_mm_s, reachable * floor),
                     motion.rapid, motion.arc_radius_mm)
     plan = plan_motion(scaled, machine)
     ts = machine.ts_s

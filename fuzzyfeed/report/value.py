@@ -28,6 +28,7 @@ from fuzzyfeed.program.verify import Verification
 from fuzzyfeed.program.feeds import advice_columns, advise_program
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
+from fuzzyfeed.program.apart import apart_lines
 from fuzzyfeed.program.reference import Uniform, check_uniform, limit_reference, uniform_slowdown
 from fuzzyfeed.program.rewrite import rewrite_program
 from fuzzyfeed.program.run import ProgramPath, ProgramRun, program_path, run_program
@@ -83,6 +84,8 @@ class ValueReport:
     verification: Verification | None = None   # what rs274 said of the rewrite (--verify-rs274)
     worst_air: tuple[int, tuple[float, float, float]] | None = None
     reference_deferred: bool = False     # the limit reference left to the report (Evaluation.checked)
+    uniform_apart: tuple = ()            # places no uniform factor holds (program/apart.Apart), left out of its row
+    reference_apart: bool = False        # the limit reference's largest error is on a line of those places
 
     @property
     def partial(self) -> bool:
@@ -116,6 +119,7 @@ class ValueReport:
         air = self.air_line()
         if air:
             out.append("  " + air)
+        out.extend("  " + line for line in self.apart_lines(APART_SHOWN))
         if self.reference_deferred:
             out.append("  limit reference: not run (--report runs it)")
         if self.uniform.label.endswith(UNCHECKED):
@@ -127,6 +131,10 @@ class ValueReport:
                        "factor it stayed above 0.9 of itself): the search stopped at this bound (--report "
                        "searches on)")
         return out
+
+    def apart_lines(self, shown: int | None = None) -> list[str]:
+        """The places the uniform slowdown set apart (:func:`~fuzzyfeed.program.apart.apart_lines`)."""
+        return apart_lines(self.uniform_apart, shown)
 
     def air_line(self) -> str:
         """Where the rows' errors are: max and p99 are in the part (the tool nearest a feed move);
@@ -169,7 +177,10 @@ class ValueReport:
             text += (f"; {a.max_um:.1f} um at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)}) is "
                      "over the tolerance")
         if self.reference is not None and not self.reference_converged:
-            if a.max_um <= tol * (1 + 1e-9) or u.max_um <= tol * (1 + 1e-9):
+            if self.reference_apart:
+                text += (f"; the limit reference ends at {self.reference.max_um:.1f} um at a place the uniform "
+                         "slowdown sets apart (no feed holds it there)")
+            elif a.max_um <= tol * (1 + 1e-9) or u.max_um <= tol * (1 + 1e-9):
                 text += f"; the limit reference stopped at {self.reference.max_um:.1f} um (its passes ran out)"
             else:
                 text += (f"; even the limit reference ends at {self.reference.max_um:.1f} um: no feed holds "
@@ -184,6 +195,8 @@ class ValueReport:
                                   "holds_as_written": self.holds_as_written,
                                   "uniform_factor": self.uniform_factor}
         row["uniform_is_bound"] = self.uniform.label.endswith("(at least)")
+        row["uniform_set_apart"] = len(self.uniform_apart)
+        row["uniform_set_apart_max_um"] = max((p.floor_um for p in self.uniform_apart), default=0.0)
         for key, r in (("written", self.written), ("advised", self.advised), ("uniform", self.uniform),
                        ("reference", self.reference)):
             row[f"{key}_time_s"] = r.time_s if r is not None else float("nan")
@@ -203,6 +216,8 @@ def cuts_over(run: ProgramRun, tol_um: float) -> list[int]:
 
 #: The mark of a uniform row found on the hot stretches and not checked by a whole run.
 UNCHECKED = "*"
+#: Places set apart by the uniform slowdown listed in the text report (the HTML lists them all).
+APART_SHOWN = 5
 
 
 def uniform_row(u: Uniform) -> ValueRow:
@@ -214,6 +229,8 @@ def uniform_row(u: Uniform) -> ValueRow:
     if u.run is None:
         mark = "" if u.checked else UNCHECKED
         return ValueRow(f"uniform x{_factor(u.factor)}{mark}", u.time_s, u.max_um, float("nan"))
+    if u.apart:              # its max outside the places set apart (ValueReport.apart_lines)
+        return ValueRow(f"uniform x{_factor(u.factor)}", u.run.time_s, u.max_um, u.run.p99_um, u.run.air_max_um)
     return ValueRow.of(f"uniform x{_factor(u.factor)}", u.run)
 
 
@@ -302,10 +319,11 @@ class Evaluation:
             if u.run is not None:      # its rows, not its plans (~0.1 KB a segment), during the reference
                 u = replace(u, run=ProgramRun(u.run.path, u.run.machine,
                                               tuple(replace(c, plan=None) for c in u.run.runs)))
-            r = replace(r, uniform=uniform_row(u), uniform_factor=u.factor)
+            r = replace(r, uniform=uniform_row(u), uniform_factor=u.factor, uniform_apart=u.apart)
         if r.reference_deferred:
             ref = limit_reference(self.path, r.machine)
             r = replace(r, reference=ValueRow.of("limit reference", ref.run), reference_converged=ref.converged,
+                        reference_apart=_at_apart(ref.run, r.uniform_apart),
                         reference_deferred=False)
         return replace(self, report=r, uniform=u, path=None)
 
@@ -367,7 +385,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     else:
         step("rs274")
         text, checked = verify(program, pa.piece_move[keep], pa.piece_end[keep], pa.piece_feed_mm_min[keep])
-    u = None
+    u, ref_apart = None, False
     if not over:
         uniform_factor, u_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
         ref_row, converged = (ValueRow.of("limit reference", written) if reference else None), True
@@ -389,11 +407,12 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         u = uniform_slowdown(path, machine, written, check=check_uniform,
                              **({} if max_ticks is None else {"max_ticks": max_ticks}))
         uniform_factor, u_row = u.factor, uniform_row(u)
-        ref_row, converged = None, True
+        ref_row, converged, ref_apart = None, True, False
         if reference and check_uniform:
             step("limit reference")
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
+            ref_apart = _at_apart(ref.run, u.apart)
     report = ValueReport(
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
@@ -404,10 +423,17 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
         trace=trace, coverage=program_coverage(program),
         verification=checked, worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
-        reference_deferred=bool(over) and reference and not check_uniform)
+        reference_deferred=bool(over) and reference and not check_uniform,
+        uniform_apart=() if u is None else u.apart, reference_apart=ref_apart)
     pending = (u is not None and not u.checked) or report.reference_deferred
     return Evaluation(advice=pa, advised_cuts=tuple(over), text=text, report=report,
                       uniform=u if pending else None, path=path if pending else None)
+
+
+def _at_apart(run: ProgramRun, apart: tuple) -> bool:
+    """The largest error of ``run`` (the limit reference's) is on a program line of a place set apart."""
+    worst = run.worst()
+    return bool(apart) and worst is not None and worst[0] in {p.line for p in apart}
 
 
 def _advised_model(program: Program, text: str, tools, plain: bool, *pieces) -> Program:

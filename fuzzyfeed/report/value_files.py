@@ -90,6 +90,10 @@ def report_table_html(reports: Sequence[ValueReport]) -> str:
         parts.append(f"<p>{html.escape(r.verdict())}</p>")
         if r.air_line():
             parts.append(f"<p>{html.escape(r.air_line())}</p>")
+        apart = r.apart_lines()
+        if apart:
+            parts.append(f"<p>{html.escape(apart[0])}</p><ul>"
+                         + "".join(f"<li>{html.escape(line.strip())}</li>" for line in apart[1:]) + "</ul>")
         buf = io.BytesIO()
         plot_value(r, buf)
         data = base64.b64encode(buf.getvalue()).decode("ascii")
