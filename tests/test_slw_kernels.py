@@ -87,7 +87,8 @@ def _window(rng, shape):
     w.juncs = [_Junction(0.0, 0.0, float(rng.uniform(0, 100)) if rng.random() < 0.5 else 0.0)]
     for k in range(n):
         ref = Reference(s[k:k + 2], s[k:k + 2], np.full(2, 100.0), np.zeros((2, 3)), np.zeros((2, 3)))
-        w.blocks.append(_WBlock(ref, float(rng.uniform(100, 2000)), 100.0))
+        acc = float(rng.uniform(100, 2000))  # the falls' acceleration differs from the rises' in half
+        w.blocks.append(_WBlock(ref, acc, 100.0, acc_down=acc if rng.random() < 0.5 else float(rng.uniform(100, 2000))))
         w.juncs.append(_Junction(float(s[k + 1]), float(rng.uniform(0, 100))))
     return w
 
