@@ -14,7 +14,10 @@ enter the window, merged or cut by direction: slw/window_blocks.py): the feed ag
 limit at the reference points, and the axial accelerations a_t·T_j + v²·κN_j against A_j. A feed
 above the limit inside a block adds a junction there (the limit curve rose slower than the
 profile); an axial acceleration above its limit lowers the block's tangential acceleration, or the
-feed of the junction it approaches when the centripetal part alone nearly uses the axis up.
+feed of the junction it approaches when the centripetal part alone nearly uses the axis up. On a
+machine whose axes differ, a block's rises and falls have each their own tangential acceleration
+(started at the largest its directions allow, lowered only for the transition at fault); on equal
+axes one per block, as seed 000.
 """
 
 from __future__ import annotations

@@ -4,8 +4,9 @@ The profile is sampled at half servo periods (compiled, slw/_kernels.py); the fe
 against the pointwise limit at the samples and at the reference points, and the axial
 accelerations a_t·T_j + v²·κN_j (+ v·|ΔT_j|/Ts at a kink) against A_j. A feed above the limit
 adds a junction there; an axial acceleration above its limit lowers the block's tangential
-acceleration, or caps the feed of a new junction when the centripetal part alone nearly uses the
-axis up.
+acceleration (on unequal axes only that of the transition at fault, the rise's or the fall's: the
+per-point interval |a_t·T_j + v²·κN_j| ≤ A_j where it broke, not the block's worst direction), or
+caps the feed of a new junction when the centripetal part alone nearly uses the axis up.
 """
 
 from __future__ import annotations
