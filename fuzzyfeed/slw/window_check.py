@@ -174,7 +174,14 @@ class BlockCheck:
             # a junction where the profile first crosses the limit, capped at the lowest limit of
             # the crossing: a ramp is then followed in few, large steps
             cap = SPLIT_ROOM * float(vlim[a_idx:b_idx + 1].min())
-            self._split(i, s[a_idx], cap=cap)
+            at = a_idx
+            if self.per_direction and all(segs[int(g)].v1 < segs[int(g)].v0
+                                          for g in np.unique(seg_id[a_idx:b_idx + 1])):
+                # a fall (at its own, higher acceleration on unequal axes) late for a limit
+                # that falls faster: the junction where that limit is lowest, so the feed stays
+                # high up to there instead of dropping at the crossing's start (nurbs25 slow-Y)
+                at = a_idx + int(np.argmin(vlim[a_idx:b_idx + 1]))
+            self._split(i, s[at], cap=cap)
             return False
         k = int(np.argmax(r))
         j = int(worst_axis[k])
