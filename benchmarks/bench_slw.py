@@ -238,6 +238,9 @@ def main() -> None:
                     "processes (the summary is then of those cases only)")
     ap.add_argument("--builtin-only", action="store_true", help="every case but the programs (the other part "
                     "of a run split with --programs)")
+    ap.add_argument("--machine", choices=tuple(MACHINES), help="only the cases on this machine")
+    ap.add_argument("--program", nargs="+", metavar="PATH", help="only these programs (paths in the library, "
+                    "as printed before '#'), no other case")
     args = ap.parse_args()
     if args.corner_bound:
         wanted = set(args.corner_bound)
@@ -258,8 +261,14 @@ def main() -> None:
     print(HEADER)
     print("-" * len(HEADER))
     results: dict[str, list[dict]] = {t: [] for t in transitions}
-    for name, curve, lim, cap in cases(args.random, args.max_cuts, args.programs and tuple(args.programs),
-                                 args.builtin_only):
+    if args.program:
+        chosen = (c for p in args.program for c in _program_cases(args.max_cuts, (p, p + "\x7f"))
+                  if c[0].split("#")[0] == p)
+    else:
+        chosen = cases(args.random, args.max_cuts, args.programs and tuple(args.programs), args.builtin_only)
+    for name, curve, lim, cap in chosen:
+        if args.machine and not name.endswith(f"/{args.machine}"):
+            continue
         for t in transitions:
             r = run_case(f"{name}/{t}", curve, lim, t, cap)
             results[t].append(r)

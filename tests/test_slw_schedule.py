@@ -435,8 +435,9 @@ def test_every_tick_of_the_shipped_shapes_on_a_slow_y_axis_is_within_the_limits(
 
 def test_a_breach_left_after_the_repairs_is_one_line_naming_limit_axis_place_and_ratio(monkeypatch):
     """A random parabola on unequal axes whose positions' second differences pass A_y by 0.08 % at
-    a curvature peak the look-ahead holds exactly: the schedule is redone with the feed lowered
-    there. Without those repairs the breach is the error, never a schedule over a limit."""
+    a curvature peak the look-ahead holds exactly (0.10 % since the per-direction accelerations of
+    issue 38): the schedule is redone with the feed lowered there. Without those repairs the
+    breach is the error, never a schedule over a limit."""
     import fuzzyfeed.slw.trajectory as trajectory
 
     rng = np.random.default_rng(27)
@@ -444,7 +445,7 @@ def test_a_breach_left_after_the_repairs_is_one_line_naming_limit_axis_place_and
     m = assert_feasible(schedule(curve, lim, transition="seven-phase"))
     assert m["axis_acc"] <= 1 + 5e-5
     monkeypatch.setattr(trajectory, "TICK_REPAIRS", 0)
-    with pytest.raises(InputError, match=r"^acceleration y at s = [0-9.]+ mm: 1\.000[0-9] x its limit of "
+    with pytest.raises(InputError, match=r"^acceleration y at s = [0-9.]+ mm: 1\.00[0-9]{2} x its limit of "
                                          r"280\.104 mm/s\^2; the schedule breaks a machine limit"):
         schedule(curve, lim, transition="seven-phase")
 

@@ -141,13 +141,13 @@ def bisect_end(v_s, length, good, bad, acc, jerk, seven, steps):
 
 
 @numba.njit(cache=True, nogil=True)
-def bisect_peak(v_s, v_e, length, good, bad, acc, jerk, seven, steps):
+def bisect_peak(v_s, v_e, length, good, bad, acc, jerk, seven, steps, acc_down):
     """The peak v nearest ``bad`` with D(v_s, v) + D(v, v_e) ≤ length (Table 1, approach 2), by
-    bisection as profile._bisect."""
+    bisection as profile._bisect; the rise under ``acc``, the fall under ``acc_down``."""
     for _ in range(steps):
         mid = 0.5 * (good + bad)
         if (transition_distance(v_s, mid, acc, jerk, seven)
-                + transition_distance(mid, v_e, acc, jerk, seven)) <= length:
+                + transition_distance(mid, v_e, acc_down, jerk, seven)) <= length:
             good = mid
         else:
             bad = mid
@@ -383,20 +383,21 @@ def lowest_end_speed(v_s, length, floor, acc, jerk, seven, steps):
 
 
 @numba.njit(cache=True, nogil=True)
-def plan_window(lengths, accs, caps, v_first, end_feed, jerk, seven, steps):
+def plan_window(lengths, accs, caps, v_first, end_feed, jerk, seven, steps, accs_down):
     """SlidingWindow._plan: the junction feeds of a window of n blocks (n + 1 junctions with caps
-    ``caps``): a backward scan from min(cap, end_feed) at the last junction (max_start_speed), then
-    a forward scan from the committed ``v_first`` (max_end_speed, or the hardest braking the block
-    allows where a later junction is lower than the committed one can reach)."""
+    ``caps``): a backward scan from min(cap, end_feed) at the last junction (max_start_speed: a
+    fall, under ``accs_down``), then a forward scan from the committed ``v_first`` (max_end_speed:
+    a rise, under ``accs``; or the hardest braking the block allows, under ``accs_down``, where a
+    later junction is lower than the committed one can reach)."""
     n = lengths.size
     v = np.empty(n + 1)
     v[n] = end_feed if end_feed < caps[n] else caps[n]
     for i in range(n - 1, -1, -1):
-        v[i] = bisect_speed(v[i + 1], lengths[i], caps[i], accs[i], jerk, seven, steps)
+        v[i] = bisect_speed(v[i + 1], lengths[i], caps[i], accs_down[i], jerk, seven, steps)
     v[0] = v_first
     for i in range(n):
-        if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], accs[i], jerk, seven) > lengths[i]:
-            v[i + 1] = lowest_end_speed(v[i], lengths[i], v[i + 1], accs[i], jerk, seven, steps)
+        if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], accs_down[i], jerk, seven) > lengths[i]:
+            v[i + 1] = lowest_end_speed(v[i], lengths[i], v[i + 1], accs_down[i], jerk, seven, steps)
         else:
             v[i + 1] = bisect_speed(v[i], lengths[i], v[i + 1], accs[i], jerk, seven, steps)
     return v

@@ -14,7 +14,10 @@ enter the window, merged or cut by direction: slw/window_blocks.py): the feed ag
 limit at the reference points, and the axial accelerations a_t·T_j + v²·κN_j against A_j. A feed
 above the limit inside a block adds a junction there (the limit curve rose slower than the
 profile); an axial acceleration above its limit lowers the block's tangential acceleration, or the
-feed of the junction it approaches when the centripetal part alone nearly uses the axis up.
+feed of the junction it approaches when the centripetal part alone nearly uses the axis up. On a
+machine whose axes differ, a block's rises and falls have each their own tangential acceleration
+(started at the largest its directions allow, lowered only for the transition at fault); on equal
+axes one per block, as seed 000.
 """
 
 from __future__ import annotations
@@ -60,6 +63,9 @@ class SlidingWindow(WindowContent, BlockCheck):
         self.jerk = limits.jerk_mm_s3
         self.acc = limits.tangential_acc_mm_s2
         self.axis_acc = np.asarray(limits.axis_acc_mm_s2)
+        # unequal axes: a block's rises and falls each at the acceleration of the directions
+        # they run in (window_blocks, window_check); equal axes: seed 000's one per block
+        self.per_direction = bool(self.axis_acc.min() < self.axis_acc.max())
         self.stop = stop_distance(limits.feed_mm_s, self.acc, self.jerk, self.shape)
         self.window_mm = WINDOW_STOPS * self.stop
         self.juncs: list[_Junction] = [_Junction(0.0, 0.0, 0.0)]
@@ -84,7 +90,7 @@ class SlidingWindow(WindowContent, BlockCheck):
         v[n] = min(self.juncs[n].cap, end_feed)
         for i in range(n - 1, -1, -1):
             b = self.blocks[i]
-            v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc, self.jerk, self.shape)
+            v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc_down, self.jerk, self.shape)
         return v
 
     def _plan(self, end_feed: float) -> None:
@@ -96,7 +102,8 @@ class SlidingWindow(WindowContent, BlockCheck):
         blocks, juncs = self.blocks, self.juncs
         v = kernels.plan_window(np.array([b.length for b in blocks]), np.array([b.acc for b in blocks]),
                                 np.array([j.cap for j in juncs]), float(juncs[0].v), float(end_feed),
-                                float(self.jerk), self.shape == SEVEN_PHASE, BISECTION_STEPS)
+                                float(self.jerk), self.shape == SEVEN_PHASE, BISECTION_STEPS,
+                                np.array([b.acc_down for b in blocks]))
         for j, vj in zip(juncs, v.tolist()):
             j.v = vj
 
@@ -105,10 +112,10 @@ class SlidingWindow(WindowContent, BlockCheck):
         v = self._backward(end_feed)
         v[0] = self.juncs[0].v  # committed
         for i, b in enumerate(self.blocks):
-            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc, self.jerk, self.shape) > b.length:
+            if v[i + 1] < v[i] and transition_distance(v[i], v[i + 1], b.acc_down, self.jerk, self.shape) > b.length:
                 # a committed junction may be faster than a junction found later allows: brake as
                 # hard as the block lets (the check then repairs the block before it is released)
-                v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk, self.shape)
+                v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc_down, self.jerk, self.shape)
             else:
                 v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk, self.shape)
         for j, vj in zip(self.juncs, v):
@@ -205,7 +212,8 @@ class SlidingWindow(WindowContent, BlockCheck):
         b = self.blocks[0]
         kind, segs = self._segments(0)
         j0, j1 = self.juncs[0], self.juncs[1]
-        out = ScheduledBlock(b.s0, b.s1, j0.v, j1.v, kind, tuple(segs), b.acc, critical_end=True)
+        out = ScheduledBlock(b.s0, b.s1, j0.v, j1.v, kind, tuple(segs), b.acc, critical_end=True,
+                             acc_down_mm_s2=b.acc_down)
         self.blocks.pop(0)
         self.juncs.pop(0)
         self.stats.blocks_out += 1

@@ -165,17 +165,19 @@ def lowest_end_speed(v_s: float, length: float, floor: float, acc: float, jerk: 
 
 
 def peak_speed(v_s: float, v_e: float, length: float, cap: float, acc: float, jerk: float,
-               shape: str = COSINE) -> float:
-    """Highest v_p ≤ cap with D(v_s, v_p) + D(v_p, v_e) ≤ length (Table 1, approach 2)."""
+               shape: str = COSINE, acc_down: float | None = None) -> float:
+    """Highest v_p ≤ cap with D(v_s, v_p) + D(v_p, v_e) ≤ length (Table 1, approach 2); the rise
+    under ``acc``, the fall under ``acc_down`` (default ``acc``)."""
     lo = max(v_s, v_e)
+    acc_down = acc if acc_down is None else acc_down
 
     def dist(v: float) -> float:
-        return transition_distance(v_s, v, acc, jerk, shape) + transition_distance(v, v_e, acc, jerk, shape)
+        return transition_distance(v_s, v, acc, jerk, shape) + transition_distance(v, v_e, acc_down, jerk, shape)
 
     if cap <= lo or dist(cap) <= length:
         return max(cap, lo)
     return float(_k().bisect_peak(float(v_s), float(v_e), float(length), float(lo), float(cap), float(acc),
-                                  float(jerk), shape == SEVEN_PHASE, BISECTION_STEPS))
+                                  float(jerk), shape == SEVEN_PHASE, BISECTION_STEPS, float(acc_down)))
 
 
 def max_start_speed(v_e: float, length: float, cap: float, acc: float, jerk: float,
@@ -218,21 +220,23 @@ def _transition(v0: float, v1: float, duration_s: float, jerk: float, shape: str
 
 
 def _rise_cruise_fall(v_s: float, v_top: float, v_e: float, cruise: float, acc: float,
-                      jerk: float, shape: str) -> list[Segment]:
-    """Rise v_s → v_top, a cruise of ``cruise`` mm at v_top, fall v_top → v_e (pieces of zero
-    length left out): the shape of seed 000's type 1 and of approach 2."""
+                      jerk: float, shape: str, acc_down: float) -> list[Segment]:
+    """Rise v_s → v_top (under ``acc``), a cruise of ``cruise`` mm at v_top, fall v_top → v_e
+    (under ``acc_down``; pieces of zero length left out): the shape of seed 000's type 1 and of
+    approach 2."""
     segs = []
     if v_top > v_s:
         segs.append(_transition(v_s, v_top, transition_time(v_s, v_top, acc, jerk, shape), jerk, shape))
     if cruise > 0.0 and v_top > 0.0:
         segs.append(Segment(v_top, v_top, cruise / v_top))
     if v_top > v_e:
-        segs.append(_transition(v_top, v_e, transition_time(v_top, v_e, acc, jerk, shape), jerk, shape))
+        segs.append(_transition(v_top, v_e, transition_time(v_top, v_e, acc_down, jerk, shape), jerk, shape))
     return segs
 
 
 def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: float,
-                   jerk: float, approach: int = 1, shape: str = COSINE) -> tuple[int, list[Segment]]:
+                   jerk: float, approach: int = 1, shape: str = COSINE,
+                   acc_down: float | None = None) -> tuple[int, list[Segment]]:
     """Block type (1-3) and its segments covering exactly ``length`` mm (seed 000, Table 1), with
     transitions of ``shape``.
 
@@ -241,30 +245,35 @@ def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: flo
     either profile crosses a falling (rising) feed limit inside the block, the look-ahead splits
     the block there (a junction just under the limit) rather than flattening it.
 
+    Rises are planned under ``acc``, falls under ``acc_down`` (default ``acc``: seed 000's one
+    tangential acceleration per block).
+
     Raises ValueError for a type-4 block (v_e not reachable from v_s within ``length``): the
     look-ahead corrects junction speeds so that this does not happen.
     """
     v_max = max(v_max, v_s, v_e)
     if v_max <= 0.0:
         raise ValueError(f"block of {length} mm with a peak feed of 0 cannot be travelled")
-    d_se = transition_distance(v_s, v_e, acc, jerk, shape)
+    acc_down = acc if acc_down is None else acc_down
+    acc_se = acc if v_e > v_s else acc_down
+    d_se = transition_distance(v_s, v_e, acc_se, jerk, shape)
     if d_se > length * (1.0 + 1e-9) + 1e-12:
         raise ValueError(f"type-4 block: {v_s} -> {v_e} mm/s needs {d_se} mm, block is {length} mm")
     if d_se > length:  # rounding: shorten the transition to the block
         return (2 if v_e > v_s else 3), [_transition(v_s, v_e, 2.0 * length / (v_s + v_e), jerk, shape)]
     d_up = transition_distance(v_s, v_max, acc, jerk, shape)
-    d_down = transition_distance(v_max, v_e, acc, jerk, shape)
+    d_down = transition_distance(v_max, v_e, acc_down, jerk, shape)
     segs: list[Segment] = []
     if d_up + d_down <= length:  # type 1
-        return 1, _rise_cruise_fall(v_s, v_max, v_e, length - d_up - d_down, acc, jerk, shape)
+        return 1, _rise_cruise_fall(v_s, v_max, v_e, length - d_up - d_down, acc, jerk, shape, acc_down)
     cruise = max(length - d_se, 0.0)
     if (approach == 2 or max(v_s, v_e) <= SLOW_CRUISE * v_max) and cruise > 0.0:
         # approach 1 would crawl (or stand still) at the higher end speed: approach 2 instead,
         # a peak v_p between the two transitions (Table 1, figure (d))
-        v_p = peak_speed(v_s, v_e, length, v_max, acc, jerk, shape)
+        v_p = peak_speed(v_s, v_e, length, v_max, acc, jerk, shape, acc_down)
         rest = (length - transition_distance(v_s, v_p, acc, jerk, shape)
-                - transition_distance(v_p, v_e, acc, jerk, shape))
-        return 2 if v_e > v_s else 3, _rise_cruise_fall(v_s, v_p, v_e, rest, acc, jerk, shape)
+                - transition_distance(v_p, v_e, acc_down, jerk, shape))
+        return 2 if v_e > v_s else 3, _rise_cruise_fall(v_s, v_p, v_e, rest, acc, jerk, shape, acc_down)
     if v_s < v_e:  # type 2: accelerate, then cruise at the higher (end) speed
         segs.append(_transition(v_s, v_e, transition_time(v_s, v_e, acc, jerk, shape), jerk, shape))
         if cruise > 0.0:
@@ -275,7 +284,7 @@ def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: flo
             raise ValueError(f"block of {length} mm cannot be travelled from rest to rest at 0 mm/s")
         segs.append(Segment(v_s, v_s, cruise / v_s))
     if v_s > v_e:
-        segs.append(_transition(v_s, v_e, transition_time(v_s, v_e, acc, jerk, shape), jerk, shape))
+        segs.append(_transition(v_s, v_e, transition_time(v_s, v_e, acc_down, jerk, shape), jerk, shape))
     return 3, segs
 
 

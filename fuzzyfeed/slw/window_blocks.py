@@ -41,6 +41,13 @@ class _WBlock:
     vmax: float
     checked: tuple | None = None
     pending: tuple | None = None  # (key, samples …) of a check not yet judged (_sample)
+    # the tangential acceleration of the block's falls (``acc``: of its rises); seed 000's one
+    # acceleration per block when equal (the default)
+    acc_down: float | None = None
+    # where the check (or a corner passed inside the block) lowered an acceleration, to what, and
+    # which (0 the rises', 1 the falls', 2 both): a split gives each piece its own direction's
+    # acceleration and only the ceilings inside it
+    ceilings: tuple[tuple[float, float, int], ...] = ()
     # the ends and length, read ~10⁷ times on a long program: kept, not recomputed (ref is never
     # replaced: a split or merge makes new blocks)
     s0: float = field(init=False)
@@ -48,6 +55,8 @@ class _WBlock:
     length: float = field(init=False)
 
     def __post_init__(self) -> None:
+        if self.acc_down is None:
+            self.acc_down = self.acc
         self.s0 = float(self.ref.s[0])
         self.s1 = float(self.ref.s[-1])
         self.length = self.s1 - self.s0
@@ -65,6 +74,7 @@ class ScheduledBlock:
     segments: tuple[Segment, ...]
     acc_mm_s2: float
     critical_end: bool
+    acc_down_mm_s2: float | None = None  # the falls' (None: acc_mm_s2)
 
     @property
     def duration_s(self) -> float:
@@ -100,7 +110,8 @@ class WindowContent:
         crawl = CRAWL * self.limits.feed_mm_s
         for ref in self._by_direction(block.ref):
             vmax = min(self.limits.feed_mm_s, max(float(ref.vlim.max()), crawl))
-            self.blocks.append(_WBlock(ref, self._direction_acc(ref), vmax))
+            up, down = self._start_acc(ref)
+            self.blocks.append(_WBlock(ref, up, vmax, acc_down=down))
             self.juncs.append(_Junction(float(ref.s[-1]), float(ref.vlim[-1])))
         self.juncs[-1].cap, self.juncs[-1].critical = block.cap1, True
         self.stats.max_window_blocks = max(self.stats.max_window_blocks, len(self.blocks))
@@ -123,7 +134,9 @@ class WindowContent:
         if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk, self.shape):
             return False
         b = self.blocks[-1]
-        head, acc = b.ref, min(b.acc, self._direction_acc(block.ref))
+        up, down = self._start_acc(block.ref)
+        head, acc, acc_down = b.ref, min(b.acc, up), min(b.acc_down, down)
+        ceilings = b.ceilings
         if self._corner_s.size and np.isin(last.s, self._corner_s):
             # a true corner passed inside a block, not at rest on its tangential acceleration:
             # the corner's turn may use CORNER_SHARE of each axis, the tangential acceleration
@@ -132,9 +145,11 @@ class WindowContent:
             vlim[-1] *= CORNER_SHARE / CORNER_MARGIN
             head = Reference(head.s, head.u, vlim, head.tangent, head.kn)
             acc = min(acc, (1.0 - CORNER_SHARE) * self.acc)
+            acc_down = min(acc_down, (1.0 - CORNER_SHARE) * self.acc)
+            ceilings = ceilings + ((float(last.s), (1.0 - CORNER_SHARE) * self.acc, 2),)
         ref = Reference.concat([head, block.ref.slice(1, len(block.ref) - 1)]) if len(block.ref) > 1 else head
         vmax = min(self.limits.feed_mm_s, max(float(ref.vlim.max()), CRAWL * self.limits.feed_mm_s))
-        self.blocks[-1] = _WBlock(ref, acc, vmax)
+        self.blocks[-1] = _WBlock(ref, acc, vmax, acc_down=acc_down, ceilings=ceilings)
         last.s, last.cap, last.v = block.s1, block.cap1, 0.0
         self.stats.merged += 1
         return True
@@ -164,6 +179,23 @@ class WindowContent:
         bounds = [0, *cuts, len(ref) - 1]
         return [ref.slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
 
+    def _start_acc(self, ref: Reference) -> tuple[float, float]:
+        """(rise, fall) tangential accelerations a new block starts from. Equal axes: seed 000's
+        one, :meth:`_direction_acc` for both. Unequal axes: the largest a with |a·T_j| ≤ A_j at
+        any of its reference points (at most max A_j) for both — the direction a block's rise
+        or fall actually runs in is known only from its profile, so the check
+        (slw/window_check.py) lowers the one at fault to what the per-point interval
+        |a·T_j + v²·κN_j| ≤ A_j leaves where it breaks, not the whole block to its worst
+        direction's."""
+        low = self._direction_acc(ref)
+        if not self.per_direction:
+            return low, low
+        t = np.abs(ref.tangent)
+        with np.errstate(divide="ignore"):
+            per_point = np.min(np.where(t > 0.0, self.axis_acc[None, :] / t, np.inf), axis=1)
+        high = float(np.clip(per_point.max(), low, float(self.axis_acc.max())))
+        return high, high
+
     def _direction_acc(self, ref: Reference) -> float:
         """Tangential acceleration of a new block: the largest a with |a·T_j| ≤ A_j at each of its
         reference points (seed 000, eq. (13)-(14), per block instead of for every direction), at
@@ -173,6 +205,22 @@ class WindowContent:
         with np.errstate(divide="ignore"):
             per_point = np.min(np.where(t > 0.0, self.axis_acc[None, :] / t, np.inf), axis=1)
         return float(max(self.acc, min(float(per_point.min()), float(self.axis_acc.max()))))
+
+    def _piece(self, ref: Reference, parent: _WBlock) -> _WBlock:
+        """A piece of ``parent`` (a split). On unequal axes (``per_direction``): a new block's
+        accelerations (:meth:`_start_acc`), lowered by the parent's ceilings that lie inside it
+        (a ceiling at the cut goes to both pieces), never below the parent's; on equal axes the
+        parent's (seed 000)."""
+        crawl = CRAWL * self.limits.feed_mm_s
+        vmax = min(self.limits.feed_mm_s, max(float(ref.vlim.max()), crawl))
+        if not self.per_direction:
+            return _WBlock(ref, parent.acc, vmax, acc_down=parent.acc_down)
+        s0, s1 = float(ref.s[0]), float(ref.s[-1])
+        ceilings = tuple(c for c in parent.ceilings if s0 <= c[0] <= s1)
+        up, down = self._start_acc(ref)
+        up = min([up] + [c[1] for c in ceilings if c[2] != 1])
+        down = min([down] + [c[1] for c in ceilings if c[2] != 0])
+        return _WBlock(ref, max(up, parent.acc), vmax, acc_down=max(down, parent.acc_down), ceilings=ceilings)
 
     def _ahead_mm(self) -> float:
         """Look-ahead beyond the first block's end."""

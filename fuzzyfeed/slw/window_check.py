@@ -4,8 +4,9 @@ The profile is sampled at half servo periods (compiled, slw/_kernels.py); the fe
 against the pointwise limit at the samples and at the reference points, and the axial
 accelerations a_t·T_j + v²·κN_j (+ v·|ΔT_j|/Ts at a kink) against A_j. A feed above the limit
 adds a junction there; an axial acceleration above its limit lowers the block's tangential
-acceleration, or caps the feed of a new junction when the centripetal part alone nearly uses the
-axis up.
+acceleration (on unequal axes only that of the transition at fault, the rise's or the fall's: the
+per-point interval |a_t·T_j + v²·κN_j| ≤ A_j where it broke, not the block's worst direction), or
+caps the feed of a new junction when the centripetal part alone nearly uses the axis up.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 
 from fuzzyfeed.slw.preprocess import Reference, _evaluate, evaluate_reference
 from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration
-from fuzzyfeed.slw.window_blocks import CRAWL, _Junction, _WBlock
+from fuzzyfeed.slw.window_blocks import _Junction
 
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
 CHECK_RTOL = 1e-6
@@ -52,7 +53,7 @@ class BlockCheck:
     def _segments(self, i: int):
         b = self.blocks[i]
         return block_segments(b.length, self.juncs[i].v, self.juncs[i + 1].v, b.vmax, b.acc, self.jerk,
-                              self.approach, self.shape)
+                              self.approach, self.shape, b.acc_down)
 
     def _sample(self, i: int):
         """Block i's profile sampled at half servo periods with the path's data interpolated from
@@ -61,7 +62,7 @@ class BlockCheck:
         None when the block needs no check (already checked with this key, or crossed within a
         small part of one servo period). Kept on the block with its key until judged."""
         b = self.blocks[i]
-        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.vmax, b.length)
+        key = (self.juncs[i].v, self.juncs[i + 1].v, b.acc, b.acc_down, b.vmax, b.length)
         if b.checked == key:
             return None
         if b.pending is not None and b.pending[0] == key:
@@ -183,7 +184,14 @@ class BlockCheck:
             # a junction where the profile first crosses the limit, capped at the lowest limit of
             # the crossing: a ramp is then followed in few, large steps
             cap = SPLIT_ROOM * float(vlim[a_idx:b_idx + 1].min())
-            self._split(i, s[a_idx], cap=cap)
+            at = a_idx
+            if self.per_direction and all(segs[int(g)].v1 < segs[int(g)].v0
+                                          for g in np.unique(seg_id[a_idx:b_idx + 1])):
+                # a fall (at its own, higher acceleration on unequal axes) late for a limit
+                # that falls faster: the junction where that limit is lowest, so the feed stays
+                # high up to there instead of dropping at the crossing's start (nurbs25 slow-Y)
+                at = a_idx + int(np.argmin(vlim[a_idx:b_idx + 1]))
+            self._split(i, s[at], cap=cap)
             return False
         k = int(np.argmax(r))
         j = int(worst_axis[k])
@@ -197,16 +205,25 @@ class BlockCheck:
             self._split(i, s[k], cap=room * float(v[k]))
             self.stats.caps_lowered += 1
             return False
-        peak = max(peak_acceleration(seg), 1e-9) if seg.duration_s else b.acc
+        # on unequal axes only the acceleration of the transition at fault is lowered (a rise
+        # and a fall of one block run in different directions, and the centripetal part of an
+        # axis helps one of them), on equal axes both (seed 000)
+        side = (0 if seg.v1 > seg.v0 else 1) if self.per_direction else 2
+        current = b.acc if side == 0 else b.acc_down if side == 1 else min(b.acc, b.acc_down)
+        peak = max(peak_acceleration(seg), 1e-9) if seg.duration_s else current
         need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
-        acc = max(min(b.acc, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
+        acc = max(min(current, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
         if acc < ACC_KEEP * self.acc:
             # the whole block would crawl for one point: a junction there instead (zero
             # tangential acceleration), the rest of the block keeps its acceleration
             self._split(i, s[k], cap=SPLIT_ROOM * float(v[k]))
             self.stats.caps_lowered += 1
             return False
-        b.acc = acc
+        if side != 1:
+            b.acc = acc
+        if side != 0:
+            b.acc_down = acc
+        b.ceilings = b.ceilings + ((float(s[k]), acc, side),)
         self.stats.acc_lowered += 1
         self._invalidate()
         return False
@@ -268,11 +285,8 @@ class BlockCheck:
         left, right = ref.slice(0, k), ref.slice(k, len(ref) - 1)
         cap = float(ref.vlim[k]) * factor if cap is None else min(cap, float(ref.vlim[k]))
         if i == 0 and cap < self.juncs[0].v:  # the first junction is committed: reachable from it
-            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc, self.jerk, self.shape)
-        crawl = CRAWL * self.limits.feed_mm_s
-        bl = _WBlock(left, b.acc, min(self.limits.feed_mm_s, max(float(left.vlim.max()), crawl)))
-        br = _WBlock(right, b.acc, min(self.limits.feed_mm_s, max(float(right.vlim.max()), crawl)))
-        self.blocks[i:i + 1] = [bl, br]
+            cap = lowest_end_speed(self.juncs[0].v, float(ref.s[k]) - b.s0, cap, b.acc_down, self.jerk, self.shape)
+        self.blocks[i:i + 1] = [self._piece(left, b), self._piece(right, b)]
         self.juncs.insert(i + 1, _Junction(float(ref.s[k]), cap))
         self.stats.junctions_added += 1
         self._invalidate()
