@@ -153,6 +153,12 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
             # Taylor step that long kinks at a knot (C‴ jumps) and left chords 1e-5 off there
             u = np.asarray(curve.param_at_length(target), dtype=float)
             first = False
+            # and the next pass is not judged against this one: a tick just short of a true corner
+            # whose first-pass chord held the corner got that chord's cut as its retarget and
+            # overshot by it (1.5e-7 mm), the next pass read as a stall, and the tick's chord
+            # stayed long: the chords' jerk 1.2 % over J two ticks before the corner
+            # (pycut_cnc1310_backlash.nc#1, issue 38)
+            previous = np.inf
             continue
         with np.errstate(divide="ignore", invalid="ignore"):
             du = np.where(sp2 > 0, shift / np.sqrt(sp2) - shift * shift * d1d2 / (2.0 * sp2 * sp2), 0.0)
