@@ -97,3 +97,36 @@ def test_best_keeps_improving_until_it_stalls_at_sharp_turns():
                                             lim.feed_mm_s), lim.ts_s)
     u = interpolate_u(curve, law.s_mm, "best")
     assert max_fluctuation_pct(curve, u, law.s_mm) < 8.0
+
+
+def _straight_then_corner() -> Nurbs:
+    """10 mm straight along x, a true corner (C0 knot at u = 1), then down in z into a tight
+    start (κ ≈ 67/mm) and a zig-zag cubic: the chords after the corner fall short of their arcs
+    by up to 1e-4 mm each, so the chord-exact retarget moves every tick before the corner back."""
+    straight = [[0, 0, 0], [10 / 3, 0, 0], [20 / 3, 0, 0], [10, 0, 0]]
+    tight = [[10, 0, -0.01], [10, 0.01, -0.01], [10, 2, -1]]
+    n = 60
+    zigzag = [[10, 2 + 0.4 * (-1) ** i, -1 - 0.3 * i] for i in range(1, n + 1)]
+    knots = [0, 0, 0, 0, 1, 1, 1] + list(np.linspace(2, 3, n + 1)[:-1]) + [3, 3, 3, 3]
+    return Nurbs(3, knots, np.array(straight + tight + zigzag, dtype=float))
+
+
+@pytest.mark.parametrize("feed", [50.0, 90.0])
+def test_best_keeps_the_chords_before_a_true_corner_exact(feed):
+    # issue 38: a tick just short of a corner, whose chord held the corner in the first pass, kept
+    # that chord's cut as its retarget (the next pass read as a stall): the chord before the corner
+    # 1.5e-7 mm long, the chords' jerk 1.2 % over J (pycut_cnc1310_backlash.nc#1); with ticks that
+    # cross the corner between passes, up to 6e-3 mm. Every chord that lies wholly on the straight
+    # run must be μ·ΔL, μ the ratio of the run's interior chords.
+    curve = _straight_then_corner()
+    corner_u, dl = 1.0, feed * 1e-3
+    worst = 0.0
+    for phase in np.linspace(0.0, dl, 13, endpoint=False):
+        s = np.concatenate([[0.0], np.arange(phase + dl, curve.length, dl), [curve.length]])
+        u = interpolate_u(curve, s, "best")
+        chords = np.linalg.norm(np.diff(curve(u), axis=0), axis=1)
+        straight = np.flatnonzero(u[1:] <= corner_u)[1:]  # from C(u_k) to C(u_k+1) before the corner
+        mu = np.median(chords[straight[:-3]] / np.diff(s)[straight[:-3]])
+        assert abs(mu - 1) < 0.02  # the zig-zag's deficit, spread over the path
+        worst = max(worst, float(np.max(np.abs(chords[straight] - mu * np.diff(s)[straight]))))
+    assert worst < 1e-12

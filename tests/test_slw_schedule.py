@@ -13,7 +13,7 @@ from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.sampling import sample_by_arc_length, sample_uniform_u
 from fuzzyfeed.slw import measure, path_bound, schedule, time_optimal_bound
-from fuzzyfeed.slw.preprocess import iter_blocks
+from fuzzyfeed.slw.preprocess import iter_blocks, joins
 
 TOL = 1.005  # the issue: no limit exceeded by more than 0.5 %
 #: The machine's limits. The tangential acceleration is no limit of its own: a block along a fast
@@ -458,3 +458,47 @@ def test_a_kink_under_full_tangential_acceleration_and_a_corner_within_a_tick_ho
     curve, lim = slw_cases.corner_polyline(rng), slw_cases.ratio_machine(rng)
     m = assert_feasible(schedule(curve, lim, transition="seven-phase"))
     assert m["axis_acc"] <= 1 + 5e-5
+
+
+def test_a_span_shorter_than_the_join_offset_keeps_its_turns(monkeypatch):
+    # issue 38: a 0.3 um move in Y inside a long diagonal run (coordinates rounded to 0.1 um, a
+    # polyline kept as lines; cncjs tball-pocket.gcode#1) is shorter than the 1e-7·L offset the
+    # joins' tangents were taken at: both turns were stepped over, the run passed at full feed and
+    # the ticks across the move at 2.2 x A_y. Each join's tangents are the true one-sided ones
+    # (closed form: diagonal (0.6, 0.8) → +Y → diagonal), and the schedule holds every tick
+    # without a tick repair.
+    import fuzzyfeed.slw.trajectory as trajectory
+    from fuzzyfeed.slw.check import tick_ratios
+
+    pts = np.array([[0.0, 0.0], [1200.0, 1600.0], [1200.0, 1600.0003], [2400.0, 3200.0003]])
+    curve = Nurbs(1, [0, 0, 1, 2, 3, 3], pts)
+    s_b, t, _, jump = joins(curve)
+    assert s_b.size == 2 and 1e-7 * curve.length > 1e-4  # the old offset: 0.4 um > the span
+    diag, up = np.array([0.6, 0.8, 0.0]), np.array([0.0, 1.0, 0.0])
+    np.testing.assert_allclose(t[:2], [diag, up], atol=1e-9)   # just before each join
+    np.testing.assert_allclose(t[2:], [up, diag], atol=1e-9)   # just after
+    np.testing.assert_allclose(jump, np.abs(up - diag)[None, :].repeat(2, axis=0), atol=1e-9)
+    monkeypatch.setattr(trajectory, "TICK_REPAIRS", 0)
+    slow_y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+    tr = schedule(curve, slow_y, blend=False)
+    ratios = tick_ratios(tr.xyz, tr.jerk_mm_s3, slow_y)
+    assert max(np.nanmax(r) for k, r in ratios.items() if k != "path jerk") <= 1 + 5e-5
+
+
+def test_pycut_backlash_cut_holds_every_tick_without_a_repair(monkeypatch):
+    # issue 38: bench_slw's pycut_cnc1310_backlash.nc#1 was refused on both machines (the chords'
+    # jerk 1.006-1.016 x J two ticks before a true corner, 12 tick repairs did not mend it): the
+    # chord-exact interpolation left the tick just short of the corner 1.5e-7 mm off. Now the
+    # first schedule holds every tick (the schedule's own per-tick check, path jerk included).
+    from pathlib import Path
+
+    import fuzzyfeed.slw.trajectory as trajectory
+    from fuzzyfeed.cli._limits import program_feed_limits
+    from fuzzyfeed.io.shapes import load_shapes
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks/library/programs/pycut/pycut_cnc1310_backlash.nc"
+    shape = load_shapes(path)[0]
+    limits, cap, _ = program_feed_limits(shape, MachineLimits())
+    monkeypatch.setattr(trajectory, "TICK_REPAIRS", 0)
+    tr = schedule(shape.curve, limits, feed_cap=cap)
+    assert tr.cycle_time_s > tr.curve.length / limits.feed_mm_s

@@ -153,6 +153,12 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
             # Taylor step that long kinks at a knot (C‴ jumps) and left chords 1e-5 off there
             u = np.asarray(curve.param_at_length(target), dtype=float)
             first = False
+            # and the next pass is not judged against this one: a tick just short of a true corner
+            # whose first-pass chord held the corner got that chord's cut as its retarget and
+            # overshot by it (1.5e-7 mm), the next pass read as a stall, and the tick's chord
+            # stayed long: the chords' jerk 1.2 % over J two ticks before the corner
+            # (pycut_cnc1310_backlash.nc#1, issue 38)
+            previous = np.inf
             continue
         with np.errstate(divide="ignore", invalid="ignore"):
             du = np.where(sp2 > 0, shift / np.sqrt(sp2) - shift * shift * d1d2 / (2.0 * sp2 * sp2), 0.0)
@@ -163,6 +169,59 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
         if slow.size:
             idx = np.unique(np.concatenate([slow, slow + 1]))
             u[idx] = np.asarray(curve.param_at_length(target[idx]), dtype=float)
+    return _beside_corners(curve, u, steps, hard)
+
+
+def _beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.ndarray,
+                    rounds: int = 60) -> np.ndarray:
+    """``u`` with the chords beside a corner's chord in the ratio to their ``steps`` of the smooth
+    chord beyond them: where the
+    fixed point stalls with a tick that crossed the corner between passes, the smooth chord next
+    to the corner's keeps the corner's cut as its retarget (up to 6e-3 mm). The tick shared with
+    the corner's chord is moved, on its own side of the corner knot, until the chord from its
+    other end has the wanted length (bisection: the distance from a point grows along a smooth
+    piece shorter than a servo step); the corner's chord, which cuts the corner anyway, takes the
+    difference."""
+    if hard.size == 0 or u.size < 3:
+        return u
+    knot = _holds_knot(hard, u)
+    n = knot.size
+    before = np.flatnonzero(~knot[:-1] & knot[1:])     # chord k, then the corner's chord k + 1
+    after = np.flatnonzero(~knot[1:] & knot[:-1]) + 1  # the corner's chord k - 1, then chord k
+    before = before[(before >= 1) & ~knot[np.maximum(before - 1, 0)]]
+    after = after[(after <= n - 2) & ~knot[np.minimum(after + 1, n - 1)]]
+    # the ratio chord / step the fixed point reached on the smooth chord beyond (μ up to its own
+    # last digits) is the wanted one of the chord beside the corner's; points near corners only
+    near = np.unique(np.concatenate([before - 1, before, before + 1, after, after + 1, after + 2]))
+    pts = np.full((u.size, 3), np.nan)
+    if near.size:
+        pts[near, :curve.dim] = curve.evaluate(u[near], order=0)[0]
+    chord = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(steps > 0, chord / steps, 1.0)
+    want = np.zeros(n)
+    want[before] = steps[before] * ratio[before - 1]
+    want[after] = steps[after] * ratio[after + 1]
+    off = np.abs(chord - want) > 1e-12 * np.maximum(steps, 1.0)
+    before, after = before[off[before]], after[off[after]]
+    after = after[~np.isin(after - 1, before + 1)]      # a tick moved once
+    u = u.copy()
+    for chords, moving, anchor, sign in ((before, before + 1, before, 1.0), (after, after, after + 1, -1.0)):
+        if chords.size == 0:
+            continue
+        # the bracket: from the anchor's side to the corner knot (exclusive)
+        k_at = np.searchsorted(hard, u[moving], side="left" if sign > 0 else "right") - (sign < 0)
+        end = hard[np.clip(k_at, 0, hard.size - 1)]
+        a, b = u[anchor], end - sign * 1e-12 * (curve.domain[1] - curve.domain[0])
+        p0 = pts[anchor, :curve.dim]
+        length = lambda x: np.linalg.norm(curve.evaluate(x, order=0)[0] - p0, axis=1)  # noqa: E731
+        ok = (length(b) >= want[chords]) & (sign * (b - a) > 0)
+        a, b, chords, moving, p0 = a[ok], b[ok], chords[ok], moving[ok], p0[ok]
+        for _ in range(rounds):
+            mid = 0.5 * (a + b)
+            short = length(mid) < want[chords]
+            a, b = np.where(short, mid, a), np.where(short, b, mid)
+        u[moving] = 0.5 * (a + b)
     return u
 
 

@@ -189,7 +189,7 @@ def joins(curve: Nurbs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     after each ((2n, 3): the n before, then the n after), the larger |κn_j| of the two sides
     (n, 3) and the kink |ΔT_j| (n, 3): the tangents' difference less what the curve turns over
     the 2h between the sides (2h|κn| with a factor 2 of margin; on a long path h is microns and
-    a smooth join turns that). Cached per curve; arrays read-only."""
+    a smooth join turns that; h is at most a quarter of the way to the next join). Cached per curve; arrays read-only."""
     return per_curve(curve, "joins", lambda: _joins(curve))
 
 
@@ -197,8 +197,15 @@ def _joins(curve: Nurbs):
     breaks = curve.span_breaks[1:-1]
     total = curve.length
     s_b = np.atleast_1d(curve.arc_length(breaks)) if breaks.size else np.empty(0)
-    h = 1e-7 * total
-    s_b = s_b[(s_b > h) & (s_b < total - h)]
+    # each side at most a quarter of the distance to the next distinct join (or path end): a span
+    # shorter than 2h (a 0.3 um move in Y of coordinates rounded to 0.1 um, inside a diagonal run)
+    # was stepped over, its two turns unseen, and passed at 2.2 x A_y (cncjs tball-pocket.gcode#1)
+    ends = np.unique(np.concatenate([[0.0], s_b, [total]]))
+    i = np.searchsorted(ends, s_b)
+    gap = np.minimum(s_b - ends[np.maximum(i - 1, 0)], ends[np.minimum(i + 1, ends.size - 1)] - s_b)
+    h = np.minimum(1e-7 * total, 0.25 * gap)
+    keep = (h > 0) & (s_b - h > 0) & (s_b + h < total)
+    s_b, h = s_b[keep], h[keep]
     if s_b.size == 0:
         out = (np.empty(0), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)))
     else:
@@ -212,7 +219,7 @@ def _joins(curve: Nurbs):
         if kn.shape[1] == 2:
             kn = np.hstack([kn, np.zeros((kn.shape[0], 1))])
         c2 = np.maximum(kn[: s_b.size], kn[s_b.size:])
-        jump = np.maximum(np.nan_to_num(np.abs(t[s_b.size:] - t[: s_b.size]), nan=0.0) - 4.0 * h * c2, 0.0)
+        jump = np.maximum(np.nan_to_num(np.abs(t[s_b.size:] - t[: s_b.size]), nan=0.0) - 4.0 * h[:, None] * c2, 0.0)
         out = (s_b, t, c2, jump)
     for arr in out:
         arr.flags.writeable = False
