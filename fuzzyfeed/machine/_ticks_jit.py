@@ -19,12 +19,15 @@ HIST_LOG_STEP = 1e-4
 HIST_BINS = 10_000 + 80_000
 
 # indices into the float state vector
-S_MAX, S_MAX_T, S_MAX_X, S_AIR, S_AIR_T, S_AIR_X, S_N_PART, S_N_AIR = 0, 1, 2, 5, 6, 7, 10, 11
+S_MAX, S_MAX_T, S_MAX_X, S_AIR, S_AIR_T, S_AIR_X, S_N_PART, S_N_AIR, S_N_SKIP, S_SKIP_MAX = 0, 1, 2, 5, 6, 7, 10, 11, 12, 13
+FSTATE_SIZE = 14
 # indices into the int state vector
 I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG, I_NEAR, I_RIGHT, I_LEFT = range(13)
 ISTATE_SIZE = 13
 #: A window of at most this many blocks is scanned segment by segment (the boxes cost more there).
 SCAN_BLOCKS = 3
+#: Segments of the fast path's bound: the last tick's nearest and the next ones of the window.
+BOUND_SEGMENTS = 4
 
 
 @numba.njit(cache=True, nogil=True)
@@ -153,10 +156,28 @@ def nearest_pruned(points, q0, q1, q2, i_lo, i_hi, seed, box_lo, box_hi, block, 
 
 
 @numba.njit(cache=True, nogil=True)
+def nearest_bound(points, q0, q1, q2, i_lo, i_hi, seed):
+    """An upper bound on :func:`nearest_scan`'s squared distance over segments i_lo … i_hi − 1:
+    the least one over the segment ``seed`` (clipped to the window) and the next
+    BOUND_SEGMENTS − 1 of the window, with the segment reaching it. The scan takes the minimum of
+    the same floats (:func:`_seg_d2`) over a set that holds these segments, so its answer is ≤ this
+    one bit for bit (no rounding slack needed)."""
+    j0 = min(max(seed, i_lo), i_hi - 1)
+    best_d2 = np.inf
+    best_j = j0
+    for jj in range(j0, min(j0 + BOUND_SEGMENTS, i_hi)):
+        d2, _ = _seg_d2(points, q0, q1, q2, jj)
+        if d2 < best_d2:
+            best_d2 = d2
+            best_j = jj
+    return best_j, best_d2
+
+
+@numba.njit(cache=True, nogil=True)
 def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_acc, t_cruise,
               measured, fb, fa, ts, total, k_from, k_measure, k_end, lookback, margin, keep_mm,
               y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
-              box_lo, box_hi, block, slack):
+              box_lo, box_hi, block, slack, unmeasured_cum, skip_mm, bound_scale):
     """Ticks k_from … k_end (inclusive) of a plan; ticks before k_measure only run the servo.
 
     The nearest segment of the window is found as the plain scan would (the least squared distance,
@@ -172,7 +193,16 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
     ``istate``; ticks over ``keep_mm`` in the part are events, run-length merged while their
     (segment, lookback, nearest, 0.1 mm bin, at-rest) key holds — the most demanding one
     (smallest speed/√error) kept. Returns the tick to resume at (k_end + 1 when done; earlier
-    when ``ev_f`` is full: drain it and call again)."""
+    when ``ev_f`` is full: drain it and call again).
+
+    **Fast path** (``skip_mm`` > 0): a measured tick whose window holds no unmeasured segment
+    (``unmeasured_cum``: their running count, n + 1 entries) and whose upper bound
+    (:func:`nearest_bound`, times ``bound_scale``: 1, other values only in the tests) is at most
+    ``skip_mm`` and ``keep_mm`` is not searched: its bound goes to the histogram and ``seg_max``
+    (the scan's distance is ≤ it: the tick is in the part, in a bin at or below its bound's, no
+    event) and is counted in fstate[S_N_SKIP], the largest in fstate[S_SKIP_MAX]; the largest
+    error and where (fstate[S_MAX…]) come from searched ticks only (the caller re-runs when a
+    bound reaches them)."""
     n = length.shape[0]
     ring = s_ring.shape[0]
     cap = ev_f.shape[0]
@@ -250,8 +280,23 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
             c_left = _search_left(s_vertex, s_hi)
         i_lo = min(max(c_right - 1, 0), n - 1)
         i_hi = min(max(c_left, i_lo + 1), n)
+        seed = istate[I_NEAR]
+        if skip_mm > 0.0 and unmeasured_cum[i_hi] == unmeasured_cum[i_lo]:
+            bj, bd2 = nearest_bound(points, q0, q1, q2, i_lo, i_hi, seed)
+            bound = math.sqrt(bd2) * bound_scale
+            if bound <= skip_mm and bound <= keep_mm:
+                istate[I_NEAR] = bj
+                fstate[S_N_PART] += 1.0
+                fstate[S_N_SKIP] += 1.0
+                hist[hist_bin(bound * 1e3)] += 1
+                if bound > seg_max[seg]:
+                    seg_max[seg] = bound
+                if bound > fstate[S_SKIP_MAX]:
+                    fstate[S_SKIP_MAX] = bound
+                continue
+            seed = bj
         if block > 0 and i_hi - i_lo > SCAN_BLOCKS * block:
-            best_j, best_t, best_d2 = nearest_pruned(points, q0, q1, q2, i_lo, i_hi, istate[I_NEAR],
+            best_j, best_t, best_d2 = nearest_pruned(points, q0, q1, q2, i_lo, i_hi, seed,
                                                      box_lo, box_hi, block, slack)
         else:
             best_j, best_t, best_d2 = nearest_scan(points, q0, q1, q2, i_lo, i_hi)
