@@ -93,6 +93,7 @@ class StreamRun:
     lookback_segment: np.ndarray
     part_ticks: int = 0          # measured ticks in the part (in the histogram)
     skipped_ticks: int = 0       # of those, the fast path's (bounded, not searched)
+    leapt_ticks: int = 0         # of those, counted by a leap (servo stepped, nothing measured)
     skip_mm: float = 0.0         # the fast path's threshold (0: the tick pass)
     skip_max_mm: float = 0.0     # the largest bound the fast path placed
     rerun: bool = False          # the fast path's run was made again tick by tick (its max was a bound's)
@@ -160,6 +161,19 @@ def servo_coefficients(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
         fb[j, :b.size] = b
         fa[j, :a.size] = a
     return fb, fa
+
+
+def leap_decay(fb: np.ndarray, fa: np.ndarray, ts_s: float) -> float:
+    """A of e_k+1 = A·e_k + B·v_k+1 when every axis has the same first-order error filter (the
+    fast path's leap, :func:`fuzzyfeed.machine._ticks_jit.run_ticks`), else 0 (no leap: a
+    second-order loop, or axes with different loops, are bounded tick by tick)."""
+    first = np.all(fa[:, 2] == 0.0) and np.all(fb[:, 2] == 0.0)
+    same = np.all(fa == fa[0]) and np.all(fb == fb[0])
+    if not (first and same) or fa[0, 0] == 0.0:
+        return 0.0
+    a = -fa[0, 1] / fa[0, 0]
+    b = fb[0, 1] / fa[0, 0]
+    return float(a) if 0.0 < a < 1.0 and 0.0 <= b <= ts_s else 0.0
 
 
 @cache
@@ -269,12 +283,13 @@ def _stream(plan, machine, measured, keep_mm, windows, block, boxes, skip_mm, bo
     slack = BOX_SLACK_PER_MM * (1.0 + float(np.abs(motion.points).max()))
     box_args = (f64(box_lo), f64(box_hi), int(block), slack)
     seg_max = np.zeros(n)
-    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_LEFT, I_NEAR, I_RIGHT, I_SEG, ISTATE_SIZE
+    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_LEAP, I_LEFT, I_NEAR, I_RIGHT, I_SEG, ISTATE_SIZE
 
     hist = np.zeros(HIST_BINS, dtype=np.int64)
-    from fuzzyfeed.machine._ticks_jit import FSTATE_SIZE, S_N_PART, S_N_SKIP, S_SKIP_MAX
+    from fuzzyfeed.machine._ticks_jit import FSTATE_SIZE, S_N_LEAP, S_N_PART, S_N_SKIP, S_SKIP_MAX
 
     unmeasured_cum = np.concatenate([[0], np.cumsum(~meas)]).astype(np.int64)
+    leap = leap_decay(fb, fa, ts) if skip_mm > 0.0 else 0.0
     fstate = np.zeros(FSTATE_SIZE)
     fstate[[0, 5]] = -1.0
     istate = np.full(ISTATE_SIZE, -1, dtype=np.int64)
@@ -291,14 +306,14 @@ def _stream(plan, machine, measured, keep_mm, windows, block, boxes, skip_mm, bo
         seg_ring = np.zeros(lookback + 1, dtype=np.int64)
         istate[I_K0] = -1
         istate[I_EV_N] = 0
-        istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = -1
+        istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = istate[I_LEAP] = -1
         istate[I_SEG] = min(max(int(np.searchsorted(plan.t_start, min(k_from * ts, plan.time_s),
                                                      side="right")) - 1, 0), n - 1)
         k = k_from
         while k <= kb:
             k = run(*arrays, ts, plan.time_s, k, ka, kb, lookback, WINDOW_MARGIN_MM, keep,
                     y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
-                    *box_args, unmeasured_cum, float(skip_mm), float(bound_scale))
+                    *box_args, unmeasured_cum, float(skip_mm), float(bound_scale), leap)
             m = int(istate[I_EV_N])
             if m:
                 parts_f.append(ev_f[:m].copy())
@@ -316,5 +331,6 @@ def _stream(plan, machine, measured, keep_mm, windows, block, boxes, skip_mm, bo
                      air_xyz=fstate[7:10].copy(),
                      tick_time_s=ef[:, 0], contour_mm=ef[:, 1], speed_mm_s=ef[:, 2], nearest_xyz=ef[:, 3:6],
                      tick_segment=ei[:, 0], nearest_segment=ei[:, 1], lookback_segment=ei[:, 2],
-                     part_ticks=int(fstate[S_N_PART]), skipped_ticks=int(fstate[S_N_SKIP]), skip_mm=float(skip_mm),
+                     part_ticks=int(fstate[S_N_PART]), skipped_ticks=int(fstate[S_N_SKIP]),
+                     leapt_ticks=int(fstate[S_N_LEAP]), skip_mm=float(skip_mm),
                      skip_max_mm=float(fstate[S_SKIP_MAX]))
