@@ -252,6 +252,7 @@ def test_an_unsettled_p99_runs_the_chains_again(tmp_path):
     assert sum(s.skipped_ticks for s in first) > 0
     bins = np.concatenate([s.hist_bins for s in first])
     counts = np.concatenate([s.hist_counts for s in first])
-    assert not percentile_settled(bins, counts, 99.0, skip_threshold(machine))   # (one bin each: no repeats)
-    assert all(r.stream.skipped_ticks == 0 for r in fast.runs)                   # run again tick by tick
+    assert not percentile_settled(bins, counts, 99.0, skip_threshold(machine))
+    # run again: with a lower threshold, or tick by tick
+    assert all(r.stream.skipped_ticks == 0 or r.stream.skip_mm < skip_threshold(machine) for r in fast.runs)
     assert fast.p99_um == ticks.p99_um and fast.p99_settled

@@ -109,13 +109,16 @@ def percentile_settled(bins: np.ndarray, counts: np.ndarray, q: float, skip_mm: 
     """Whether the q-th percentile of a fast-path histogram is the tick pass's: the fast path moves
     ticks only among the bins up to ``skip_mm``'s (each at or above its true bin, at most that
     one), so the counts of every bin above it are the tick pass's; the percentile (both ranks
-    :func:`percentile_um` reads) is settled when it falls in a bin above it."""
+    :func:`percentile_um` reads) is settled when it falls in a bin above it, or when that bin is
+    the first (nothing can have moved)."""
     n = int(counts.sum())
     if n == 0 or skip_mm <= 0.0:
         return True
     from fuzzyfeed.machine._ticks_jit import hist_bin
 
     top = hist_bin(skip_mm * 1e3)
+    if top == 0:                                # a bound in the first bin: so is the true value
+        return True
     rank = q / 100.0 * (n - 1)
     below = int(counts[bins <= top].sum())      # ticks at ranks 0 … below − 1 may have moved
     return int(np.floor(rank)) >= below
