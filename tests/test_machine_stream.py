@@ -32,7 +32,7 @@ REFERENCE_MAX_S = 400.0
 def _check_against_reference(motion: Motion, machine: Machine, measured: np.ndarray) -> None:
     ref = trace_motion(motion, machine, measured)
     plan = plan_motion(motion, machine)
-    run = stream_plan(plan, machine, measured)
+    run = stream_plan(plan, machine, measured, fast=False)   # the tick pass (tests/test_tick_fast.py: the fast path)
     near_rapid = np.zeros(measured.size, bool)          # within 4 segments of a rapid
     for off in range(-4, 5):
         near_rapid[np.clip(np.flatnonzero(~measured) + off, 0, measured.size - 1)] = True
@@ -58,7 +58,7 @@ def _check_against_reference(motion: Motion, machine: Machine, measured: np.ndar
         assert np.abs(run.seg_max_mm - seg_max)[~near_rapid].max(initial=0.0) < 1e-6
     # windows around the hot segments give the same largest errors there (warm-up from rest)
     hot = np.flatnonzero(run.seg_max_mm > 0.5 * run.max_mm) if run.max_mm > 0 else np.zeros(0, int)
-    win = stream_plan(plan, machine, measured, windows=segment_windows(plan, machine, hot))
+    win = stream_plan(plan, machine, measured, windows=segment_windows(plan, machine, hot), fast=False)
     hot = hot[~near_rapid[hot]]
     assert np.abs(win.seg_max_mm[hot] - run.seg_max_mm[hot]).max(initial=0.0) < 1e-6
 

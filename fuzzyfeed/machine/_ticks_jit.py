@@ -19,12 +19,23 @@ HIST_LOG_STEP = 1e-4
 HIST_BINS = 10_000 + 80_000
 
 # indices into the float state vector
-S_MAX, S_MAX_T, S_MAX_X, S_AIR, S_AIR_T, S_AIR_X, S_N_PART, S_N_AIR = 0, 1, 2, 5, 6, 7, 10, 11
+S_MAX, S_MAX_T, S_MAX_X, S_AIR, S_AIR_T, S_AIR_X, S_N_PART, S_N_AIR, S_N_SKIP, S_SKIP_MAX, S_LAST, S_N_LEAP = \
+    0, 1, 2, 5, 6, 7, 10, 11, 12, 13, 14, 15
+FSTATE_SIZE = 16
 # indices into the int state vector
-I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG, I_NEAR, I_RIGHT, I_LEFT = range(13)
-ISTATE_SIZE = 13
+I_MAX_SEG, I_AIR_SEG, I_AIR_NEAR, I_EV_N, I_K0, I_K1, I_K2, I_K3, I_K4, I_SEG, I_NEAR, I_RIGHT, I_LEFT, \
+    I_LEAP = range(14)
+ISTATE_SIZE = 14
 #: A window of at most this many blocks is scanned segment by segment (the boxes cost more there).
 SCAN_BLOCKS = 3
+#: Segments of the fast path's bound: the last tick's nearest and the next ones of the window.
+BOUND_SEGMENTS = 4
+#: The fast path tries a tick's bound only when the last measured tick's error (searched or
+#: bounded) was at most this many times the threshold (the error moves little from tick to tick;
+#: this only saves the bound's cost where it would fail, the answers do not depend on it).
+TRY_FACTOR = 4.0
+#: The fewest ticks a leap (:func:`leap_histogram`) is taken over.
+LEAP_MIN_TICKS = 8
 
 
 @numba.njit(cache=True, nogil=True)
@@ -153,10 +164,68 @@ def nearest_pruned(points, q0, q1, q2, i_lo, i_hi, seed, box_lo, box_hi, block, 
 
 
 @numba.njit(cache=True, nogil=True)
+def nearest_bound(points, q0, q1, q2, i_lo, i_hi, seed, scale):
+    """An upper bound on :func:`nearest_scan`'s distance over segments i_lo … i_hi − 1, times
+    ``scale``: the least distance over the segment ``seed`` (clipped to the window) and the next
+    ones of the window while it decreases (BOUND_SEGMENTS at most: the tool moves forward), with
+    the segment reaching it. The scan takes the minimum of the same floats (:func:`_seg_d2`) over a
+    set that holds these segments, so its answer is ≤ this one bit for bit (no rounding slack)."""
+    j0 = min(max(seed, i_lo), i_hi - 1)
+    best_d2, _ = _seg_d2(points, q0, q1, q2, j0)
+    best_j = j0
+    for jj in range(j0 + 1, min(j0 + BOUND_SEGMENTS, i_hi)):
+        d2, _ = _seg_d2(points, q0, q1, q2, jj)
+        if not d2 < best_d2:
+            break
+        best_d2 = d2
+        best_j = jj
+    return best_j, math.sqrt(best_d2) * scale
+
+
+@numba.njit(cache=True, nogil=True)
+def leap_histogram(hist, p_mm, decay, slack, n):
+    """Count the bounds p·A^i + slack, i = 1 … n (decreasing), into ``hist`` bin by bin (not tick by
+    tick): from the first uncounted i, every i' up to the last one with p·A^i' + slack at or above
+    the bin's lower edge (log of the geometric term) goes to the bin of the i's value — each tick
+    in the bin of a value at or above its own."""
+    i = 1
+    log_a = math.log(decay)
+    while i <= n:
+        v = p_mm * decay ** i + slack
+        b = hist_bin(v * 1e3)
+        lo_mm = (b * HIST_STEP_UM if b < 10_000 else
+                 HIST_LINEAR_UM * math.exp((b - 10_000) * math.log1p(HIST_LOG_STEP))) * 1e-3
+        if lo_mm <= slack or p_mm <= 0.0:
+            last = n
+        else:
+            last = int(math.floor(math.log((lo_mm - slack) / p_mm) / log_a))
+            last = min(max(last, i), n)
+        hist[b] += last - i + 1
+        i = last + 1
+
+
+@numba.njit(cache=True, nogil=True)
+def leap_end(t_start, total, ts, seg, k, k_end):
+    """The last tick ≤ k_end commanded on segment ``seg`` (the tick loop's rule: tick j is on the
+    segment before ``seg`` + 1 while min(j·Ts, T) < t_start[seg + 1]; the last segment keeps the
+    rest), from tick k on it. ``t_start``: n + 1 entries, the last the end time."""
+    n = t_start.shape[0] - 1
+    if seg + 1 >= n:
+        return k_end
+    tn = t_start[seg + 1]
+    j = max(min(int(tn / ts), k_end), k)
+    while j > k and min(j * ts, total) >= tn:
+        j -= 1
+    while j < k_end and min((j + 1) * ts, total) < tn:
+        j += 1
+    return j
+
+
+@numba.njit(cache=True, nogil=True)
 def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_acc, t_cruise,
               measured, fb, fa, ts, total, k_from, k_measure, k_end, lookback, margin, keep_mm,
               y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
-              box_lo, box_hi, block, slack):
+              box_lo, box_hi, block, slack, unmeasured_cum, skip_mm, bound_scale, leap_decay):
     """Ticks k_from … k_end (inclusive) of a plan; ticks before k_measure only run the servo.
 
     The nearest segment of the window is found as the plain scan would (the least squared distance,
@@ -172,7 +241,29 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
     ``istate``; ticks over ``keep_mm`` in the part are events, run-length merged while their
     (segment, lookback, nearest, 0.1 mm bin, at-rest) key holds — the most demanding one
     (smallest speed/√error) kept. Returns the tick to resume at (k_end + 1 when done; earlier
-    when ``ev_f`` is full: drain it and call again)."""
+    when ``ev_f`` is full: drain it and call again).
+
+    **Fast path** (``skip_mm`` > 0): a measured tick whose window holds no unmeasured segment
+    (``unmeasured_cum``: their running count, n + 1 entries) and whose upper bound
+    (:func:`nearest_bound`, times ``bound_scale``: 1, other values only in the tests) is at most
+    ``skip_mm`` and ``keep_mm`` is not searched: its bound goes to the histogram and ``seg_max``
+    (the scan's distance is ≤ it: the tick is in the part, in a bin at or below its bound's, no
+    event) and is counted in fstate[S_N_SKIP], the largest in fstate[S_SKIP_MAX]; the largest
+    error and where (fstate[S_MAX…]) come from searched ticks only (the caller re-runs when a
+    bound reaches them).
+
+    **Leap** (``leap_decay`` = A > 0: a first-order loop, the same on every axis,
+    e_k+1 = A·e_k + B·v_k+1, B ≥ 0). After a bounded tick k commanded on segment j (unit u,
+    length L, the set-point at d along it), every later tick on j has its velocity along u, so the
+    error's part across u decays as A^i: e_k+i = λ_k+i·u + A^i·p_k, and λ stays ≥ 0 when λ_k ≥ 0;
+    the tool's place along j, σ = d − λ, then never decreases (σ_k+1 − σ_k = Δd·(1 − B/Ts) +
+    (1 − A)·λ_k, B ≤ Ts) nor passes d ≤ L. So with λ_k ≥ 0 and σ_k ≥ 0 the tool is over j at
+    every tick k+1 … k' (the last on j) at distance |p_k|·A^i from it: j is in each window, so
+    the searched error would be at most that (plus ``slack`` for rounding). When |p_k| + slack is
+    within the threshold and no window up to k' holds an unmeasured segment, the ticks k+1 … k'
+    are counted from that closed form (:func:`leap_histogram`) and only their set-points and servo
+    are stepped (the same floats as the tick pass: the state after the leap is the tick pass's).
+    Second-order loops and axes with different loops are not leapt (every tick is bounded)."""
     n = length.shape[0]
     ring = s_ring.shape[0]
     cap = ev_f.shape[0]
@@ -232,6 +323,8 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
             speed = (s_cmd - s_ring[(k - 1) % ring]) / ts
         s_ring[k % ring] = s_cmd
         seg_ring[k % ring] = seg
+        if k <= istate[I_LEAP]:       # counted by the leap that covers this tick
+            continue
         if k < k_measure or not measured[seg]:
             continue
         kb = max(k - lookback, 0)
@@ -250,13 +343,57 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
             c_left = _search_left(s_vertex, s_hi)
         i_lo = min(max(c_right - 1, 0), n - 1)
         i_hi = min(max(c_left, i_lo + 1), n)
+        seed = istate[I_NEAR]
+        if (skip_mm > 0.0 and fstate[S_LAST] <= TRY_FACTOR * skip_mm
+                and unmeasured_cum[i_hi] == unmeasured_cum[i_lo]):
+            limit = min(skip_mm, keep_mm)
+            bj, bound = nearest_bound(points, q0, q1, q2, i_lo, i_hi, seed, bound_scale)
+            fstate[S_LAST] = bound
+            if bound <= limit:
+                istate[I_NEAR] = bj
+                fstate[S_N_PART] += 1.0
+                fstate[S_N_SKIP] += 1.0
+                hist[hist_bin(bound * 1e3)] += 1
+                if bound > seg_max[seg]:
+                    seg_max[seg] = bound
+                if bound > fstate[S_SKIP_MAX]:
+                    fstate[S_SKIP_MAX] = bound
+                if leap_decay > 0.0 and k < k_end:
+                    k_last = leap_end(t_start, total, ts, seg, k, k_end)
+                    if k_last - k >= LEAP_MIN_TICKS:
+                        # the error across and along the segment, and the tool's place along it
+                        lam = (e0 * unit[seg, 0] + e1 * unit[seg, 1]) + e2 * unit[seg, 2]
+                        p0 = e0 - lam * unit[seg, 0]
+                        p1 = e1 - lam * unit[seg, 1]
+                        p2 = e2 - lam * unit[seg, 2]
+                        p = math.sqrt((p0 * p0 + p1 * p1) + p2 * p2)
+                        sl = slack * (1.0 + 1e-6 * (k_last - k))
+                        if lam >= 0.0 and d - lam >= 0.0 and (p + sl) * bound_scale <= limit:
+                            s_top = s_vertex[min(seg + 1, n)] + margin + sl
+                            c_top = _search_left(s_vertex, s_top)
+                            i_top = min(max(c_top, seg + 1), n)
+                            if unmeasured_cum[i_top] == unmeasured_cum[i_lo]:
+                                m_leap = k_last - k
+                                leap_histogram(hist, p * bound_scale, leap_decay, sl * bound_scale, m_leap)
+                                top = (p * leap_decay + sl) * bound_scale
+                                if top > seg_max[seg]:
+                                    seg_max[seg] = top
+                                if top > fstate[S_SKIP_MAX]:
+                                    fstate[S_SKIP_MAX] = top
+                                fstate[S_N_PART] += m_leap
+                                fstate[S_N_SKIP] += m_leap
+                                fstate[S_N_LEAP] += m_leap
+                                istate[I_LEAP] = k_last
+                continue
+            seed = bj
         if block > 0 and i_hi - i_lo > SCAN_BLOCKS * block:
-            best_j, best_t, best_d2 = nearest_pruned(points, q0, q1, q2, i_lo, i_hi, istate[I_NEAR],
+            best_j, best_t, best_d2 = nearest_pruned(points, q0, q1, q2, i_lo, i_hi, seed,
                                                      box_lo, box_hi, block, slack)
         else:
             best_j, best_t, best_d2 = nearest_scan(points, q0, q1, q2, i_lo, i_hi)
         istate[I_NEAR] = best_j
         dist = math.sqrt(best_d2)
+        fstate[S_LAST] = dist
         f0 = points[best_j, 0] + (points[best_j + 1, 0] - points[best_j, 0]) * best_t
         f1 = points[best_j, 1] + (points[best_j + 1, 1] - points[best_j, 1]) * best_t
         f2 = points[best_j, 2] + (points[best_j + 1, 2] - points[best_j, 2]) * best_t

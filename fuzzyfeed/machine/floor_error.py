@@ -61,6 +61,7 @@ def floor_errors(motion: Motion, measured: np.ndarray, machine: Machine, segment
             windows[-1] = (windows[-1][0], max(windows[-1][1], b))
         else:
             windows.append((a, b))
-    run = stream_plan(plan, machine, measured, keep_mm=np.inf, windows=windows)
+    # every tick searched (fast=False): this measures errors far below the tolerance too
+    run = stream_plan(plan, machine, measured, keep_mm=np.inf, windows=windows, fast=False)
     # a merged window may run on past a segment's own span: its maximum is over at least that span
     return run.seg_max_mm[np.asarray(segments, dtype=np.int64)]

@@ -21,11 +21,26 @@ for bit (``block=0``; tests/test_tick_search.py).
 whole run's by at most e^-16 ≈ 1e-7 of the largest lag (a first-order loop forgets its state as
 e^(−Kv·t); a second-order one as e^(−ζωn·t), its envelope). This is what lets the uniform slowdown
 and the limit reference re-run only the stretches around hot spots.
+
+**Fast path** (``fast=True``, the default; issue 36 item 2). Most ticks of a program are far below
+the tolerance; the search of their nearest segment is what costs. A measured tick whose window
+holds no unmeasured segment gets a proven upper bound on its contour error first: its distance to
+the last tick's nearest segment and the next few (the search's minimum runs over a set that holds
+them: the same floats, so the bound holds bit for bit). Where it is at most ``skip_mm``
+(:func:`skip_threshold`: 0.25 µm, or 2 % of the tolerance if smaller) the search is skipped and the
+bound stands for the error: in the histogram (a bin at or above the tick's true bin, all within
+``skip_mm``) and in ``seg_max_mm`` (the true maximum ≤ it ≤ the true maximum + ``skip_mm``); never
+an event (the bound is ≤ ``keep_mm`` too). The servo is still stepped every tick (exact: the
+state the next searched tick starts from is the tick pass's, for every loop — first or second
+order, with feed-forward). The largest error and where are exact: they come from searched ticks,
+and a run whose largest bound reaches its largest searched error is run again tick by tick
+(``StreamRun.rerun``). ``fast=False`` is the tick pass, the reference the tests hold this one to.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from functools import cache
 
 import numpy as np
@@ -42,6 +57,11 @@ BOX_BLOCK = 8
 #: The pruned search's rounding slack, mm per mm of the largest coordinate (distances are exact
 #: to ~1e-16 of it; see :func:`fuzzyfeed.machine._ticks_jit.nearest_pruned`).
 BOX_SLACK_PER_MM = 1e-9
+#: The fast path skips a tick's search when its bound is at most this (µm) ... (low enough that
+#: the p99 of engraving programs, often 0.3–1 µm, stays settled: :func:`percentile_settled`)
+FAST_SKIP_UM = 0.25
+#: ... and at most this fraction of the machine's contour tolerance.
+FAST_SKIP_TOL_FRACTION = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +92,37 @@ class StreamRun:
     tick_segment: np.ndarray
     nearest_segment: np.ndarray
     lookback_segment: np.ndarray
+    part_ticks: int = 0          # measured ticks in the part (in the histogram)
+    skipped_ticks: int = 0       # of those, the fast path's (bounded, not searched)
+    leapt_ticks: int = 0         # of those, counted by a leap (servo stepped, nothing measured)
+    skip_mm: float = 0.0         # the fast path's threshold (0: the tick pass)
+    skip_max_mm: float = 0.0     # the largest bound the fast path placed
+    rerun: bool = False          # the fast path's run was made again tick by tick (its max was a bound's)
+
+
+def skip_threshold(machine: Machine) -> float:
+    """The fast path's threshold (mm): FAST_SKIP_UM, or FAST_SKIP_TOL_FRACTION of the tolerance
+    if smaller (far below anything compared with the tolerance, within the 1 µm of issue 36)."""
+    return min(FAST_SKIP_UM, FAST_SKIP_TOL_FRACTION * machine.contour_tol_um) * 1e-3
+
+
+def percentile_settled(bins: np.ndarray, counts: np.ndarray, q: float, skip_mm: float) -> bool:
+    """Whether the q-th percentile of a fast-path histogram is the tick pass's: the fast path moves
+    ticks only among the bins up to ``skip_mm``'s (each at or above its true bin, at most that
+    one), so the counts of every bin above it are the tick pass's; the percentile (both ranks
+    :func:`percentile_um` reads) is settled when it falls in a bin above it, or when that bin is
+    the first (nothing can have moved)."""
+    n = int(counts.sum())
+    if n == 0 or skip_mm <= 0.0:
+        return True
+    from fuzzyfeed.machine._ticks_jit import hist_bin
+
+    top = hist_bin(skip_mm * 1e3)
+    if top == 0:                                # a bound in the first bin: so is the true value
+        return True
+    rank = q / 100.0 * (n - 1)
+    below = int(counts[bins <= top].sum())      # ticks at ranks 0 … below − 1 may have moved
+    return int(np.floor(rank)) >= below
 
 
 def hist_edges() -> tuple[np.ndarray, np.ndarray]:
@@ -114,6 +165,19 @@ def servo_coefficients(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
         fb[j, :b.size] = b
         fa[j, :a.size] = a
     return fb, fa
+
+
+def leap_decay(fb: np.ndarray, fa: np.ndarray, ts_s: float) -> float:
+    """A of e_k+1 = A·e_k + B·v_k+1 when every axis has the same first-order error filter (the
+    fast path's leap, :func:`fuzzyfeed.machine._ticks_jit.run_ticks`), else 0 (no leap: a
+    second-order loop, or axes with different loops, are bounded tick by tick)."""
+    first = np.all(fa[:, 2] == 0.0) and np.all(fb[:, 2] == 0.0)
+    same = np.all(fa == fa[0]) and np.all(fb == fb[0])
+    if not (first and same) or fa[0, 0] == 0.0:
+        return 0.0
+    a = -fa[0, 1] / fa[0, 0]
+    b = fb[0, 1] / fa[0, 0]
+    return float(a) if 0.0 < a < 1.0 and 0.0 <= b <= ts_s else 0.0
 
 
 @cache
@@ -175,14 +239,33 @@ def segment_boxes(points: np.ndarray, block: int) -> tuple[np.ndarray, np.ndarra
 
 def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None,
                 keep_mm: float | None = None, windows: list[tuple[int, int]] | None = None,
-                block: int = BOX_BLOCK, boxes: tuple[np.ndarray, np.ndarray] | None = None) -> StreamRun:
+                block: int = BOX_BLOCK, boxes: tuple[np.ndarray, np.ndarray] | None = None,
+                fast: bool = True, skip_mm: float | None = None, bound_scale: float = 1.0) -> StreamRun:
     """Run ``plan`` on ``machine``'s servo tick by tick (module docstring): all ticks, or only
     ``windows``; the contour error measured at the ticks commanded on ``measured`` segments
     (default all); ticks over ``keep_mm`` (default the machine's tolerance) kept as events.
 
     The nearest segment is searched by blocks of ``block`` segments and their bounding boxes
     (:func:`segment_boxes`, or ``boxes`` given: the tests give wrong ones to see them caught);
-    ``block=0`` scans every segment of each tick's window. Both give the same floats."""
+    ``block=0`` scans every segment of each tick's window. Both give the same floats.
+
+    ``fast`` (module docstring): ticks proven within ``skip_mm`` (default :func:`skip_threshold`)
+    are not searched; ``fast=False`` searches every measured tick (the reference). ``bound_scale``
+    multiplies the bound (1; the tests give less to see a wrong bound caught)."""
+    if fast:
+        skip = skip_threshold(machine) if skip_mm is None else float(skip_mm)
+        if not (math.isfinite(skip) and skip >= 0.0):
+            raise ValueError(f"skip_mm = {skip_mm!r}; must be a finite number >= 0")
+        run = _stream(plan, machine, measured, keep_mm, windows, block, boxes, skip, bound_scale)
+        if run.skipped_ticks and run.skip_max_mm >= run.max_mm:
+            # the largest error might be a bounded tick's: its value and place need the search
+            again = _stream(plan, machine, measured, keep_mm, windows, block, boxes, 0.0, 1.0)
+            return replace(again, rerun=True)
+        return run
+    return _stream(plan, machine, measured, keep_mm, windows, block, boxes, 0.0, 1.0)
+
+
+def _stream(plan, machine, measured, keep_mm, windows, block, boxes, skip_mm, bound_scale) -> StreamRun:
     motion = plan.motion
     n = plan.length.size
     meas = np.ones(n, bool) if measured is None else np.ascontiguousarray(measured, dtype=bool)
@@ -204,10 +287,14 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
     slack = BOX_SLACK_PER_MM * (1.0 + float(np.abs(motion.points).max()))
     box_args = (f64(box_lo), f64(box_hi), int(block), slack)
     seg_max = np.zeros(n)
-    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_LEFT, I_NEAR, I_RIGHT, I_SEG, ISTATE_SIZE
+    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_LEAP, I_LEFT, I_NEAR, I_RIGHT, I_SEG, ISTATE_SIZE
 
     hist = np.zeros(HIST_BINS, dtype=np.int64)
-    fstate = np.zeros(12)
+    from fuzzyfeed.machine._ticks_jit import FSTATE_SIZE, S_N_LEAP, S_N_PART, S_N_SKIP, S_SKIP_MAX
+
+    unmeasured_cum = np.concatenate([[0], np.cumsum(~meas)]).astype(np.int64)
+    leap = leap_decay(fb, fa, ts) if skip_mm > 0.0 else 0.0
+    fstate = np.zeros(FSTATE_SIZE)
     fstate[[0, 5]] = -1.0
     istate = np.full(ISTATE_SIZE, -1, dtype=np.int64)
     ev_f = np.zeros((EVENT_CHUNK, 6))
@@ -223,14 +310,14 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
         seg_ring = np.zeros(lookback + 1, dtype=np.int64)
         istate[I_K0] = -1
         istate[I_EV_N] = 0
-        istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = -1
+        istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = istate[I_LEAP] = -1
         istate[I_SEG] = min(max(int(np.searchsorted(plan.t_start, min(k_from * ts, plan.time_s),
                                                      side="right")) - 1, 0), n - 1)
         k = k_from
         while k <= kb:
             k = run(*arrays, ts, plan.time_s, k, ka, kb, lookback, WINDOW_MARGIN_MM, keep,
                     y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
-                    *box_args)
+                    *box_args, unmeasured_cum, float(skip_mm), float(bound_scale), leap)
             m = int(istate[I_EV_N])
             if m:
                 parts_f.append(ev_f[:m].copy())
@@ -247,4 +334,7 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
                      air_segment=int(istate[1]) if has_air else -1, air_nearest=int(istate[2]) if has_air else -1,
                      air_xyz=fstate[7:10].copy(),
                      tick_time_s=ef[:, 0], contour_mm=ef[:, 1], speed_mm_s=ef[:, 2], nearest_xyz=ef[:, 3:6],
-                     tick_segment=ei[:, 0], nearest_segment=ei[:, 1], lookback_segment=ei[:, 2])
+                     tick_segment=ei[:, 0], nearest_segment=ei[:, 1], lookback_segment=ei[:, 2],
+                     part_ticks=int(fstate[S_N_PART]), skipped_ticks=int(fstate[S_N_SKIP]),
+                     leapt_ticks=int(fstate[S_N_LEAP]), skip_mm=float(skip_mm),
+                     skip_max_mm=float(fstate[S_SKIP_MAX]))
