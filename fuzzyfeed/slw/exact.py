@@ -21,7 +21,7 @@ def exact_arrays(curve: Nurbs, limits: MachineLimits, s: np.ndarray, cap, u: np.
     preprocess._evaluate computes them with numpy (``cap``: a FeedCap or None); None where that
     code must run instead (a parameter outside the domain: its error; a derivative that is not
     finite: curvature_vectors' other branch)."""
-    from fuzzyfeed.slw import _exact_jit as kernel
+    import fuzzyfeed.slw._exact_jit as kernel
 
     lo, hi = curve.domain
     if not (u.size and u.min() >= lo and u.max() <= hi):   # (NaN too)
