@@ -150,7 +150,13 @@ def max_distance(T, c1, c2, feed: float, acc: float, jerk: float, points: int = 
     w = np.where(at_lo, c2 + _fall(-acc, r, acc, jerk), w)  # the max at α = −A
     w = np.where(at_hi, c1 + _rise(acc, t, acc, jerk), w)   # the max at α = A
     w = np.minimum(w, feed)
-    h = T / points
+    return _tent_sum(w, T / points, feed, acc)
+
+
+def _tent_sum(w, h, feed: float, acc):
+    """∫ W over the grid of step ``h`` (per gap, a column) for an A-Lipschitz W ≤ F with values
+    ``w`` at the grid points: per step at most h(w₀ + w₁)/2 + (A²h² − min(|w₁ − w₀|, Ah)²)/(4A)
+    (the tent) and at most hF."""
     d = np.minimum(np.abs(np.diff(w, axis=1)), acc * h)
     tent = h * 0.5 * (w[:, :-1] + w[:, 1:]) + (acc * acc * h * h - d * d) / (4.0 * acc)
     return np.minimum(tent, h * feed).sum(axis=1)
@@ -174,10 +180,7 @@ def _max_distance_bisect(T, c1, c2, feed: float, acc: float, jerk: float, points
         up = c1 + _rise(mid, t, acc, jerk) >= c2 + _fall(mid, r, acc, jerk)
         lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
     w = np.minimum(np.minimum(c1 + _rise(hi, t, acc, jerk), c2 + _fall(lo, r, acc, jerk)), feed)
-    h = T / points
-    d = np.minimum(np.abs(np.diff(w, axis=1)), acc * h)
-    tent = h * 0.5 * (w[:, :-1] + w[:, 1:]) + (acc * acc * h * h - d * d) / (4.0 * acc)
-    return np.minimum(tent, h * feed).sum(axis=1)
+    return _tent_sum(w, T / points, feed, acc)
 
 
 def _acc_only_s(gaps, c1, c2, feed: float, acc: float):
@@ -269,10 +272,7 @@ def max_distance_held(T, c1, c2, a0, a1, feed: float, acc, jerk: float, points: 
         lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
     w = np.minimum(np.minimum(c1 + _reach(hi, t, a0, acc, jerk), c2 + _reach(-a1, r, -lo, acc, jerk)), feed)
     w = np.maximum(w, 0.0)  # v ≥ 0: where the bound is below, no motion; 0 only loosens it
-    h = T / points
-    d = np.minimum(np.abs(np.diff(w, axis=1)), acc * h)
-    tent = h * 0.5 * (w[:, :-1] + w[:, 1:]) + (acc * acc * h * h - d * d) / (4.0 * acc)
-    return np.minimum(tent, h * feed).sum(axis=1)
+    return _tent_sum(w, T / points, feed, acc)
 
 
 def chain_points(curve: Nurbs, limits: MachineLimits) -> tuple[np.ndarray, np.ndarray]:
