@@ -67,8 +67,8 @@ def advised_feeds(program: Program, table: RuleTable, machine: Machine, cuts: li
 
     kw = dict(cuts=cuts, cap_mm_min=cap_mm_min, step_mm=step_mm, feed_step_mm_min=feed_step_mm_min,
               min_piece_mm=min_piece_mm)
+    geometry: dict = {}            # the cuts' G1-run fits, made once for the advice and its CSV rows
     if table.inputs == MACHINE and streams(table):
-        geometry: dict = {}        # the cuts' G1-run fits, made once for the advice and its CSV rows
 
         def stream():
             return stream_machine_advice(program, table, machine, geometry=geometry, **kw)
@@ -95,6 +95,8 @@ def advised_feeds(program: Program, table: RuleTable, machine: Machine, cuts: li
             kept = None
         pieces.append((p.piece_move, p.piece_end, p.piece_feed_mm_min))
     pm, pe, pf = (np.concatenate(c) for c in zip(*pieces)) if pieces else concat_pieces([])
+    if sink is not None:
+        geometry.clear()  # the rows were taken: the fits are made again only if they are asked again
     if kept is not None:
         return AdvisedFeeds(pm, pe, pf, lambda: iter(kept))
     return AdvisedFeeds(pm, pe, pf, lambda: (p.columns for p in stream()))
