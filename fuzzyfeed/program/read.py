@@ -2,9 +2,8 @@
 
 The reader tokenises the program once and works on arrays: the words of every line become one
 column per letter (NaN where absent), the modal groups are forward-filled per line
-(:mod:`fuzzyfeed.program.read_words`), and the
-positions come from cumulative sums (G91) restarted at every absolute coordinate (G90) or at a
-change of frame. Only arcs, G5.2 blocks and the few lines that change the frame are visited one
+(:mod:`fuzzyfeed.program.read_words`), and the positions come from cumulative sums (G91)
+restarted at every absolute coordinate (G90) or at a change of frame. Only arcs, G5.2 blocks and the few lines that change the frame are visited one
 by one.
 
 Carried through unchanged (they do not change the programmed path): G43/G43.1/G43.2/G49 H,
