@@ -77,10 +77,14 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
             if tty:
                 print(f"fuzzyfeed: {program.path.name}: {stage} ...", file=sys.stderr, flush=True)
 
-        ev = evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
-                              step_mm=step_mm, cuts=cuts, reference=options.reference, progress=progress,
-                              verify=_verifier(options, tools), tools=tools, check_uniform=False)
-        return MachineProgramResult(spec, options, program, ev)
+        verify = _verifier(options, tools)
+
+        def evaluate(sink=None):
+            return evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
+                                    step_mm=step_mm, cuts=cuts, reference=options.reference,
+                                    progress=progress, verify=verify, tools=tools, check_uniform=False,
+                                    sink=sink)
+        return MachineProgramResult(spec, options, program, evaluate)
     if not options.reference:
         raise MachineLimitsError("--no-reference: the value report needs a machine (--machine FILE, or "
                                  "a machine flag such as --contour-tol-um)")
@@ -298,16 +302,32 @@ class ProgramResult(AdviceResult):
 
 class MachineProgramResult(AdviceResult):
     """A program on a machine: run as written, the cuts that break the tolerance advised, the
-    value report (``.value``). The uniform slowdown's checking run (a whole run at its factor) and
-    the limit reference are made when the report is asked for: ``.value``, ``figures()`` or
-    ``--report`` (not for the plot); the summary printed without them marks the uniform row as not
-    checked (:data:`~fuzzyfeed.report.value.UNCHECKED`) and says the limit reference was not run."""
+    value report (``.value``). The evaluation (:func:`~fuzzyfeed.report.value.evaluate_program`)
+    runs when first needed: by :meth:`write` with a CSV, which takes its rows as the advice makes
+    them (the advice runs once), else by whatever asks first. The uniform slowdown's checking run
+    (a whole run at its factor) and the limit reference are made when the report is asked for:
+    ``.value``, ``figures()`` or ``--report`` (not for the plot); the summary printed without them
+    marks the uniform row as not checked (:data:`~fuzzyfeed.report.value.UNCHECKED`) and says the
+    limit reference was not run."""
 
     kind = "program on a machine"
 
-    def __init__(self, source, options, program, evaluation):
-        self.source, self.options, self.program, self.evaluation = source, options, program, evaluation
+    def __init__(self, source, options, program, evaluate):
+        self.source, self.options, self.program = source, options, program
+        self._evaluate = evaluate     # (sink=None) -> Evaluation
+        self._evaluation = None
         self._columns = None
+        self._feed_pct = None         # (min, mean) of the CSV's feed_pct, when the rows streamed
+
+    @property
+    def evaluation(self):
+        if self._evaluation is None:
+            self._evaluation = self._evaluate()
+        return self._evaluation
+
+    @evaluation.setter
+    def evaluation(self, value) -> None:
+        self._evaluation = value
 
     @property
     def text(self) -> str:
@@ -331,32 +351,40 @@ class MachineProgramResult(AdviceResult):
                 *ev.report.lines()]
 
     def figures(self) -> dict:
-        r, ev, columns = self.value, self.evaluation, self.columns()
+        r, ev = self.value, self.evaluation
+        if self._feed_pct is None:
+            columns = self.columns()
+            self._feed_pct = (float(columns["feed_pct"].min()), float(columns["feed_pct"].mean()))
         row = {k: v for k, v in r.csv_row().items() if k not in ("program", "written_time_s", "advised_time_s")}
         return {"cuts": self.program.n_cuts, "cuts_advised": len(ev.advised_cuts), "time_written_s": r.written.time_s,
-                "time_advised_s": r.advised.time_s, "feed_pct_min": float(columns["feed_pct"].min()),
-                "feed_pct_mean": float(columns["feed_pct"].mean()), **row}
+                "time_advised_s": r.advised.time_s, "feed_pct_min": self._feed_pct[0],
+                "feed_pct_mean": self._feed_pct[1], **row}
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
         from fuzzyfeed.fuzzy.provenance import provenance
         from fuzzyfeed.io.csv import write_metadata
 
         _check_outputs(csv, gcode, gcode_g52, plot)
-        if report:
-            self.evaluation = self.evaluation.checked()
         cap, machine = self.options.feed_mm_min, self.options.machine
-        if csv is not None:              # rows written as the pieces come (the advice made again)
+        if csv is not None:              # rows written as the pieces come
             from fuzzyfeed.base.atomic import atomic_write
             from fuzzyfeed.io.csv import ColumnStream
 
             with atomic_write(csv, "w", newline="") as handle:
                 out = ColumnStream(handle, csv)
-                for part in (self.evaluation.column_pieces() if self._columns is None else [self._columns]):
-                    out.write(part)
+                if self._evaluation is None:      # the advice made now, its rows written as they come
+                    pct = _FeedPct(out.write)
+                    self._evaluation = self._evaluate(sink=pct)
+                    self._feed_pct = pct.figures()
+                else:                             # made before: its rows made again, piece by piece
+                    for part in (self.evaluation.column_pieces() if self._columns is None else [self._columns]):
+                        out.write(part)
             record = provenance(self.options.table, cap or 0.0, str(self.program.path), out.rows)
             record["F_mm_min"] = _feed_note(cap)
             record["machine"] = machine.describe()
             write_metadata(csv, out.names, record)
+        if report:
+            self.evaluation = self.evaluation.checked()
         if gcode:
             _write_text(gcode, self.text)
         if plot:
@@ -378,6 +406,24 @@ class MachineProgramResult(AdviceResult):
         from fuzzyfeed.report.value_files import report_table_html
 
         return report_table_html([self.value])
+
+
+class _FeedPct:
+    """A CSV sink passing each piece on to ``write`` and keeping the feed_pct column's min and mean."""
+
+    def __init__(self, write):
+        self.write, self.low, self.total, self.count = write, np.inf, 0.0, 0
+
+    def __call__(self, cols: dict) -> None:
+        self.write(cols)
+        pct = np.asarray(cols["feed_pct"])
+        if pct.size:
+            self.low = min(self.low, float(pct.min()))
+            self.total += float(np.sum(pct))
+            self.count += pct.size
+
+    def figures(self) -> tuple[float, float] | None:
+        return None if self.count == 0 else (self.low, self.total / self.count)
 
 
 class NothingResult(AdviceResult):

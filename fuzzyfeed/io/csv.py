@@ -198,6 +198,16 @@ def _write_rows(handle, arrays: list[np.ndarray]) -> None:
         offsets, data = _buffers(rows)
         handle.flush()               # text already written goes first; the block's bytes as they are
         handle.buffer.write(memoryview(data)[offsets[0]:offsets[-1]])
+        del cols, rows, offsets, data
+    _release_arrow()
+
+
+def _release_arrow() -> None:
+    """Give back what Arrow's memory pool keeps of the blocks it freed (its allocator holds freed
+    blocks for reuse: rows written while the advice runs would keep them through the whole run)."""
+    import pyarrow as pa
+
+    pa.default_memory_pool().release_unused()
 
 
 def metadata_path(csv_path: str | os.PathLike) -> str | None:

@@ -23,6 +23,7 @@ units before its line's G20/G21: LinuxCNC's order of execution).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -91,7 +92,7 @@ class Program:
     L = number of lines, M = number of moves."""
 
     path: Path
-    lines: tuple[str, ...]
+    lines: Sequence[str]             # the original lines (a LineStore when read: ~30 B a line)
     newline: str
     end_line: int                     # 0-based index of the line with M2/M30 (L if none)
     # per line (L)

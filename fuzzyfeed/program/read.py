@@ -1,9 +1,9 @@
 """Read a whole G-code program (LinuxCNC dialect) into a :class:`~fuzzyfeed.program.model.Program`.
 
 The reader tokenises the program once and works on arrays: the words of every line become one
-column per letter (NaN where absent), the modal groups are forward-filled per line, and the
-positions come from cumulative sums (G91) restarted at every absolute coordinate (G90) or at a
-change of frame. Only arcs, G5.2 blocks and the few lines that change the frame are visited one
+column per letter (NaN where absent), the modal groups are forward-filled per line
+(:mod:`fuzzyfeed.program.read_words`), and the positions come from cumulative sums (G91)
+restarted at every absolute coordinate (G90) or at a change of frame. Only arcs, G5.2 blocks and the few lines that change the frame are visited one
 by one.
 
 Carried through unchanged (they do not change the programmed path): G43/G43.1/G43.2/G49 H,
@@ -42,31 +42,20 @@ import numpy as np
 
 from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM
-from fuzzyfeed.program.compensation import comp_per_line, compensate
-from fuzzyfeed.program.expr import POLAR_LETTERS
+from fuzzyfeed.program.compensation import compensate
 from fuzzyfeed.program.flow import execute, needs_execution
 from fuzzyfeed.program.frames import START_EPOCH, cycle_info, sequential_positions, system_events
 from fuzzyfeed.program.lexer import clean_lines, fail_at, tokenise
-from fuzzyfeed.program.modal import CYCLES, M_ACCEPTED, M_BREAK, M_STOP, g_columns, modal_checks
+from fuzzyfeed.program.line_store import LineStore
+from fuzzyfeed.program.read_words import line_words
+from fuzzyfeed.program.modal import CYCLES, modal_checks
 from fuzzyfeed.program.motion import arc_centres, nurbs_blocks, spline_moves
-from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, MM_PER_INCH, NURBS, RAPID, SYNCED, Program,
+from fuzzyfeed.program.model import (ARC, CYCLE, HOME, KEPT, LINE, NURBS, RAPID, SYNCED, Program,
                                     Rows, lines_of_rows)
 
-#: Largest number a word may hold (mm or inch): beyond, a coordinate leaves the ±1 km of
-#: MAX_COORDINATE_MM even in mm (checked again in mm on the positions).
-_MAX_WORD = 1e6
-_LENGTHLETTERS = [ord(ch) - 65 for ch in "XYZIJKRUVW"] + [POLAR_LETTERS["@"]]
 #: Epoch of an axis at the start of a program: the machine is wherever it is (not at 0), so a
 #: move that sets some axes from there starts from an unknown point (see _axis_positions).
 _START_EPOCH = START_EPOCH
-
-
-def _ffill(values: np.ndarray, has: np.ndarray, default):
-    """Forward-fill ``values`` from the rows where ``has`` is true (``default`` before the first)."""
-    idx = np.where(has, np.arange(has.size), -1)
-    np.maximum.accumulate(idx, out=idx)
-    out = np.where(idx >= 0, values[np.maximum(idx, 0)], default)
-    return out
 
 
 def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarray,
@@ -153,8 +142,6 @@ def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | No
 def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None) -> Program:
     """The program from its tokens ``[line, letter, value]`` (the list is emptied: the words go once
     their columns are made, ~24 B a word): per line (or, with ``rows``, per executed row) the words."""
-    tl, tc, tv = tokens
-    tokens.clear()
     def fail(i: int, message: str):
         if rows is None:
             fail_at(path, int(i) + 1, message)
@@ -167,160 +154,19 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
         where, number = rows.where(int(i))
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
-    class _Letters:          # each letter's mask made when asked (28 masks of every word: 80 MB at 10⁶ lines)
-        def __getitem__(self, ch):
-            return tc == POLAR_LETTERS.get(ch, ord(ch) - 65)
-
-    letter = _Letters()
-    big = (np.abs(tv) > _MAX_WORD) & np.isin(tc, _LENGTHLETTERS)
-    if big.any():
-        k = int(np.argmax(big))
-        text = f"{tv[k]:.6g}"
-        fail(tl[k], f"{chr(65 + int(tc[k])) if tc[k] < 26 else '@'}{text}: a number beyond ±{_MAX_WORD:g} (no machine moves "
-                    f"{_MAX_WORD:g} mm or inch; coordinates must lie within ±1 km)")
-    # --- one column per letter (single-valued letters) ---
-    cols = {}
-    for ch in "XYZABCUVWIJKRPQLFSTHDE@^":
-        mask = letter[ch]
-        if not mask.any():
-            cols[ch] = None
-            continue
-        li = tl[mask]
-        dup = np.flatnonzero(np.diff(li) == 0)
-        if dup.size:
-            fail(li[dup[0]], f"{ch} given twice")
-        col = np.full(n, np.nan)
-        col[li] = tv[mask]
-        cols[ch] = col
-    li = dup = None
-
-    def col(ch):
-        c = cols[ch]
-        return c if c is not None else np.full(n, np.nan)
-
-    def has(ch):
-        c = cols[ch]
-        return ~np.isnan(c) if c is not None else np.zeros(n, bool)
-
-    # --- G codes by group ---
-    gmask = letter["G"]
-    g_line, g10, gcol = g_columns(fail, n, tl[gmask], tv[gmask])
-
-    def gany(name):
-        c = gcol[name]
-        return c >= 0 if c is not None else np.zeros(n, bool)
-
-    def gline(name, code):
-        """Lines that have G<code> (code × 10)."""
-        sel = g10 == code
-        out = np.zeros(n, bool)
-        out[g_line[sel]] = True
-        return out
-
-    # --- M codes ---
-    mmask = letter["M"]
-    m_line, m_val = tl[mmask], tv[mmask]
-    m_int = np.rint(m_val).astype(np.int64)
-    for k in range(m_val.size):
-        if m_val[k] != m_int[k] or int(m_int[k]) not in M_ACCEPTED:
-            what = " (subroutine calls are not supported)" if m_int[k] in (98, 99) else ""
-            fail(m_line[k], f"M{m_val[k]:g}: unsupported M code{what}")
-    e_col = cols["E"]
-    if e_col is not None:        # LinuxCNC's rule: an E word needs a code that uses it
-        e_users = np.zeros(n, bool)
-        e_users[m_line[np.isin(m_int, [66, 67, 68])]] = True
-        stray = ~np.isnan(e_col) & ~e_users
-        if stray.any():
-            i = int(np.argmax(stray))
-            fail(i, f"E word with no M66, M67 or M68 to use it in {text_of(i)!r} (LinuxCNC "
-                    "refuses it; a number written as 1e6 reads as 1 E6)")
-    polar = np.zeros(n, bool)     # polar words (@, ^), see below
-    polar[tl[tc >= 26]] = True
-    del tl, tc, tv, letter, gmask, mmask, big, mask   # the words: in columns from here
-    m_stop = np.zeros(n, bool)
-    m_stop[m_line[np.isin(m_int, list(M_STOP))]] = True
-    m_break = np.zeros(n, bool)
-    m_break[m_line[np.isin(m_int, list(M_BREAK))]] = True
-
-    # --- modal state per line ---
-    def modal(name, default):
-        c = gcol[name]
-        if c is None:
-            return np.full(n, default, dtype=np.int64)
-        return _ffill(c, c >= 0, default).astype(np.int64, copy=False)
-
-    units = modal("units", 210)
-    inch = units == 200
-    scale = np.where(inch, MM_PER_INCH, 1.0)
-    absolute = modal("distance", 900) == 900
-    ij_absolute = modal("arc_distance", 911) == 901
-    plane = modal("plane", 170) // 10
-    feed_mode = modal("feed_mode", 940) // 10
-    coord = modal("coord", 540)
-    length_mode = modal("length", 490)
-    motion_col = gcol["motion"]
-    motion_set = motion_col >= 0 if motion_col is not None else np.zeros(n, bool)
-    motion = _ffill(motion_col, motion_set, -1) if motion_col is not None else np.full(n, -1)
-    # G5.2 / G5.3 blocks: lines between them are control points
-    nurbs_open = np.zeros(n, bool)
-    g52_lines = np.flatnonzero(gline("motion", 52)) if motion_col is not None else np.zeros(0, int)
-    g53_lines = np.flatnonzero(gline("motion", 53)) if motion_col is not None else np.zeros(0, int)
-    blocks = []
-    if g52_lines.size or g53_lines.size:
-        opened = None
-        marks = sorted([(int(i), 52) for i in g52_lines] + [(int(i), 53) for i in g53_lines])
-        for i, code in marks:
-            if code == 52:
-                if opened is not None and opened != i:
-                    fail(i, "G5.2 inside a G5.2 block (close it with G5.3 first)")
-                opened = i
-            else:
-                if opened is None:
-                    fail(i, "G5.3 without an open G5.2 block")
-                blocks.append((opened, i))
-                nurbs_open[opened:i + 1] = True
-                opened = None
-        if opened is not None:
-            fail(n - 1 if end_line >= len(lines) else end_line,
-                 f"G5.2 block from line {opened + 1} is not closed by G5.3")
-        for a, b in blocks:
-            inner = motion_col[a + 1:b]
-            bad = np.flatnonzero((inner >= 0) & (inner != 53))
-            if bad.size:
-                fail(a + 1 + bad[0], f"G{inner[bad[0]] / 10:g} inside a G5.2 block (close it with G5.3 first)")
-            motion[b] = -1  # after G5.3 no motion mode is in force
-
-    # feed: F in force, reset to 0 where the feed mode changes (LinuxCNC does)
-    f_col = col("F")
-    has_f = ~np.isnan(f_col)
-    # LinuxCNC sets F to 0 at every G94/G95 (also when already in force) and at a change of mode
-    fm_change = np.zeros(n, bool)
-    fm_change[1:] = feed_mode[1:] != feed_mode[:-1]
-    fm_change[0] = feed_mode[0] != 94
-    if gcol["feed_mode"] is not None:
-        fm_change |= np.isin(gcol["feed_mode"], [940, 950])
-    feed_value = _ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0)
-    # mm per unit of the F in force: LinuxCNC sets F (order of execution step 4) before it changes
-    # units (step 14), and its canonical layer converts F with the units then in force, so
-    # `G21` … `G20 F6` is 6 mm/min (issue 37): an F is read in the units of the line before
-    scale_before = np.concatenate([[1.0], scale[:-1]])
-    feed_scale = _ffill(np.where(has_f, scale_before, 1.0), has_f | fm_change, 1.0)
-    if has_f.any() and (f_col[has_f] < 0).any():
-        i = int(np.flatnonzero(has_f & (f_col < 0))[0])
-        fail(i, f"F{f_col[i]:g}: a feed must be >= 0")
-    t_col = col("T")
-    tool = _ffill(np.where(has("T"), t_col, -1), has("T"), -1).astype(np.int64)
-    # the tool in the spindle: the T in force at an M6, or M61's Q
-    m6 = np.zeros(n, bool)
-    m6[m_line[m_int == 6]] = True
-    m61 = np.zeros(n, bool)
-    m61[m_line[m_int == 61]] = True
-    loaded_set = m6 | (m61 & has("Q"))
-    loaded = _ffill(np.where(m6, tool, np.where(loaded_set, np.nan_to_num(col("Q")), 0)).astype(np.int64),
-                    loaded_set, 0)
-    comp_code = modal("comp", 400)
-    comp_side, comp_radius = comp_per_line(comp_code, gany("comp"), col("D"), loaded, plane, scale, tools,
-                                           fail)
+    w = line_words(tokens, n, end_line, len(lines), fail, text_of, tools)
+    # the words as columns and the modal state per line (fuzzyfeed.program.read_words)
+    (absolute, blocks, col, cols, comp_code, comp_radius, comp_side, coord, f_col, feed_mode,
+     feed_scale, feed_value, fm_change, gany, gcol, gline, has, has_f, ij_absolute, inch, length_mode,
+     loaded, m_break, m_int, m_line, m_stop, m_val, modal, motion, nurbs_open, plane, polar, scale,
+     scale_before, t_col, tool, units) = \
+        (w.absolute, w.blocks, w.col, w.cols, w.comp_code, w.comp_radius, w.comp_side, w.coord, w.f_col,
+         w.feed_mode, w.feed_scale, w.feed_value, w.fm_change, w.gany, w.gcol, w.gline, w.has, w.has_f,
+         w.ij_absolute, w.inch, w.length_mode, w.loaded, w.m_break, w.m_int, w.m_line, w.m_stop,
+         w.m_val, w.modal, w.motion, w.nurbs_open, w.plane, w.polar, w.scale, w.scale_before, w.t_col,
+         w.tool, w.units)
+    release_words = w.release
+    del w
 
     # --- which lines move, and how ---
     xyz_has = [has(ch) for ch in "XYZ"]
@@ -552,7 +398,8 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
     # before the cuts and the model's own arrays are made (a 10⁶-line program: ~0.2 GB)
     cols.clear()
     gcol.clear()
-    del motion, comp_side, comp_radius, loaded, feed_scale, units, scale, comp_code, f_col, t_col, mo, g10, g_line
+    del motion, comp_side, comp_radius, loaded, feed_scale, units, scale, comp_code, f_col, t_col, mo
+    release_words()
     m_val = m_int = drain = m_drain = dcum = None
 
     # --- cuts ---
@@ -586,7 +433,9 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
         if empty.any():
             remap = np.cumsum(~empty) - 1
             cut = np.where(cut >= 0, np.where(empty[np.maximum(cut, 0)], -1, remap[np.maximum(cut, 0)]), -1)
-    state = dict(inch=inch, absolute=absolute, ij_absolute=ij_absolute, plane=plane, feed_mode=feed_mode,
+    # small codes in small integers (17-19, 93-95: ~13 MB of the 10⁶-line raster's model)
+    state = dict(inch=inch, absolute=absolute, ij_absolute=ij_absolute, plane=plane.astype(np.int8),
+                 feed_mode=feed_mode.astype(np.int8),
                  feed_value=feed_value, tool=tool, work_offset=coord / 10.0, length_offset=length_mode / 10.0)
     if rows is None:
         per_line = {k: _pad(v, len(lines)) for k, v in state.items()}
@@ -603,9 +452,10 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
                         call_line=rows.row_call)
         runs = np.bincount(rows.row_line[rows.row_line >= 0], minlength=len(lines))
         no_split |= (move_line < 0) | (runs[np.maximum(move_line, 0)] > 1)
-    return Program(path=path, lines=tuple(lines), newline=newline, end_line=end_line, **per_line,
+    return Program(path=path, lines=LineStore(lines), newline=newline, end_line=end_line, **per_line,
                    move_line=move_line, kind=kind, start=start, end=endp, feed_mm_min=feed_mm,
-                   cut=cut, centre=centre, turns=turns, arc_plane=arc_plane, no_split=no_split,
+                   cut=_narrow(cut, np.int32), centre=centre, turns=_narrow(turns, np.int32),
+                   arc_plane=arc_plane.astype(np.int8), no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
                    rows=row_info, rotary=abc_has[move_rows], known=known[move_rows], stops=stops,
                    comp_unknown=comp_unknown)
@@ -617,6 +467,14 @@ def _notice(message: str) -> None:
     from fuzzyfeed.errors import FuzzyfeedNotice
 
     warnings.warn(message, FuzzyfeedNotice, stacklevel=4)
+
+
+def _narrow(arr: np.ndarray, dtype) -> np.ndarray:
+    """``arr`` as ``dtype`` where every value fits (cut numbers, P turns), else as it is."""
+    info = np.iinfo(dtype)
+    if arr.size and (arr.min() < info.min or arr.max() > info.max):
+        return arr
+    return arr.astype(dtype)
 
 
 def _pad(arr: np.ndarray, total: int, value=None) -> np.ndarray:

@@ -104,8 +104,7 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
     end = min(program.end_line + 1, n_lines)
     change_lines = set(np.flatnonzero(mode_change[:end]).tolist())
     f_lines = has_f.tolist()
-    for li in range(end):
-        raw = lines[li]
+    for li, raw in zip(range(end), lines):    # in order: a LineStore decodes a block at a time
         if li in change_lines:
             f_in_force = 0.0
         m = int(want_move[li])

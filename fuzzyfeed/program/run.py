@@ -18,7 +18,7 @@ run keeps summaries (largest error per segment, a histogram, the ticks over the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -212,14 +212,18 @@ class ChainRun:
     and segment commanded, the nearest segment and point of the path, the commanded speed and the
     segment commanded a lookback earlier."""
 
-    plan: Plan | None             # None when the run was made without keeping it (``keep_plan``)
+    plan: Plan | None             # None when the run was made without keeping it (``keep_plan``; its
+    #                               stream's plan then dropped too: ~0.1 KB a segment)
     stream: StreamRun
     tick_move: np.ndarray
     time_s: float = float("nan")   # the plan's time (kept when the plan is not)
 
     def __post_init__(self):
-        if self.plan is not None and not np.isfinite(self.time_s):
-            object.__setattr__(self, "time_s", float(self.plan.time_s))
+        plan = self.plan if self.plan is not None else self.stream.plan
+        if plan is not None and not np.isfinite(self.time_s):
+            object.__setattr__(self, "time_s", float(plan.time_s))
+        if self.plan is None and self.stream.plan is not None:    # without its plan, its stream's too
+            object.__setattr__(self, "stream", replace(self.stream, plan=None))
 
     @property
     def tick_time_s(self) -> np.ndarray:

@@ -25,7 +25,7 @@ from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.program.coverage import Coverage, program_coverage
 from fuzzyfeed.program.verify import Verification
-from fuzzyfeed.program.feeds import advice_columns, advise_program
+from fuzzyfeed.program.advice_pieces import KEEP_ROWS, AdvisedFeeds, advised_feeds, applied_columns  # noqa: F401
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
 from fuzzyfeed.program.apart import apart_lines
@@ -235,65 +235,6 @@ def uniform_row(u: Uniform) -> ValueRow:
 
 
 @dataclass(frozen=True, eq=False)
-class AdvisedFeeds:
-    """The advice of a program's cuts as the pieces its moves are written as (move, end fraction,
-    feed mm/min, in move order); the per-sample CSV rows are made again piece by piece when asked
-    (:meth:`pieces`: the advice in pieces, :mod:`fuzzyfeed.program.stream_machine`, bit for bit
-    the whole cuts' advice), never held for a whole program."""
-
-    piece_move: np.ndarray
-    piece_end: np.ndarray
-    piece_feed_mm_min: np.ndarray
-    remake: object            # () -> iterator of column dicts, in sample order
-
-    def pieces(self):
-        return self.remake()
-
-
-def advised_feeds(program: Program, table: RuleTable, machine: Machine, cuts: list[int], *,
-                  cap_mm_min, step_mm: float, feed_step_mm_min: float, min_piece_mm: float) -> AdvisedFeeds:
-    """The advice of ``cuts`` for ``machine``: in pieces (a machine table with a filter in mm or none,
-    or a plain table), else the whole cuts' (:func:`~fuzzyfeed.program.feeds.advise_program`)."""
-    from fuzzyfeed.fuzzy.rules import MACHINE
-    from fuzzyfeed.program.stream import concat_pieces, stream_program_advice
-    from fuzzyfeed.program.stream_machine import stream_machine_advice, streams
-
-    kw = dict(cuts=cuts, cap_mm_min=cap_mm_min, step_mm=step_mm, feed_step_mm_min=feed_step_mm_min,
-              min_piece_mm=min_piece_mm)
-    if table.inputs == MACHINE and streams(table):
-        geometry: dict = {}        # the cuts' G1-run fits, made once for the advice and its CSV rows
-
-        def stream():
-            return stream_machine_advice(program, table, machine, geometry=geometry, **kw)
-    elif table.inputs != MACHINE:
-        def stream():
-            return stream_program_advice(program, table, **kw)
-    else:
-        pa = advise_program(program, table, machine=machine, **kw)
-        return AdvisedFeeds(pa.piece_move, pa.piece_end, pa.piece_feed_mm_min, lambda: iter([advice_columns(pa)]))
-    first = stream()      # arguments checked here
-    kept: list | None = []
-    rows = 0
-    pieces = []
-    for p in first:       # the rows kept up to KEEP_ROWS samples (then made again when asked)
-        rows += len(p.columns["s_mm"])
-        if kept is not None and rows <= KEEP_ROWS:
-            kept.append(p.columns)
-        else:
-            kept = None
-        pieces.append((p.piece_move, p.piece_end, p.piece_feed_mm_min))
-    pm, pe, pf = (np.concatenate(c) for c in zip(*pieces)) if pieces else concat_pieces([])
-    if kept is not None:
-        return AdvisedFeeds(pm, pe, pf, lambda: iter(kept))
-    return AdvisedFeeds(pm, pe, pf, lambda: (p.columns for p in stream()))
-
-
-#: Samples of the advice whose CSV rows are kept from the advice (~0.1 KB a sample); more are made
-#: again, piece by piece, when the CSV is written.
-KEEP_ROWS = 200_000
-
-
-@dataclass(frozen=True, eq=False)
 class Evaluation:
     """A program advised for a machine: the advice of every cut (:class:`AdvisedFeeds`), which cuts
     it is applied to (those that break the tolerance as written), the program text to write and the
@@ -331,14 +272,8 @@ class Evaluation:
         """The CSV columns (:func:`~fuzzyfeed.program.feeds.advice_columns`) plus ``advised``: 1 on
         the cuts the advice is applied to; on the others feed_pct is 100 and feed_mm_min the F;
         piece by piece, in sample order."""
-        advised = list(self.advised_cuts)
         for cols in self.advice.pieces():
-            cols = dict(cols)
-            applied = np.isin(cols["cut"] - 1, advised)
-            cols["feed_pct"] = np.where(applied, cols["feed_pct"], 100.0)
-            cols["feed_mm_min"] = np.where(applied, cols["feed_mm_min"], cols["programmed_feed_mm_min"])
-            cols["advised"] = applied.astype(np.int64)
-            yield cols
+            yield applied_columns(cols, self.advised_cuts)
 
     def columns(self) -> dict[str, np.ndarray]:
         """:meth:`column_pieces` end to end."""
@@ -350,7 +285,7 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
                      feed_step_mm_min: float = 10.0, step_mm: float = 0.25, min_piece_mm: float = 1.0,
                      cuts: list[int] | None = None, reference: bool = True, progress=None,
                      max_ticks: float | None = None, verify=None, tools: dict | None = None,
-                     check_uniform: bool = True) -> Evaluation:
+                     check_uniform: bool = True, sink=None) -> Evaluation:
     """Advise ``program`` for ``machine`` and measure what it bought (module docstring): the cuts
     (of ``cuts``, default all) that break the tolerance as written get the advice, the others keep
     their feeds. ``progress(step)`` is called with a short name before each stage. ``max_ticks``
@@ -364,7 +299,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     1/factor times the program's time: the longest of all) and the limit reference (``reference``)
     to :meth:`Evaluation.checked` (what ``advise --machine`` does without ``--report``): the uniform
     row is then marked :data:`UNCHECKED` (time from the planner, max of the hot stretches, no p99)
-    and the report has no limit reference row, saying so."""
+    and the report has no limit reference row, saying so. ``sink(columns)``: each piece's CSV
+    columns (:meth:`Evaluation.column_pieces`' rows) as the advice makes them (the advice runs once)."""
     step = progress or (lambda _name: None)
     tol = machine.contour_tol_um
     step("as written")
@@ -376,7 +312,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
     over = [k for k in cuts_over(written, tol) if k in chosen]
     step("advice")
     pa = advised_feeds(program, table, machine, chosen, cap_mm_min=cap_mm_min, step_mm=step_mm,
-                       feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm)
+                       feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm,
+                       sink=None if sink is None else (lambda cols: sink(applied_columns(cols, over))))
     release_free_memory()
     keep = np.isin(program.cut[pa.piece_move], over) if pa.piece_move.size else np.zeros(0, bool)
     checked = None
