@@ -7,13 +7,12 @@ and cells each one :class:`~fuzzyfeed.errors.RuleTableError` naming the file and
 from __future__ import annotations
 
 import os
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 
 from fuzzyfeed.base.files import read_text, resolve_file, shipped_dir, shipped_names
 from fuzzyfeed.base.toml_lines import KeyLines as _Lines
-from fuzzyfeed.base.toml_lines import Locator
+from fuzzyfeed.base.toml_lines import Locator, load_toml
 from fuzzyfeed.base.toml_lines import file_locator as _file_locator
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.filters import DEFAULT_FILTER
@@ -61,14 +60,8 @@ def parse_rule_table(text: str, path: Path | str = "<rules>") -> RuleTable:
                 f"term {key!r}" if section in (*VARIABLES, SAFE, SAFE_NEAR) else f"key {key!r}")
         raise RuleTableError(f"{path}:{again}: duplicate {what} in [{section}] (first at line {first}); "
                              "give each once")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise RuleTableError(f"{path}: invalid TOML: {exc}") from None
-    except RecursionError:
-        raise RuleTableError(f"{path}: nested too deeply to be a rule table") from None
-    where = _file_locator(path, lines)
-    return table_from_mapping(data, where, path)
+    data = load_toml(text, path, RuleTableError, "a rule table")
+    return table_from_mapping(data, _file_locator(path, lines), path)
 
 
 def table_from_mapping(data: Mapping, where: Locator | None = None, path: Path | None = None) -> RuleTable:

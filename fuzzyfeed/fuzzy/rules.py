@@ -27,7 +27,6 @@ from fuzzyfeed.base.toml_lines import Locator
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.filters import DEFAULT_FILTER, FILTER_KINDS
 
-
 #: Section names of the three fuzzy variables of a paper table, in the order inputs, output.
 KAPPA, DK, FEED = "curvature", "curvature_variation", "feed"
 VARIABLES = (KAPPA, DK, FEED)

@@ -17,7 +17,6 @@ import numpy as np
 from fuzzyfeed.geometry._kernels import evaluate_power_basis, nurbs_compiled
 from fuzzyfeed.errors import NurbsError
 
-
 #: Gauss–Legendre order used per interval for arc length (exact for polynomials of degree 15).
 GAUSS_ORDER = 8
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_ORDER)

@@ -22,7 +22,6 @@ from fuzzyfeed.geometry._kernels import evaluate_power_basis
 from fuzzyfeed.geometry.arc_length import ArcLengthTable
 from fuzzyfeed.errors import NurbsError
 
-
 #: Scale guards (mm): coordinates beyond 1 km are not a machine's path; a control polygon smaller
 #: than 1 nm has no length to feed along.
 MAX_COORDINATE_MM = 1e6

@@ -63,7 +63,6 @@ from fuzzyfeed.geometry.polyline_chords import (WINDOW_VERTICES, Chords, Window,
 from fuzzyfeed.geometry.polyline_runs import (FIT_SLACK, MIN_RUN, Runs, line_arc_runs, line_arc_runs_windowed,
                                               tangent_of)
 
-
 #: Default path tolerance P (mm) of the controller's corner blend (LinuxCNC G64 P0.01).
 DEFAULT_PATH_TOLERANCE_MM = 0.01
 #: Curvature cap (1/mm): a blend radius of 0.1 µm. A reversal gets it (every planner stops there).

@@ -16,7 +16,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-
 #: Vertices one window of the fit holds (the run search and the per-vertex pass): a longer point
 #: sequence (a cut of 10⁶ G1 moves) is fitted window after window, with the whole sequence's result
 #: (:func:`~fuzzyfeed.geometry.polyline_runs.line_arc_runs_windowed`, the per-vertex pass of

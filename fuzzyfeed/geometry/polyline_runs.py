@@ -32,7 +32,6 @@ import numpy as np
 
 from fuzzyfeed.geometry.polyline_chords import Chords
 
-
 #: Fewest vertices a line/circle run must have to be taken as one (three points fit any circle).
 MIN_RUN = 5
 #: A run's fit may miss a point by this factor times the rounding tolerance (least squares is not

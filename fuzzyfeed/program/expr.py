@@ -30,7 +30,6 @@ from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.program.params import SUB_PARAMS, Parameters
 from fuzzyfeed.program.value_reader import ValueReader
 
-
 O_KEYWORDS = ("sub", "endsub", "call", "do", "while", "repeat", "if", "elseif", "else", "endif",
               "break", "continue", "endwhile", "endrepeat", "return")
 #: Letters that are words of a line (``o`` only at its start, ``n`` only first).

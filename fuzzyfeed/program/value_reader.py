@@ -18,7 +18,6 @@ import re
 from fuzzyfeed.errors import PathFormatError
 from fuzzyfeed.program.params import MAX_PARAMETER
 
-
 #: EQ/NE/LE/GE compare within this (TOLERANCE_EQUAL).
 TOLERANCE_EQUAL = 1e-6
 #: Longest expression nesting read (LinuxCNC's stack is 7 operators deep per level; this bounds
