@@ -60,7 +60,8 @@ def main() -> int:
     if reason:
         print(f"bench_controllers: {reason}")
         return 1
-    from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+    from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE
     from fuzzyfeed.machine.description import load_machine
     from fuzzyfeed.program.read import read_program
     from fuzzyfeed.report.value import evaluate_program

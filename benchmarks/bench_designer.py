@@ -37,7 +37,7 @@ def in_process(points: int, edits: int) -> tuple[float, list[float], float]:
     from fuzzyfeed.fuzzy.advisor import advise_details
 
     with tempfile.TemporaryDirectory() as folder:
-        from fuzzyfeed.fuzzy.rules import resolve_rules_path
+        from fuzzyfeed.fuzzy.rule_reader import resolve_rules_path
 
         table = Path(folder) / "bench.toml"
         table.write_text(resolve_rules_path("paper").read_text())
@@ -71,7 +71,7 @@ def in_browser(points: int, edits: int) -> tuple[list[float], float] | None:
         return None
     if not Path(CHROMIUM).is_file():
         return None
-    from fuzzyfeed.fuzzy.rules import resolve_rules_path
+    from fuzzyfeed.fuzzy.rule_reader import resolve_rules_path
 
     folder = tempfile.mkdtemp()
     table = Path(folder) / "bench.toml"

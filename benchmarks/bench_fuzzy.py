@@ -22,14 +22,14 @@ import time
 import numpy as np
 
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.fuzzy.skfuzzy_ref import build_control_system, skfuzzy_feed_pct
 
 BIG_CHILD = r"""
 import json, resource, sys, time
 import numpy as np
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 n = int(sys.argv[1])
 engine = compile_table(load_rule_table())
 engine.feed_pct(np.array([0.1]), np.array([0.2]))        # load the cached kernel

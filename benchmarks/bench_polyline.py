@@ -6,7 +6,7 @@ uniformly in arc length, rounded to 3 decimals (what a CAM post writes) and at f
 
 Prints points/s of both and their ratio, plus the error of both against the NURBS curvature
 (max and 95th percentile, relative to the largest κ). The first call is timed on its own line
-(``first call``: from :data:`fuzzyfeed.geometry.polyline.COMPILED_MIN_VERTICES` vertices on it includes
+(``first call``: from :data:`fuzzyfeed.geometry.polyline_runs.COMPILED_MIN_VERTICES` vertices on it includes
 importing numba and loading, or once after an install compiling, the run search), the figures
 after it are the best of --repeat later calls. The last line is slowdown_vs_three_point=X
 (rounded points).

@@ -76,7 +76,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
 
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.program.read import read_program
     from fuzzyfeed.program.rewrite import rewrite_program

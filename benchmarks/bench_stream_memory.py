@@ -30,7 +30,7 @@ def status(key):
             return int(line.split()[1]) / 1024.0
 def reset():
     open('/proc/self/clear_refs', 'w').write('5')
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.program.read import read_program
 from fuzzyfeed.program.cuts import cut_moves, run_geometry
 from fuzzyfeed.program.stream import stream_program_advice

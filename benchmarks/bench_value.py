@@ -62,7 +62,8 @@ def _key(path: Path) -> str:
 def run_one(path: str, machine_name: str, rules: str | None, reference: bool, max_written_s: float) -> dict:
     """One program on one machine: the value report's rows, or the one-line reason it was skipped."""
     from fuzzyfeed.errors import FuzzyfeedError
-    from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+    from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE
     from fuzzyfeed.machine.description import load_machine
     from fuzzyfeed.program.read import read_program
     from fuzzyfeed.report.value import evaluate_program

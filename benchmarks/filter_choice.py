@@ -32,7 +32,7 @@ from scipy.signal import find_peaks
 
 from fuzzyfeed.fuzzy.advisor import advise_details
 from fuzzyfeed.fuzzy.filters import curvature_peaks, smooth_feed
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.io.shapes import load_shape, sample_shape
 
 SHAPES = ("infinity", "trident", "trident2", "butterfly", "wm")

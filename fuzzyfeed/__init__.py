@@ -35,7 +35,7 @@ _LAZY = {
     "sample_shape": "fuzzyfeed.io.shapes",
     "advise": "fuzzyfeed.fuzzy.advisor",
     "advise_details": "fuzzyfeed.fuzzy.advisor",
-    "load_rule_table": "fuzzyfeed.fuzzy.rules",
+    "load_rule_table": "fuzzyfeed.fuzzy.rule_reader",
     "RuleTable": "fuzzyfeed.fuzzy.rules",
     "MachineLimits": "fuzzyfeed.machine.limits",
     "ServoModel": "fuzzyfeed.machine.servo",

@@ -31,7 +31,7 @@ FAST = ["--points", "60"]
 
 
 def _rules_text() -> str:
-    from fuzzyfeed.fuzzy.rules import rules_dir
+    from fuzzyfeed.fuzzy.rule_reader import rules_dir
 
     return (rules_dir() / "paper.toml").read_text()
 
@@ -515,7 +515,8 @@ def api_cases() -> list:
     from fuzzyfeed.fuzzy.advisor import advise, advise_details, average_filter
     from fuzzyfeed.fuzzy.engine import feed_pct
     from fuzzyfeed.fuzzy.features import features
-    from fuzzyfeed.fuzzy.rules import load_rule_table, parse_rule_table, set_cell_text
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table, parse_rule_table
+    from fuzzyfeed.fuzzy.rule_writer import set_cell_text
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import load_shape, sample_shape, shape_from_mapping
     from fuzzyfeed.machine.limits import MachineLimits, feed_limits

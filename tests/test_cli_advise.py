@@ -10,7 +10,7 @@ import pytest
 
 from fuzzyfeed.cli import main
 from fuzzyfeed.fuzzy.advisor import advise_details
-from fuzzyfeed.fuzzy.rules import rules_dir
+from fuzzyfeed.fuzzy.rule_reader import rules_dir
 from fuzzyfeed.io.shapes import load_shape, sample_shape
 
 COLUMNS = ["u", "x_mm", "y_mm", "z_mm", "s_mm", "curvature_1_mm", "curvature_variation",
@@ -61,7 +61,7 @@ def test_advise_with_rules_file_and_plot(tmp_path, capsys):
     assert record["rules"] == "slow" and record["rules_file"] == str(rules)
     assert record["F_mm_min"] == "6000" and "trident.toml" in record["source"]
     from fuzzyfeed.fuzzy.provenance import table_digest
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 
     assert record["rules_digest"] == table_digest(load_rule_table(rules))
     assert record["rules_digest"] != table_digest(load_rule_table("paper"))

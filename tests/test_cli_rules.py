@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from fuzzyfeed.cli import main
-from fuzzyfeed.fuzzy.rules import load_rule_table, rules_dir
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table, rules_dir
 
 PAPER_TEXT = (rules_dir() / "paper.toml").read_text(encoding="utf-8")
 

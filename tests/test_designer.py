@@ -15,7 +15,8 @@ from fuzzyfeed.designer.compute import (breakpoint_axis, breakpoint_rows, contro
                                         project_surface)
 from fuzzyfeed.designer.document import Document, FieldError, set_list_item, validate_text
 from fuzzyfeed.errors import FileConflictError, RuleTableError
-from fuzzyfeed.fuzzy.rules import (load_rule_table, parse_rule_table, resolve_rules_path, set_cell_text)
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table, parse_rule_table, resolve_rules_path
+from fuzzyfeed.fuzzy.rule_writer import set_cell_text
 
 PAPER = resolve_rules_path("paper")
 

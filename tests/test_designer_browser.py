@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from fuzzyfeed.fuzzy.rules import resolve_rules_path
+from fuzzyfeed.fuzzy.rule_reader import resolve_rules_path
 
 CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",

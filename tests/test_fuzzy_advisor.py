@@ -15,7 +15,7 @@ from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.fuzzy.advisor import advise, advise_details, average_filter
 from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.features import features, forward_window_max, normalise
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.io.shapes import load_shape, sample_shape
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.sampling import PathSamples, sample_uniform_u

@@ -24,7 +24,8 @@ import pytest
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy import engine as engine_mod
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable, load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable
 from fuzzyfeed.fuzzy.skfuzzy_ref import skfuzzy_feed_pct
 
 GOLDEN = Path(__file__).parent / "golden" / "fuzzy_paper_surface.csv"

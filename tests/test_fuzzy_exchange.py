@@ -26,7 +26,9 @@ from fuzzyfeed.fuzzy.diff import table_differences
 from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.exchange import FLL_RESOLUTION, numbered_rules, spec_to_table
 from fuzzyfeed.fuzzy.formats import export_table, parse_text
-from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable, load_rule_table, table_to_toml
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+from fuzzyfeed.fuzzy.rule_writer import table_to_toml
+from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable
 
 FORMATS = ("fcl", "fcl-fuzzylite", "fll", "fis")
 FUZZYLITE = shutil.which("fuzzylite")

@@ -14,7 +14,7 @@ from scipy.signal import find_peaks
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.fuzzy.advisor import advise_details
 from fuzzyfeed.fuzzy.filters import curvature_peaks, smooth_feed
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.fuzzy.windows import centred_bounds, forward_bounds, range_max, range_min
 from fuzzyfeed.io.shapes import load_shape, sample_shape
 
@@ -189,7 +189,7 @@ def test_windows_in_mm_make_the_advice_independent_of_the_sampling():
 
 def test_window_and_filter_lengths_in_the_rule_file(tmp_path):
     from fuzzyfeed.errors import RuleTableError
-    from fuzzyfeed.fuzzy.rules import rules_dir
+    from fuzzyfeed.fuzzy.rule_reader import rules_dir
 
     text = (rules_dir() / "paper.toml").read_text().replace(
         '\nfilter = "corner-mean"\n', '\nfilter = "corner-mean"\nwindow_mm = 1.45\nfilter_mm = 1.0\n')

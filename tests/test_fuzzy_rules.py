@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.engine import membership
-from fuzzyfeed.fuzzy.rules import (Term, Variable, grid_text, load_rule_table,
-                                   parse_rule_table, resolve_rules_path, rules_dir, set_cell,
-                                   set_cell_text, table_names, table_to_toml, uncovered)
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table, parse_rule_table, resolve_rules_path, rules_dir, table_names
+from fuzzyfeed.fuzzy.rule_writer import grid_text, set_cell, set_cell_text, table_to_toml
+from fuzzyfeed.fuzzy.rules import Term, Variable, uncovered
 
 PAPER = rules_dir() / "paper.toml"
 PAPER_TEXT = PAPER.read_text(encoding="utf-8")

@@ -17,7 +17,7 @@ from conftest import circle_nurbs, random_nurbs_definition
 from fuzzyfeed.geometry import _kernels
 from fuzzyfeed.geometry._kernels import COMPILED_MIN_POINTS, evaluate_power_basis, use_compiled
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.io.shapes import load_shape, shape_names
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.sampling import max_curvature

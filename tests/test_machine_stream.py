@@ -5,7 +5,6 @@ polylines (hypothesis) and on every program of the public library fuzzyfeed read
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
@@ -14,7 +13,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fuzzyfeed.errors import FuzzyfeedError
 from fuzzyfeed.machine.description import Machine, load_machine
 from fuzzyfeed.machine.planner import Motion, plan_motion
 from fuzzyfeed.machine.servo import ServoModel
@@ -22,8 +20,8 @@ from fuzzyfeed.machine.stream import percentile_um, segment_windows, stream_plan
 from fuzzyfeed.machine.trace import trace_motion
 from fuzzyfeed.program.read import read_program
 from fuzzyfeed.program.run import program_path, run_program
+from tick_cases import LIBRARY, library_path, library_programs, random_polyline
 
-LIBRARY = Path(__file__).resolve().parents[1] / "benchmarks" / "library"
 #: Library programs longer than this (planned seconds on the machine) are left to the benchmark:
 #: the whole-array reference holds every tick in memory.
 REFERENCE_MAX_S = 400.0
@@ -68,36 +66,19 @@ def _check_against_reference(motion: Motion, machine: Machine, measured: np.ndar
        scale=st.floats(0.5, 20.0), ff=st.sampled_from([0.0, 0.6]))
 def test_stream_equals_the_tick_reference_on_random_polylines(seed, order, n, scale, ff):
     rng = np.random.default_rng(seed)
-    pts = np.cumsum(rng.normal(size=(n + 1, 3)) * [scale, scale, 0.2 * scale], axis=0)
-    pts = pts[np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-6])]
-    if pts.shape[0] < 2:
+    motion = random_polyline(rng, n, scale, rapids=seed % 2 == 1)
+    if motion is None:
         return
-    m = pts.shape[0] - 1
-    rapid = rng.random(m) < (0.15 if seed % 2 else 0.0)
-    feed = np.where(rapid, np.nan, rng.uniform(2.0, 90.0, m))
-    motion = Motion(pts, feed, rapid, np.full(m + 1, np.nan))
     servo = ServoModel(kv_1_s=rng.uniform(15, 80), feedforward=ff) if order == 1 else \
         ServoModel(natural_freq_hz=rng.uniform(8, 30), damping=rng.uniform(0.5, 1.0), feedforward=ff)
     machine = Machine(servo=servo, contour_tol_um=float(rng.uniform(5, 80)))
-    _check_against_reference(motion, machine, ~rapid)
+    _check_against_reference(motion, machine, ~motion.rapid)
 
 
-def _library_programs() -> list[str]:
-    with open(LIBRARY / "MANIFEST.csv", newline="") as f:
-        return [row["file"] for row in csv.DictReader(f)
-                if row["kind"] == "program" and row["fuzzyfeed_reads"] == "ok"]
-
-
-@pytest.mark.parametrize("rel", _library_programs())
+@pytest.mark.parametrize("rel", library_programs())
 def test_stream_equals_the_tick_reference_on_the_library(rel):
     machine = load_machine("reference")
-    try:
-        program = read_program(LIBRARY / rel)
-    except FuzzyfeedError as exc:
-        pytest.skip(f"not read: {exc}")
-    path = program_path(program, machine.chord_tol_mm)
-    if not path.chains:
-        pytest.skip("nothing the machine runs")
+    path = library_path(rel, machine)
     total = sum(plan_motion(c.motion, machine).time_s for c in path.chains)
     if total > REFERENCE_MAX_S:
         pytest.skip(f"{total:.0f} s on the machine: the whole-array reference is the benchmark's")

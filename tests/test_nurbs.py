@@ -165,7 +165,7 @@ def test_errors_are_value_errors_and_one_line():
 def test_arc_length_streamed_blocks_do_not_change_results(monkeypatch):
     """Blocks of 3 intervals and blocks of 8192 give the same s(u) and u(s) to 1e-12 relative,
     and both match closed forms: a circle's arcs r·θ and a line's |P1 − P0|·u."""
-    from fuzzyfeed.geometry import nurbs as nurbs_mod
+    from fuzzyfeed.geometry import arc_length
 
     r = 7.5
     circle = circle_nurbs(r)
@@ -174,7 +174,7 @@ def test_arc_length_streamed_blocks_do_not_change_results(monkeypatch):
     u = np.sort(rng.uniform(0, 1, 2500))
     results = {}
     for block in (8192, 3):
-        monkeypatch.setattr(nurbs_mod, "ARC_BLOCK_INTERVALS", block)
+        monkeypatch.setattr(arc_length, "ARC_BLOCK_INTERVALS", block)
         fresh_circle = circle_nurbs(r)
         fresh_line = Nurbs(1, line.knots, line.control_points)
         s_c = fresh_circle.arc_length(u)

@@ -265,9 +265,9 @@ def wavy_spiral(n: int, decimals: int = 4) -> tuple[np.ndarray, np.ndarray]:
 
 def test_compiled_run_search_constants_match():
     pytest.importorskip("numba")
-    from fuzzyfeed.geometry import _polyline_jit, polyline
+    from fuzzyfeed.geometry import _polyline_jit, polyline_runs
 
-    assert _polyline_jit.MIN_RUN == polyline.MIN_RUN
+    assert _polyline_jit.MIN_RUN == polyline_runs.MIN_RUN
 
 
 @pytest.mark.parametrize("case", ["circle", "open-arc", "squares", "polygon", "walk-3d"])
@@ -275,7 +275,7 @@ def test_compiled_run_search_gives_the_numpy_result(case, monkeypatch):
     """Both forms of the run search (numpy below COMPILED_MIN_VERTICES, numba from there on) find
     the same runs and κ on circles, corners, random polygons and 3-D walks."""
     pytest.importorskip("numba")
-    import fuzzyfeed.geometry.polyline as pl
+    import fuzzyfeed.geometry.polyline_runs as runs
 
     rng = np.random.default_rng(3)
     sq = np.array([[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]], dtype=float)
@@ -286,7 +286,7 @@ def test_compiled_run_search_gives_the_numpy_result(case, monkeypatch):
            "walk-3d": lambda: np.round(np.cumsum(rng.normal(0, 0.05, (2000, 3)), axis=0), 4)}[case]()
     forms = {}
     for compiled in (False, True):
-        monkeypatch.setattr(pl, "COMPILED_MIN_VERTICES", 0 if compiled else 10**9)
+        monkeypatch.setattr(runs, "COMPILED_MIN_VERTICES", 0 if compiled else 10**9)
         forms[compiled] = polyline_curvature(pts)
     np.testing.assert_allclose(forms[True].curvature, forms[False].curvature, rtol=1e-9, atol=1e-12)
     np.testing.assert_array_equal(forms[True].corner, forms[False].corner)
@@ -300,7 +300,7 @@ def test_both_forms_see_the_curvature_of_a_rounded_free_form_curve(monkeypatch):
     tolerance to the last bits (their sums run in another order), so they are compared with the
     truth, not bit for bit."""
     pytest.importorskip("numba")
-    import fuzzyfeed.geometry.polyline as pl
+    import fuzzyfeed.geometry.polyline_runs as runs
 
     pts, exact = wavy_spiral(100_000)
     pts, exact = pts[20_000:24_000], exact[20_000:24_000]
@@ -308,7 +308,7 @@ def test_both_forms_see_the_curvature_of_a_rounded_free_form_curve(monkeypatch):
     assert np.percentile(paper, 95) > 0.15
     stats = []
     for compiled in (False, True):
-        monkeypatch.setattr(pl, "COMPILED_MIN_VERTICES", 0 if compiled else 10**9)
+        monkeypatch.setattr(runs, "COMPILED_MIN_VERTICES", 0 if compiled else 10**9)
         err = np.abs(polyline_curvature(pts).curvature - exact)[3:-3] / exact.max()
         stats.append((np.percentile(err, 95), err.max()))
         assert stats[-1][0] < 0.04 and stats[-1][1] < 0.15, stats

@@ -10,6 +10,7 @@ import pytest
 
 from test_polyline import rounded_circle, wavy_spiral
 from fuzzyfeed.geometry import polyline as pl
+from fuzzyfeed.geometry import polyline_runs as runs
 
 pytest.importorskip("numba")
 
@@ -45,7 +46,7 @@ def _same(a: pl.PolylineCurvature, b: pl.PolylineCurvature) -> bool:
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_windowed_fit_equals_the_whole_fit_bit_for_bit(name, monkeypatch):
-    monkeypatch.setattr(pl, "COMPILED_MIN_VERTICES", 0)     # the windowed search is the compiled one
+    monkeypatch.setattr(runs, "COMPILED_MIN_VERTICES", 0)     # the windowed search is the compiled one
     pts = CASES[name]
     whole = pl.polyline_curvature(pts, window=10**9)
     for window in (20, 97, 1000):
@@ -55,15 +56,15 @@ def test_windowed_fit_equals_the_whole_fit_bit_for_bit(name, monkeypatch):
 def test_windowed_search_without_the_stop_before_the_window_end_differs(monkeypatch):
     """The check can fail: a search allowed trials up to the window's last vertex (the run cut
     there, the gallop's trials clamped to it) finds other runs on the wavy spiral."""
-    monkeypatch.setattr(pl, "COMPILED_MIN_VERTICES", 0)
+    monkeypatch.setattr(runs, "COMPILED_MIN_VERTICES", 0)
     pts = CASES["wavy spiral (smooth arc chains)"]
     whole = pl.polyline_curvature(pts, window=10**9)
-    kernel = pl._runs_kernel()
+    kernel = runs.run_search_kernel()
 
     def no_stop(pts_, turn, maybe, tol, path_tol, ij, kind, fit, i0, count0, limit, stop):
         return kernel(pts_, turn, maybe, tol, path_tol, ij, kind, fit, i0, count0, len(pts_), stop)
 
-    monkeypatch.setattr(pl, "_runs_kernel", lambda: no_stop)
+    monkeypatch.setattr(runs, "run_search_kernel", lambda: no_stop)
     assert not _same(pl.polyline_curvature(pts, window=97), whole)
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.machine.description import load_machine
 from fuzzyfeed.program.advised import advised_program
 from fuzzyfeed.program.read import parse_program, read_program

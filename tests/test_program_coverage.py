@@ -13,7 +13,7 @@ import pytest
 
 from canon import canon
 from fuzzyfeed.cli import main
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.machine.description import load_machine
 from fuzzyfeed.program.coverage import REASONS, move_reasons, program_coverage
 from fuzzyfeed.program.read import parse_program, read_program

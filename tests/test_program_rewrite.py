@@ -11,7 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.program.read import parse_program
 from fuzzyfeed.program.rewrite import rewrite_program
 from fuzzyfeed.program.model import ARC, PLANE_AXES

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from fuzzyfeed.cli import main
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.program.feeds import advice_columns, advise_program
 from fuzzyfeed.program.read import parse_program, read_program
 from fuzzyfeed.program.stream import concat_pieces, plan_pieces, stream_program_advice

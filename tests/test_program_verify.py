@@ -17,7 +17,7 @@ import pytest
 
 from canon import canon, compare
 from fuzzyfeed.cli import main
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.machine.description import load_machine
 from fuzzyfeed.program.feeds import advise_program
 from fuzzyfeed.program.read import read_program

@@ -9,16 +9,13 @@ threshold that skips corners are caught."""
 
 from __future__ import annotations
 
-import csv
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fuzzyfeed.errors import FuzzyfeedError
 from fuzzyfeed.machine._ticks_jit import hist_bin
 from fuzzyfeed.machine.description import Machine, load_machine
 from fuzzyfeed.machine.planner import Motion, plan_motion
@@ -27,8 +24,7 @@ from fuzzyfeed.machine.stream import (percentile_settled, percentile_um, skip_th
                                       segment_windows)
 from fuzzyfeed.program.read import read_program
 from fuzzyfeed.program.run import program_path, run_program
-
-LIBRARY = Path(__file__).resolve().parents[1] / "benchmarks" / "library"
+from tick_cases import library_path, library_programs
 
 
 def _check(fast, ticks, skip_mm: float) -> None:
@@ -54,23 +50,11 @@ def _check(fast, ticks, skip_mm: float) -> None:
     assert np.allclose(fast.contour_mm, ticks.contour_mm, rtol=0, atol=1e-9)
 
 
-def _library_programs() -> list[str]:
-    with open(LIBRARY / "MANIFEST.csv", newline="") as f:
-        return [row["file"] for row in csv.DictReader(f)
-                if row["kind"] == "program" and row["fuzzyfeed_reads"] == "ok"]
-
-
 @pytest.mark.parametrize("machine_name", ["reference", "hobby-router"])
-@pytest.mark.parametrize("rel", _library_programs())
+@pytest.mark.parametrize("rel", library_programs())
 def test_fast_path_holds_to_the_tick_pass_on_the_library(rel, machine_name):
     machine = load_machine(machine_name)
-    try:
-        program = read_program(LIBRARY / rel)
-    except FuzzyfeedError as exc:
-        pytest.skip(f"not read: {exc}")
-    path = program_path(program, machine.chord_tol_mm)
-    if not path.chains:
-        pytest.skip("nothing the machine runs")
+    path = library_path(rel, machine)
     fast = run_program(path, machine)                     # the default: the fast path
     ticks = run_program(path, machine, fast=False)
     skip = skip_threshold(machine)

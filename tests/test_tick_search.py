@@ -5,23 +5,16 @@ wrong (shrunk: the bound |q − X| ≥ dist(q, box) broken) are caught."""
 
 from __future__ import annotations
 
-import csv
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fuzzyfeed.errors import FuzzyfeedError
 from fuzzyfeed.machine.description import Machine, load_machine
 from fuzzyfeed.machine.planner import Motion, plan_motion
 from fuzzyfeed.machine.servo import ServoModel
 from fuzzyfeed.machine.stream import segment_boxes, stream_plan
-from fuzzyfeed.program.read import read_program
-from fuzzyfeed.program.run import program_path
-
-LIBRARY = Path(__file__).resolve().parents[1] / "benchmarks" / "library"
+from tick_cases import library_path, library_programs, random_polyline
 
 
 def _summaries(run):
@@ -61,18 +54,13 @@ def test_boxes_hold_their_blocks():
        scale=st.floats(0.02, 20.0), block=st.sampled_from([1, 3, 8, 16]))
 def test_pruned_search_equals_the_scan_on_random_polylines(seed, order, n, scale, block):
     rng = np.random.default_rng(seed)
-    pts = np.cumsum(rng.normal(size=(n + 1, 3)) * [scale, scale, 0.2 * scale], axis=0)
-    pts = pts[np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-6])]
-    if pts.shape[0] < 2:
+    motion = random_polyline(rng, n, scale, rapids=seed % 2 == 1)
+    if motion is None:
         return
-    m = pts.shape[0] - 1
-    rapid = rng.random(m) < (0.15 if seed % 2 else 0.0)
-    feed = np.where(rapid, np.nan, rng.uniform(2.0, 90.0, m))
     servo = ServoModel(kv_1_s=rng.uniform(15, 80), feedforward=rng.choice([0.0, 0.6])) if order == 1 else \
         ServoModel(natural_freq_hz=rng.uniform(8, 30), damping=rng.uniform(0.5, 1.0))
     machine = Machine(servo=servo, contour_tol_um=float(rng.uniform(5, 80)))
-    plan = plan_motion(Motion(pts, feed, rapid, np.full(m + 1, np.nan)), machine)
-    _assert_same(plan, machine, ~rapid, block=block)
+    _assert_same(plan_motion(motion, machine), machine, ~motion.rapid, block=block)
 
 
 @pytest.mark.parametrize("step,pitch", [(0.1, 0.1), (0.05, 0.02), (0.5, 0.3)])
@@ -99,24 +87,11 @@ def test_a_wrong_bound_is_caught():
     _assert_same(plan, machine, np.ones(m, bool), boxes=(lo, hi))
 
 
-def _library_programs(every: int) -> list[str]:
-    with open(LIBRARY / "MANIFEST.csv", newline="") as f:
-        rows = [row["file"] for row in csv.DictReader(f)
-                if row["kind"] == "program" and row["fuzzyfeed_reads"] == "ok"]
-    return rows[::every]
-
-
-@pytest.mark.parametrize("rel", _library_programs(3))
+@pytest.mark.parametrize("rel", library_programs(every=3))
 @pytest.mark.parametrize("machine_name", ["reference", "hobby-router"])
 def test_pruned_search_equals_the_scan_on_the_library(rel, machine_name):
     machine = load_machine(machine_name)
-    try:
-        program = read_program(LIBRARY / rel)
-    except FuzzyfeedError as exc:
-        pytest.skip(f"not read: {exc}")
-    path = program_path(program, machine.chord_tol_mm)
-    if not path.chains:
-        pytest.skip("nothing the machine runs")
+    path = library_path(rel, machine)
     for chain in path.chains:
         plan = plan_motion(chain.motion, machine)
         _assert_same(plan, machine, chain.seg_measured)

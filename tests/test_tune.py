@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzyfeed.cli import main
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.fuzzy.tune import evaluate, excess, partition_feed, peaks_of, tune_output_terms
 from fuzzyfeed.io.shapes import load_shape, sample_shape
 from fuzzyfeed.machine.limits import MachineLimits
@@ -50,7 +50,7 @@ def test_tuning_keeps_the_constraints_and_never_gets_slower(tmp_path):
     assert after.cycle_time_s < before.cycle_time_s
     # re-simulated from the written file, the tuned table gives the same, admissible result
     path = tmp_path / "tuned.toml"
-    from fuzzyfeed.fuzzy.rules import save_rule_table
+    from fuzzyfeed.fuzzy.rule_writer import save_rule_table
 
     save_rule_table(result.table, path)
     again = evaluate(load_rule_table(path), shapes, limits, ServoModel())["trident"]

@@ -107,7 +107,7 @@ def test_a_place_the_floor_does_not_clear_is_not_set_apart(tmp_path, monkeypatch
 
 
 def test_the_value_report_lists_the_places_set_apart(tmp_path):
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
     from fuzzyfeed.report.value import evaluate_program
     from fuzzyfeed.report.value_files import report_table_html
 
@@ -132,7 +132,7 @@ def test_the_value_report_lists_the_places_set_apart(tmp_path):
 
 
 def test_the_limit_reference_stopped_at_a_place_set_apart_says_so(tmp_path):
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
     from fuzzyfeed.report.value import evaluate_program
 
     f = tmp_path / "p.ngc"

@@ -14,7 +14,7 @@ import pytest
 from canon import canon, compare
 from fuzzyfeed.cli import main
 from fuzzyfeed.fuzzy.machine_inputs import machine_features
-from fuzzyfeed.fuzzy.rules import load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.machine.description import Machine, load_machine
 from fuzzyfeed.machine.servo import ServoModel
 from fuzzyfeed.program.cuts import sample_cut

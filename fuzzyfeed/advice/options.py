@@ -168,7 +168,8 @@ class AdviceOptions:
     def _table(self):
         """The rule table of ``rules`` with ``filter``, ``window_mm`` and ``filter_mm`` applied.
         Without ``rules``: the machine table when a machine is given, else the paper's."""
-        from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, RuleTable, load_rule_table
+        from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+        from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, RuleTable
 
         spec = self.rules
         if isinstance(spec, RuleTable):
@@ -225,7 +226,7 @@ class AdviceOptions:
 
 def _file_of(spec) -> str:
     """The file a rule-table or tool-table name stands for (as given when it is no file)."""
-    from fuzzyfeed.fuzzy.rules import resolve_rules_path
+    from fuzzyfeed.fuzzy.rule_reader import resolve_rules_path
 
     if os.path.isfile(spec):
         return os.fspath(spec)

@@ -1,13 +1,15 @@
 """Where each key of a TOML file sits, for one-line messages that name ``file:line``.
 
 :mod:`tomllib` returns values without positions; :class:`KeyLines` reads the text once more and
-records the line of every ``[section]`` and ``key =`` (first occurrence), plus keys given twice.
-Rule tables and machine files use it.
+records the line of every ``[section]`` and ``key =`` (first occurrence), plus keys given twice;
+:func:`load_toml` parses the text, a parse error one message naming the file. Rule tables and
+machine files use them.
 """
 
 from __future__ import annotations
 
 import re
+import tomllib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -53,3 +55,14 @@ def file_locator(path: Path, lines: KeyLines) -> Locator:
         n = lines.line(section, key)
         return f"{path}:{n}" if n else f"{path}: [{section}]"
     return where
+
+
+def load_toml(text: str, path: Path | str, error: type[Exception], what: str) -> dict:
+    """``text`` parsed by :mod:`tomllib`; invalid TOML, or nesting too deep for the parser, is one
+    ``error`` naming ``path`` (``what`` is the kind of file: "a rule table")."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{path}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise error(f"{path}: nested too deeply to be {what}") from None

@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from fuzzyfeed.report.compare import METHODS, compare
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
     from fuzzyfeed.io.csv import write_columns
     from fuzzyfeed.io.shapes import load_shape, sample_shape
     from fuzzyfeed.geometry.sampling import POINT_STEP_MM

@@ -92,7 +92,7 @@ def register(sub) -> None:
 
 
 def _describe(table) -> str:
-    from fuzzyfeed.fuzzy.rules import grid_text
+    from fuzzyfeed.fuzzy.rule_writer import grid_text
 
     lines = [f"rule table {table.name!r}" + (f"  ({table.path})" if table.path else "")]
     if table.source:
@@ -120,7 +120,8 @@ def _describe(table) -> str:
 
 
 def run_show(args: argparse.Namespace) -> int:
-    from fuzzyfeed.fuzzy.rules import grid_text, load_rule_table, resolve_rules_path
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table, resolve_rules_path
+    from fuzzyfeed.fuzzy.rule_writer import grid_text
 
     if args.format == "toml":
         path = resolve_rules_path(args.table)
@@ -140,7 +141,7 @@ def run_show(args: argparse.Namespace) -> int:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 
     for spec in args.tables or [None]:
         table = load_rule_table(spec)
@@ -151,7 +152,7 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_set(args: argparse.Namespace) -> int:
-    from fuzzyfeed.fuzzy.rules import set_cell
+    from fuzzyfeed.fuzzy.rule_writer import set_cell
 
     path = Path(args.file)
     if not path.is_file():
@@ -164,7 +165,7 @@ def run_set(args: argparse.Namespace) -> int:
 
 
 def run_surface(args: argparse.Namespace) -> int:
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
     from fuzzyfeed.report.plot import plot_rule_surface
 
     table = load_rule_table(args.table)
@@ -177,7 +178,7 @@ def _load_any(spec: str):
     """A table from a shipped name, a .toml, or any file ``rules import`` reads."""
     from fuzzyfeed.fuzzy.exchange import IMPORT_SUFFIXES
     from fuzzyfeed.fuzzy.formats import import_table
-    from fuzzyfeed.fuzzy.rules import load_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 
     if Path(spec).suffix.lower() in IMPORT_SUFFIXES and Path(spec).suffix.lower() != ".toml":
         if not Path(spec).is_file():
@@ -190,7 +191,8 @@ def run_import(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from fuzzyfeed.fuzzy.formats import import_table
-    from fuzzyfeed.fuzzy.rules import load_rule_table, table_to_toml
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+    from fuzzyfeed.fuzzy.rule_writer import table_to_toml
     from fuzzyfeed.base.atomic import atomic_write
 
     src = Path(args.file)

@@ -85,7 +85,7 @@ def run_library(args: argparse.Namespace, out: Path) -> int:
 
     from fuzzyfeed.base.atomic import atomic_write
     from fuzzyfeed.errors import FuzzyfeedError, InputError
-    from fuzzyfeed.fuzzy.rules import save_rule_table
+    from fuzzyfeed.fuzzy.rule_writer import save_rule_table
     from fuzzyfeed.program.read import read_program
     from fuzzyfeed.report.tune_programs import library_files, split_record, tune_on_programs
 
@@ -146,7 +146,8 @@ def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from fuzzyfeed.errors import InputError
-    from fuzzyfeed.fuzzy.rules import load_rule_table, save_rule_table
+    from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+    from fuzzyfeed.fuzzy.rule_writer import save_rule_table
     from fuzzyfeed.fuzzy.tune import tune_output_terms
     from fuzzyfeed.io.shapes import load_shape, sample_shape
 

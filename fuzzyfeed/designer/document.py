@@ -2,8 +2,8 @@
 difference to the file on disk, export, and a save that never overwrites a file changed on disk.
 
 Every edit is a new TOML text made with :mod:`tomlkit` from the last one, so the file's comments
-and layout survive (grid cells through :func:`fuzzyfeed.fuzzy.rules.set_cell_text`, which keeps
-the grid aligned). The text is validated by :func:`fuzzyfeed.fuzzy.rules.table_from_mapping`, the
+and layout survive (grid cells through :func:`fuzzyfeed.fuzzy.rule_writer.set_cell_text`, which keeps
+the grid aligned). The text is validated by :func:`fuzzyfeed.fuzzy.rule_reader.table_from_mapping`, the
 validator of ``fuzzyfeed rules check``, with a locator that marks which field a message is about,
 so the designer can show it next to that field. An invalid draft stays editable and is never
 saved.
@@ -45,7 +45,7 @@ def validate_text(text: str, path: Path | None) -> RuleTable | FieldError:
 
 def validate_data(data: dict, path: Path | None) -> RuleTable | FieldError:
     """:func:`validate_text` on the parsed TOML."""
-    from fuzzyfeed.fuzzy.rules import table_from_mapping
+    from fuzzyfeed.fuzzy.rule_reader import table_from_mapping
 
     def where(section: str, key: str | None = None) -> str:
         return f"\x02{section}\x03{key or ''}\x02"
@@ -115,7 +115,7 @@ class Document:
     show), ``error`` the first rule the current text breaks (None when valid)."""
 
     def __init__(self, spec: str | Path | None = None):
-        from fuzzyfeed.fuzzy.rules import parse_rule_table, resolve_rules_path, rules_dir
+        from fuzzyfeed.fuzzy.rule_reader import parse_rule_table, resolve_rules_path, rules_dir
         from fuzzyfeed.base.files import read_text
 
         path = resolve_rules_path(spec)

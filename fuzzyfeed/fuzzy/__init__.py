@@ -1,6 +1,7 @@
 """The fuzzy feedrate advisor of seed 002 (Lin, Lin & Wang 2021).
 
-- :mod:`~fuzzyfeed.fuzzy.rules` — rule tables (TOML files in ``rules/``): load, validate, edit.
+- :mod:`~fuzzyfeed.fuzzy.rules` — rule tables (TOML files in ``rules/``): variables, terms, grid, validation;
+  read by :mod:`~fuzzyfeed.fuzzy.rule_reader`, written and edited by :mod:`~fuzzyfeed.fuzzy.rule_writer`.
 - :mod:`~fuzzyfeed.fuzzy.features` — κ and the windowed, clipped, normalised Dκ (eq. 10).
 - :mod:`~fuzzyfeed.fuzzy.engine` — exact vectorised Mamdani engine and per-rule firing strengths.
 - :mod:`~fuzzyfeed.fuzzy.windows` — sliding windows in points or mm (extremes, means).
@@ -20,7 +21,9 @@ from fuzzyfeed.fuzzy.advisor import FuzzyAdvice, advise, advise_details, average
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
 from fuzzyfeed.fuzzy.filters import smooth_feed
-from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable, load_rule_table, parse_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table, parse_rule_table, resolve_rules_path
+from fuzzyfeed.fuzzy.rule_writer import grid_text, save_rule_table
+from fuzzyfeed.fuzzy.rules import RuleTable, Term, Variable
 
 __all__ = [
     "Features",
@@ -34,7 +37,10 @@ __all__ = [
     "average_filter",
     "compile_table",
     "features",
+    "grid_text",
     "load_rule_table",
     "parse_rule_table",
+    "resolve_rules_path",
+    "save_rule_table",
     "smooth_feed",
 ]

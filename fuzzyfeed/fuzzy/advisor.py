@@ -19,7 +19,8 @@ from fuzzyfeed.errors import InputError, MachineLimitsError
 from fuzzyfeed.fuzzy.engine import FuzzyEngine, compile_table
 from fuzzyfeed.fuzzy.features import Features, features
 from fuzzyfeed.fuzzy.filters import average_filter, smooth_feed  # noqa: F401  (average_filter: API)
-from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, RuleTable, load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+from fuzzyfeed.fuzzy.rules import DEFAULT_MACHINE_TABLE, MACHINE, RuleTable
 from fuzzyfeed.machine.limits import MAX_LIMIT
 from fuzzyfeed.machine.profile import FeedProfile
 from fuzzyfeed.geometry.sampling import POINT_STEP_MM, PathSamples, tangent_breaks

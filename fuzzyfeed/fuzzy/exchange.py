@@ -25,8 +25,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fuzzyfeed.errors import RuleTableError
-from fuzzyfeed.fuzzy.rules import (DEFAULT_MACHINE_TABLE, FEED, INPUT_NAMES, MACHINE, VARIABLES, RuleTable,
-                                   Term, Variable, kind_of_inputs, load_rule_table)
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+from fuzzyfeed.fuzzy.rules import (DEFAULT_MACHINE_TABLE, FEED, INPUT_NAMES, MACHINE, VARIABLES, RuleTable, Term,
+                                   Variable, kind_of_inputs)
 
 #: Export formats of ``fuzzyfeed rules show --format``: name -> (suffix, description).
 EXPORT_FORMATS = {

@@ -12,7 +12,8 @@ from pathlib import Path
 
 from fuzzyfeed.errors import RuleTableError
 from fuzzyfeed.fuzzy.exchange import EXPORT_FORMATS, IMPORT_SUFFIXES, Spec, spec_to_table
-from fuzzyfeed.fuzzy.rules import RuleTable, load_rule_table
+from fuzzyfeed.fuzzy.rule_reader import load_rule_table
+from fuzzyfeed.fuzzy.rules import RuleTable
 
 
 def export_table(t: RuleTable, fmt: str) -> str:

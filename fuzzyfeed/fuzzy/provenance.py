@@ -12,7 +12,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-from fuzzyfeed.fuzzy.rules import RuleTable, table_to_toml
+from fuzzyfeed.fuzzy.rule_writer import table_to_toml
+from fuzzyfeed.fuzzy.rules import RuleTable
 
 
 def table_digest(t: RuleTable) -> str:

@@ -37,22 +37,14 @@ blend within P where that is tighter; runs of equal circles get one κ (:func:`_
 Ends of an open path take the κ of their run, or 0 on a free end segment. A closed path (last
 point = first) blends its seam like any vertex.
 
-The run search of step 3 is greedy: from a start vertex (screened by the spread of its
-circumcurvatures, :func:`_run_candidates`) the run's end is found by galloping then bisecting
-on the vertex count, and neighbouring runs are merged where one fit covers both. Each candidate
-run costs one line/circle fit; from :data:`COMPILED_MIN_VERTICES` vertices on these fits run as
-numba-compiled scalar loops (:mod:`fuzzyfeed.geometry._polyline_jit`, cached on disk like the other
-kernels, :mod:`fuzzyfeed.geometry._kernels`), below in numpy without importing numba. Both forms run the
-same search; their sums run in another order, so on a near-straight stretch whose fit residual
-equals the tolerance to the last bits they can cut the runs differently (both within the
-tolerance of the points).
+The run search of step 3 (greedy, numpy or numba-compiled) is :mod:`fuzzyfeed.geometry.polyline_runs`;
+the vertices, chords and turning angles :mod:`fuzzyfeed.geometry.polyline_chords`.
 
 A sequence longer than :data:`WINDOW_VERTICES` (a cut of 10⁶ G1 moves) is fitted window after
 window, with the whole sequence's result bit for bit and memory bounded by the window: the global
 quantities are cheap first passes (the rounding quantum counted in chunks, the merge clusters, the
-extent); the run search (compiled) stops before any trial that would reach a window's last vertex
-and resumes in the next window from where it stopped, the last run found carried (the next may
-merge into it), so each of its trials is one the whole search makes; the per-vertex pass needs of
+extent); the run search resumes window after window with the last run carried
+(:func:`~fuzzyfeed.geometry.polyline_runs.line_arc_runs_windowed`); the per-vertex pass needs of
 other windows only the runs (their meets' tangent breaks, the smooth chains and their middles' arc
 length, one cumulative sum carried). The full-precision branch (no quantum) is not windowed.
 """
@@ -61,30 +53,20 @@ from __future__ import annotations
 
 import contextvars
 from dataclasses import dataclass
-from functools import cache
 from typing import NamedTuple
 
 import numpy as np
 
 from fuzzyfeed.errors import InputError
+from fuzzyfeed.geometry.polyline_chords import (WINDOW_VERTICES, Chords, Window, angle_between, arc_length_at,
+                                                arc_lengths, merge_tiny_moves, pad3)
+from fuzzyfeed.geometry.polyline_runs import (FIT_SLACK, MIN_RUN, Runs, line_arc_runs, line_arc_runs_windowed,
+                                              tangent_of)
 
 #: Default path tolerance P (mm) of the controller's corner blend (LinuxCNC G64 P0.01).
 DEFAULT_PATH_TOLERANCE_MM = 0.01
 #: Curvature cap (1/mm): a blend radius of 0.1 µm. A reversal gets it (every planner stops there).
 KAPPA_MAX_1_MM = 1.0e4
-#: Fewest vertices a line/circle run must have to be taken as one (three points fit any circle).
-MIN_RUN = 5
-#: A run's fit may miss a point by this factor times the rounding tolerance (least squares is not
-#: the minimax fit).
-FIT_SLACK = 1.5
-#: Vertices (after merging tiny moves) from which the run search runs numba-compiled (~0.1 s per
-#: 10⁵ vertices): importing numba and LAPACK and loading the cached kernel costs ~1 s of CPU once
-#: per process, what the numpy form (~0.3 ms per vertex on short runs) spends on ~4000 vertices.
-COMPILED_MIN_VERTICES = 4096
-#: Vertices one window of the fit holds (the run search and the per-vertex pass): a longer point
-#: sequence (a cut of 10⁶ G1 moves) is fitted window after window, with the whole sequence's result
-#: (:func:`_runs_windowed`, :func:`_vertex_pass`), its memory bounded by the window.
-WINDOW_VERTICES = 1 << 16
 #: Share of coordinates that must be multiples of a quantum for it to be taken as the rounding.
 QUANTUM_SHARE = 0.9
 #: (point tolerance, path tolerance P) in mm used where a caller passes None (the CLI's
@@ -133,376 +115,6 @@ def rounding_quantum(points: np.ndarray) -> float | None:
     return None
 
 
-def _pad3(a: np.ndarray) -> np.ndarray:
-    return a if a.shape[1] == 3 else np.hstack([a, np.zeros((a.shape[0], 3 - a.shape[1]))])
-
-
-def _clusters(pts: np.ndarray, merge_mm: float) -> np.ndarray:
-    """Cluster id per point: a point joins the current cluster while it lies within ``merge_mm``
-    of the cluster's first point."""
-    step = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    ids = np.zeros(len(pts), dtype=int)
-    if np.all(step >= merge_mm):
-        ids[:] = np.arange(len(pts))
-        return ids
-    current, first = 0, pts[0]
-    for i in range(1, len(pts)):
-        if np.linalg.norm(pts[i] - first) >= merge_mm:
-            current += 1
-            first = pts[i]
-        ids[i] = current
-    return ids
-
-
-def _circle_fit_2d(xy: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Least-squares circle: Kåsa's algebraic fit refined by two Gauss–Newton steps on the
-    geometric distances (3×3 normal equations); None if the points are (numerically) collinear."""
-    c0 = xy.mean(axis=0)
-    p = xy - c0
-    scale = np.abs(p).max()
-    if scale == 0:
-        return None
-    x, y = p[:, 0] / scale, p[:, 1] / scale
-    z = x * x + y * y
-    n = float(len(x))
-    sx, sy = x.sum(), y.sum()
-    a = np.array([[x @ x, x @ y, sx], [x @ y, y @ y, sy], [sx, sy, n]])
-    try:
-        sol = np.linalg.solve(a, -np.array([x @ z, y @ z, z.sum()]))
-    except np.linalg.LinAlgError:
-        return None
-    cx, cy = -0.5 * sol[0], -0.5 * sol[1]
-    r2 = cx * cx + cy * cy - sol[2]
-    if not np.isfinite(r2) or r2 <= 0 or r2 > 1e12:
-        return None
-    radius = np.sqrt(r2)
-    for _ in range(2):
-        dx, dy = x - cx, y - cy
-        dist = np.sqrt(dx * dx + dy * dy)
-        if np.any(dist == 0):
-            return None
-        jx, jy = -dx / dist, -dy / dist
-        res = dist - radius
-        jtj = np.array([[jx @ jx, jx @ jy, -jx.sum()], [jx @ jy, jy @ jy, -jy.sum()],
-                        [-jx.sum(), -jy.sum(), n]])
-        try:
-            step = np.linalg.solve(jtj, -np.array([jx @ res, jy @ res, -res.sum()]))
-        except np.linalg.LinAlgError:
-            break
-        cx, cy, radius = cx + step[0], cy + step[1], radius + step[2]
-    if not np.isfinite(radius) or radius <= 0:
-        return None
-    return np.array([cx, cy]) * scale + c0, float(radius * scale)
-
-
-@dataclass(frozen=True)
-class _Fit:
-    kappa: float
-    center: np.ndarray | None      # 3-D centre of the circle (None for a line)
-    axis: np.ndarray               # line direction, or the circle plane's normal
-
-
-def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
-    """A line or a circle through every point of ``pts`` within ``tol``, or None."""
-    c0 = pts.mean(axis=0)
-    q = pts - c0
-    _, vecs = np.linalg.eigh(q.T @ q)          # principal axes, ascending variance
-    axis, second, normal = vecs[:, 2], vecs[:, 1], vecs[:, 0]
-    along = q @ axis
-    off_line = np.linalg.norm(q - along[:, None] * axis, axis=1)
-    if off_line.max() <= tol:
-        return _Fit(0.0, None, axis)
-    if np.abs(q @ normal).max() > tol:
-        return None
-    xy = np.column_stack([along, q @ second])
-    vt = (axis, second)
-    fit = _circle_fit_2d(xy)
-    if fit is None:
-        return None
-    center, radius = fit
-    if np.abs(np.linalg.norm(xy - center, axis=1) - radius).max() > tol:
-        return None
-    chords = np.linalg.norm(np.diff(xy, axis=0), axis=1)
-    if chords.max() >= 2 * radius:
-        return None
-    sagitta = radius - np.sqrt(radius * radius - 0.25 * chords * chords)
-    if sagitta.max() > path_tol:
-        return None
-    return _Fit(1.0 / radius, c0 + center[0] * vt[0] + center[1] * vt[1], normal)
-
-
-class _Runs(NamedTuple):
-    """Runs in order (arrays, one entry per run): vertices first..last (inclusive; interiors
-    disjoint, a run may start where the previous one ends), κ, circle centre (NaN for a line),
-    axis (a line's direction, a circle plane's normal)."""
-
-    first: np.ndarray
-    last: np.ndarray
-    kappa: np.ndarray
-    center: np.ndarray
-    axis: np.ndarray
-
-
-class _Window(NamedTuple):
-    """Chords around vertices lo..hi-1 of the reduced path: ``unit``/``chord`` of chords
-    c0..c0+len-1 (chord c joins vertices c, c+1), and per vertex the turning angle and the lengths of
-    the chords before (``a``) and after (``b``) it (ends: the seam's chords)."""
-
-    c0: int
-    unit: np.ndarray
-    chord: np.ndarray
-    turn: np.ndarray
-    a: np.ndarray
-    b: np.ndarray
-
-
-@dataclass(frozen=True, eq=False)
-class _Chords:
-    """The reduced vertices (m ≥ 2) and what their ends need (the first and last chord, the seam
-    of a closed path), from which any window's chords and turning angles are made the same way,
-    row by row, as over the whole path."""
-
-    reduced: np.ndarray
-    closed: bool
-    first_chord: float
-    last_chord: float
-    first_unit: np.ndarray
-    last_unit: np.ndarray
-
-    @property
-    def m(self) -> int:
-        return len(self.reduced)
-
-    @staticmethod
-    def of(reduced: np.ndarray, tol: float) -> _Chords:
-        m = len(reduced)
-        ends = np.diff(reduced[[0, 1, m - 2, m - 1]], axis=0)[[0, 2]]
-        length = np.linalg.norm(ends, axis=1)
-        unit = ends / length[:, None]
-        closed = m > 3 and np.linalg.norm(reduced[-1] - reduced[0]) <= 2.0 * tol
-        return _Chords(reduced, bool(closed), float(length[0]), float(length[1]), unit[0], unit[1])
-
-    def window(self, lo: int, hi: int) -> _Window:
-        m = self.m
-        c0, c1 = max(lo - 1, 0), min(hi, m - 1)            # chords c0..c1-1 touch vertices lo..hi-1
-        vec = np.diff(self.reduced[c0:c1 + 1], axis=0)
-        chord = np.linalg.norm(vec, axis=1)
-        unit = vec / chord[:, None]
-        w = hi - lo
-        turn = np.zeros(w)
-        a = np.empty(w)
-        b = np.empty(w)
-        v0, v1 = max(lo, 1), min(hi, m - 1)                 # inner vertices: chords v-1 and v
-        turn[v0 - lo:v1 - lo] = _angle(unit[v0 - 1 - c0:v1 - 1 - c0], unit[v0 - c0:v1 - c0])
-        a[v0 - lo:] = chord[v0 - 1 - c0:hi - 1 - c0]
-        b[:v1 - lo] = chord[lo - c0:v1 - c0]
-        if lo == 0:
-            a[0] = self.last_chord
-        if hi == m:
-            b[-1] = self.first_chord
-        if self.closed and (lo == 0 or hi == m):
-            seam = _angle(self.last_unit, self.first_unit)
-            if lo == 0:
-                turn[0] = seam
-            if hi == m:
-                turn[-1] = seam
-        return _Window(c0, unit, chord, turn, a, b)
-
-    def turn(self, lo: int, hi: int) -> np.ndarray:
-        return self.window(lo, hi).turn
-
-
-def _tangent_of(axis: np.ndarray, center: np.ndarray, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
-    """Unit tangents (row-wise) of fitted runs (line direction or circle normal ``axis``, circle
-    ``center``, NaN for a line) at ``point``, oriented along ``toward``."""
-    line = np.isnan(center[:, :1])
-    t = np.where(line, axis, np.cross(axis, point - np.where(line, 0.0, center)))
-    n = np.linalg.norm(t, axis=1)[:, None]
-    t = np.where(n > 0, t / np.where(n > 0, n, 1.0), toward)
-    return np.where(np.einsum("ij,ij->i", t, toward)[:, None] >= 0, t, -t)
-
-
-def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
-    """Cheap screen (vectorised): can the :data:`MIN_RUN` vertices from i lie on one circle or line
-    within ``tol``? Their circumcurvatures (three consecutive points) must agree within what a
-    displacement of ``tol`` can change (8·tol/c² for chords c), with a factor 4 of margin."""
-    n = len(pts)
-    out = np.zeros(n, dtype=bool)
-    if n < MIN_RUN:
-        return out
-    d1 = pts[1:-1] - pts[:-2]
-    d2 = pts[2:] - pts[1:-1]
-    d3 = pts[2:] - pts[:-2]
-    la, lb, lc = (np.linalg.norm(d, axis=1) for d in (d1, d2, d3))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        k3 = 2.0 * np.linalg.norm(np.cross(d1, d2), axis=1) / (la * lb * lc)
-        slack = 4.0 * 8.0 * tol / np.minimum(la, lb) ** 2
-    k3 = np.nan_to_num(k3, nan=np.inf, posinf=np.inf)
-    w = MIN_RUN - 2                      # circumcurvatures inside a window of MIN_RUN vertices
-    size = k3.size - w + 1
-    hi, lo, allowed = k3[:size].copy(), k3[:size].copy(), slack[:size].copy()
-    for s in range(1, w):                # window max/min by shifted copies (exact, no strided reduce)
-        np.maximum(hi, k3[s:s + size], out=hi)
-        np.minimum(lo, k3[s:s + size], out=lo)
-        np.minimum(allowed, slack[s:s + size], out=allowed)
-    with np.errstate(invalid="ignore"):
-        spread = hi - lo                 # inf - inf (a reversal): NaN, the full fit decides
-    ok = (spread <= allowed) | ~np.isfinite(spread)      # inf - inf: let the full fit decide
-    out[:ok.size] = ok
-    return out
-
-
-def _runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float,
-          compiled: bool | None = None) -> _Runs:
-    """Maximal runs [i, j] (inclusive vertex indices, consecutive runs may share an end vertex)
-    fitted by one line or circle: greedy from the start, galloping then bisecting on j, then
-    neighbours merged where one fit covers both. From :data:`COMPILED_MIN_VERTICES` vertices on
-    (``compiled`` forces a form) the same search runs as numba-compiled loops
-    (:mod:`fuzzyfeed.geometry._polyline_jit`); below, in numpy (no numba import)."""
-    maybe = _run_candidates(pts, tol)
-    if compiled is None:
-        compiled = len(pts) >= COMPILED_MIN_VERTICES
-    if compiled:
-        return _runs_compiled(pts, turn, maybe, tol, path_tol)
-    return _runs_numpy(pts, turn, maybe, tol, path_tol)
-
-
-@cache
-def _runs_kernel():
-    """The compiled run search (numba, cached on disk; see :func:`fuzzyfeed.geometry._kernels.compile_once`)."""
-    import numba
-
-    from fuzzyfeed.geometry._kernels import compile_once
-    from fuzzyfeed.geometry._polyline_jit import find_runs
-
-    f8, i8 = numba.float64, numba.int64
-    sig = i8(f8[:, ::1], f8[::1], numba.boolean[::1], f8, f8, i8[:, ::1], i8[::1], f8[:, ::1], i8, i8, i8,
-             i8[::1])
-    return compile_once(find_runs, sig, "the polyline run search", 10)
-
-
-def _runs_from(ij: np.ndarray, kind: np.ndarray, fit: np.ndarray) -> _Runs:
-    center = np.where(kind[:, None] == 1, np.nan, fit[:, 1:4])
-    return _Runs(ij[:, 0].astype(int), ij[:, 1].astype(int), fit[:, 0].copy(), center, fit[:, 4:7].copy())
-
-
-def _runs_compiled(pts, turn, maybe, tol, path_tol) -> _Runs:
-    n = len(pts)
-    ij = np.zeros((n, 2), dtype=np.int64)
-    kind = np.zeros(n, dtype=np.int64)
-    fit = np.zeros((n, 7))
-    stop = np.zeros(1, dtype=np.int64)
-    count = _runs_kernel()(np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(turn, dtype=float),
-                           np.ascontiguousarray(maybe, dtype=bool), float(tol), float(path_tol), ij, kind, fit,
-                           0, 0, n, stop)
-    return _runs_from(ij[:count], kind[:count], fit[:count])
-
-
-def _runs_windowed(geo: _Chords, tol: float, path_tol: float, window: int) -> _Runs:
-    """The compiled run search window after window: each window holds ``window`` vertices past the
-    vertex the search resumes from (and the last run found, which the next may still merge into);
-    the kernel stops before a trial reaching the window's last vertex, so every trial is the one the
-    search over the whole sequence makes, and the runs are its runs, bit for bit (a window without
-    progress, inside one long run, is doubled)."""
-    m = geo.m
-    kernel = _runs_kernel()
-    done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    pend = None                  # (ij, kind, fit) of the last run found, global vertex indices
-    stop = np.zeros(1, dtype=np.int64)
-    i, extra = 0, window
-    while i + MIN_RUN - 1 < m:
-        carry = pend is not None and int(pend[0][1]) == i
-        lo = int(pend[0][0]) if carry else i
-        hi = min(m, i + extra)
-        pts = np.ascontiguousarray(geo.reduced[lo:hi])
-        turn = geo.turn(lo, hi)
-        size = (hi - lo) // (MIN_RUN - 1) + 2
-        ij = np.zeros((size, 2), dtype=np.int64)
-        kind = np.zeros(size, dtype=np.int64)
-        fit = np.zeros((size, 7))
-        if carry:
-            ij[0], kind[0], fit[0] = pend[0] - lo, pend[1], pend[2]
-        elif pend is not None:
-            done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
-            pend = None
-        limit = hi - lo if hi == m else hi - lo - 1
-        count = kernel(pts, turn, _run_candidates(pts, tol), float(tol), float(path_tol), ij, kind, fit,
-                       i - lo, int(carry), limit, stop)
-        resume = int(stop[0]) + lo
-        if resume == i and hi < m:                  # no trial fitted in the window: widen it
-            extra *= 2
-            continue
-        extra = window
-        if count:
-            done.append((ij[:count - 1] + lo, kind[:count - 1], fit[:count - 1]))
-            pend = (ij[count - 1] + lo, int(kind[count - 1]), fit[count - 1].copy())
-        i = resume
-        if hi == m:
-            break
-    if pend is not None:
-        done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
-    if not done:
-        return _runs_from(np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros((0, 7)))
-    return _runs_from(np.concatenate([d[0] for d in done]), np.concatenate([d[1] for d in done]),
-                      np.concatenate([d[2] for d in done]))
-
-
-def _runs_numpy(pts, turn, maybe, tol, path_tol) -> _Runs:
-    n = len(pts)
-
-    def fits(i: int, j: int) -> _Fit | None:
-        if j - i + 1 < MIN_RUN or j >= n:
-            return None
-        if j - i >= 2 and turn[i + 1:j].max() >= np.pi / 2:
-            return None
-        return _fit_run(pts[i:j + 1], tol, path_tol)
-
-    runs: list[tuple[int, int, _Fit]] = []
-    i = 0
-    while i + MIN_RUN - 1 < n:
-        good_j = i + MIN_RUN - 1
-        fit = fits(i, good_j) if maybe[i] else None
-        if fit is None:
-            i += 1
-            continue
-        step, bad_j = MIN_RUN, None
-        while good_j < n - 1:
-            j = min(good_j + step, n - 1)
-            f = fits(i, j)
-            if f is None:
-                bad_j = j
-                break
-            good_j, fit = j, f
-            step *= 2
-        if bad_j is not None:
-            lo, hi = good_j, bad_j
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                f = fits(i, mid)
-                if f is None:
-                    hi = mid
-                else:
-                    lo, fit = mid, f
-            good_j = lo
-        runs.append((i, good_j, fit))
-        i = good_j
-        if i >= n - 1:
-            break
-    merged: list[tuple[int, int, _Fit]] = []
-    for run in runs:
-        if merged and merged[-1][1] == run[0]:
-            f = fits(merged[-1][0], run[1])
-            if f is not None:
-                merged[-1] = (merged[-1][0], run[1], f)
-                continue
-        merged.append(run)
-    return _Runs(np.array([r[0] for r in merged], dtype=int), np.array([r[1] for r in merged], dtype=int),
-                 np.array([r[2].kappa for r in merged], dtype=float),
-                 np.array([np.full(3, np.nan) if r[2].center is None else r[2].center for r in merged],
-                          dtype=float).reshape(-1, 3),
-                 np.array([r[2].axis for r in merged], dtype=float).reshape(-1, 3))
-
-
 def blend_curvature(theta: np.ndarray, a: np.ndarray, b: np.ndarray, path_tol: float) -> tuple[np.ndarray, np.ndarray]:
     """κ = 1/r of the controller's blend at vertices turning by ``theta`` between chords of
     lengths ``a`` and ``b`` (see the module docstring, step 4), capped at :data:`KAPPA_MAX_1_MM`;
@@ -520,11 +132,6 @@ def blend_curvature(theta: np.ndarray, a: np.ndarray, b: np.ndarray, path_tol: f
         kappa = np.where(np.isinf(r), 0.0, np.where(r > 0, 1.0 / r, np.inf))
     corner = (r_tol < r_seg) & (theta > 0)
     return np.minimum(kappa, KAPPA_MAX_1_MM), corner
-
-
-def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Angle between unit vectors, row-wise (atan2 form, accurate near 0 and π)."""
-    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum("...i,...i->...", u, v))
 
 
 def _circumcurvature(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
@@ -594,24 +201,24 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
         if not np.isfinite(tol) or tol < 0:
             raise InputError(f"tolerance_mm = {tolerance_mm!r}; must be finite and >= 0")
     tol = max(tol, 1e-9 * max(1.0, extent))      # float noise at least
-    pts3 = _pad3(raw)
-    ids, reduced = _reduce(pts3, 0.1 * path_tol)
+    pts3 = pad3(raw)
+    ids, reduced = merge_tiny_moves(pts3, 0.1 * path_tol)
     m = len(reduced)
     if m == 1:   # the whole path lies within the merge distance: a point
         tangent = np.zeros((len(raw), 3))
         tangent[:, 0] = 1.0
         return PolylineCurvature(np.zeros(len(raw)), tangent, np.zeros(len(raw), bool), tol,
                                  path_tol, quantum)
-    geo = _Chords.of(reduced, tol)
+    geo = Chords.of(reduced, tol)
     if tolerance_mm is None and quantum is None:
         w = geo.window(0, m)
         kappa, corner = _exact_curvature(reduced, w.turn, geo.closed, path_tol, extent)
         return _result(kappa, corner, _tangents(geo, 0, m, w), ids, tol, path_tol, quantum)
     if m <= window:
         w = geo.window(0, m)
-        runs = _runs(reduced, w.turn, FIT_SLACK * tol, path_tol)
+        runs = line_arc_runs(reduced, w.turn, FIT_SLACK * tol, path_tol)
     else:
-        runs = _runs_windowed(geo, FIT_SLACK * tol, path_tol, window)
+        runs = line_arc_runs_windowed(geo, FIT_SLACK * tol, path_tol, window)
     kappa = np.empty(m)
     corner = np.empty(m, dtype=bool)
     tangent = np.empty((m, 3))
@@ -620,27 +227,10 @@ def polyline_curvature(points: np.ndarray, tolerance_mm: float | None = None,
     for lo in range(0, m, window):
         hi = min(lo + window, m)
         w = geo.window(lo, hi)
-        s, carry = _arc_lengths(w, lo, hi, carry)
+        s, carry = arc_lengths(w, lo, hi, carry)
         kappa[lo:hi], corner[lo:hi] = _vertex_pass(geo, whole, lo, hi, w, s, tol, path_tol)
         tangent[lo:hi] = _tangents(geo, lo, hi, w)
     return _result(kappa, corner, tangent, ids, tol, path_tol, quantum)
-
-
-def _reduce(pts3: np.ndarray, merge_mm: float) -> tuple[np.ndarray | None, np.ndarray]:
-    """Cluster ids (None: every point its own vertex) and the vertices (cluster means; see
-    :func:`_clusters`). Without a cluster the vertices are the points (+ 0.0, as the means' sums
-    make -0.0)."""
-    n = len(pts3)
-    merges = any(bool((np.linalg.norm(np.diff(pts3[c:c + WINDOW_VERTICES + 1], axis=0), axis=1) < merge_mm).any())
-                 for c in range(0, n - 1, WINDOW_VERTICES))
-    if not merges:
-        return None, pts3 + 0.0
-    ids = _clusters(pts3, merge_mm)
-    m = int(ids[-1]) + 1
-    counts = np.bincount(ids, minlength=m).astype(float)
-    reduced = np.column_stack([np.bincount(ids, weights=pts3[:, k], minlength=m) for k in range(3)])
-    reduced /= counts[:, None]
-    return ids, reduced
 
 
 class _RunContext(NamedTuple):
@@ -649,14 +239,14 @@ class _RunContext(NamedTuple):
     chains of smooth arc runs with their middles' arc length (s summed chord after chord from the
     path's start, as one cumulative sum)."""
 
-    runs: _Runs
+    runs: Runs
     meet_theta: np.ndarray          # (R-1,) at vertex last[r] == first[r+1] (else unused)
     seam_theta: float | None        # a closed path whose seam joins two runs
     chains: np.ndarray              # (C, 2) run ranges c0..c1-1 of the smooth chains (> 1 run)
     mids: np.ndarray                # (R,) s at each run's middle
 
     @staticmethod
-    def of(geo: _Chords, runs: _Runs, tol: float) -> _RunContext:
+    def of(geo: Chords, runs: Runs, tol: float) -> _RunContext:
         first, last, k = runs.first, runs.last, runs.kappa
         count = first.size
         meet_theta = np.zeros(max(count - 1, 0))
@@ -669,16 +259,16 @@ class _RunContext(NamedTuple):
             len_in, len_out = np.linalg.norm(vec_in, axis=1), np.linalg.norm(vec_out, axis=1)
             u_in, u_out = vec_in / len_in[:, None], vec_out / len_out[:, None]
             axis, center = runs.axis, runs.center
-            t_in = _tangent_of(axis[meet], center[meet], geo.reduced[v], u_in)
-            t_out = _tangent_of(axis[meet + 1], center[meet + 1], geo.reduced[v], u_out)
-            theta = _angle(t_in, t_out)
+            t_in = tangent_of(axis[meet], center[meet], geo.reduced[v], u_in)
+            t_out = tangent_of(axis[meet + 1], center[meet + 1], geo.reduced[v], u_out)
+            theta = angle_between(t_in, t_out)
             noise = tol * FIT_SLACK * (1.0 / len_in + 1.0 / len_out)
             meet_theta[meet] = np.where(theta > noise, theta, 0.0)
             m = geo.m
             if geo.closed and first[0] == 0 and last[-1] == m - 1:   # the seam joins two runs
-                t_in = _tangent_of(axis[-1:], center[-1:], geo.reduced[-1:], geo.last_unit[None, :])
-                t_out = _tangent_of(axis[:1], center[:1], geo.reduced[:1], geo.first_unit[None, :])
-                seam = float(_angle(t_in, t_out)[0])
+                t_in = tangent_of(axis[-1:], center[-1:], geo.reduced[-1:], geo.last_unit[None, :])
+                t_out = tangent_of(axis[:1], center[:1], geo.reduced[:1], geo.first_unit[None, :])
+                seam = float(angle_between(t_in, t_out)[0])
         chains = np.zeros((0, 2), dtype=int)
         mids = np.zeros(count)
         if count >= 2:
@@ -690,35 +280,12 @@ class _RunContext(NamedTuple):
             ends = np.concatenate([ends, [count]])
             chains = np.column_stack([starts, ends])[ends - starts > 1]
             if chains.size:
-                s_first, s_last = _arc_length_at(geo, first), _arc_length_at(geo, last)
+                s_first, s_last = arc_length_at(geo, first), arc_length_at(geo, last)
                 mids = (s_first + s_last) / 2
         return _RunContext(runs, meet_theta, seam, chains, mids)
 
 
-def _arc_lengths(w: _Window, lo: int, hi: int, carry: float) -> tuple[np.ndarray, float]:
-    """s = Σ chords from vertex 0 at vertices lo..hi-1 of window ``w``, ``carry`` being s at lo - 1:
-    one cumulative sum carried from window to window (each partial sum the same float as in one
-    cumsum over the whole path); and s at hi - 1."""
-    if lo == 0:
-        s = np.cumsum(np.concatenate([[0.0], w.chord[:hi - 1]]))
-    else:
-        s = np.cumsum(np.concatenate([[carry], w.chord[:hi - lo]]))[1:]
-    return s, float(s[-1])
-
-
-def _arc_length_at(geo: _Chords, at: np.ndarray) -> np.ndarray:
-    """s at the (sorted) vertices ``at`` (:func:`_arc_lengths` window after window)."""
-    out = np.empty(at.size)
-    carry = 0.0
-    for lo in range(0, geo.m, WINDOW_VERTICES):
-        hi = min(lo + WINDOW_VERTICES, geo.m)
-        s, carry = _arc_lengths(geo.window(lo, hi), lo, hi, carry)
-        sel = slice(np.searchsorted(at, lo), np.searchsorted(at, hi))
-        out[sel] = s[at[sel] - lo]
-    return out
-
-
-def _vertex_pass(geo: _Chords, ctx: _RunContext, lo: int, hi: int, w: _Window, s: np.ndarray, tol: float,
+def _vertex_pass(geo: Chords, ctx: _RunContext, lo: int, hi: int, w: Window, s: np.ndarray, tol: float,
                  path_tol: float) -> tuple[np.ndarray, np.ndarray]:
     """κ and corner flag of vertices lo..hi-1 from the runs (module docstring, steps 3-4): a run's
     inner vertices its κ, every other vertex the blend of its turn (at a meet: of the fitted
@@ -774,7 +341,7 @@ def _vertex_pass(geo: _Chords, ctx: _RunContext, lo: int, hi: int, w: _Window, s
     return kappa, corner
 
 
-def _tangents(geo: _Chords, lo: int, hi: int, w: _Window) -> np.ndarray:
+def _tangents(geo: Chords, lo: int, hi: int, w: Window) -> np.ndarray:
     """Unit tangent at vertices lo..hi-1: the bisector of the chords, at a reversal (bisector ≈ 0)
     the incoming chord; the ends their chord."""
     m = geo.m

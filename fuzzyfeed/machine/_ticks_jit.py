@@ -47,6 +47,16 @@ def hist_bin(v_um):
 
 
 @numba.njit(cache=True, nogil=True)
+def count_on_part(fstate, hist, seg_max, seg, dist_mm):
+    """One tick of the tool on the part with contour error ``dist_mm`` (searched, or the fast path's
+    bound): counted, binned in µm (:func:`hist_bin`), and kept as its segment's largest if it is."""
+    fstate[S_N_PART] += 1.0
+    hist[hist_bin(dist_mm * 1e3)] += 1
+    if dist_mm > seg_max[seg]:
+        seg_max[seg] = dist_mm
+
+
+@numba.njit(cache=True, nogil=True)
 def _search_right(a, x):
     lo, hi = 0, a.shape[0]
     while lo < hi:
@@ -351,11 +361,8 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
             fstate[S_LAST] = bound
             if bound <= limit:
                 istate[I_NEAR] = bj
-                fstate[S_N_PART] += 1.0
+                count_on_part(fstate, hist, seg_max, seg, bound)
                 fstate[S_N_SKIP] += 1.0
-                hist[hist_bin(bound * 1e3)] += 1
-                if bound > seg_max[seg]:
-                    seg_max[seg] = bound
                 if bound > fstate[S_SKIP_MAX]:
                     fstate[S_SKIP_MAX] = bound
                 if leap_decay > 0.0 and k < k_end:
@@ -409,10 +416,7 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
                 istate[I_AIR_SEG] = seg
                 istate[I_AIR_NEAR] = best_j
             continue
-        fstate[S_N_PART] += 1.0
-        hist[hist_bin(dist * 1e3)] += 1
-        if dist > seg_max[seg]:
-            seg_max[seg] = dist
+        count_on_part(fstate, hist, seg_max, seg, dist)
         if dist > fstate[S_MAX]:
             fstate[S_MAX] = dist
             fstate[S_MAX_T] = t

@@ -20,7 +20,7 @@ def warm_kernels() -> float:
     seconds it took."""
     from fuzzyfeed.geometry._kernels import nurbs_kernel
     from fuzzyfeed.geometry.nurbs import Nurbs
-    from fuzzyfeed.geometry.polyline import _runs_kernel
+    from fuzzyfeed.geometry.polyline_runs import run_search_kernel as _runs_kernel
     from fuzzyfeed.machine.limits import MachineLimits
     from fuzzyfeed.slw.trajectory import schedule
 

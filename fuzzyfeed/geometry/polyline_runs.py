@@ -1,0 +1,323 @@
+"""The run search of the polyline curvature (:mod:`fuzzyfeed.geometry.polyline`, step 3): maximal runs
+of ≥ :data:`MIN_RUN` vertices that one straight line or one circle passes within the tolerance of.
+
+A line is the points' principal axis; a circle is Kåsa's algebraic fit refined by Gauss–Newton
+steps on the geometric distances, in the points' plane (planar within the tolerance for 3-D
+points). A run may not turn by 90° or more at a vertex, and every chord's sagitta on its circle
+r − √(r² − c²/4) must be ≤ P.
+
+The search is greedy: from a start vertex (screened by the spread of its circumcurvatures,
+:func:`_run_candidates`) the run's end is found by galloping then bisecting on the vertex count,
+and neighbouring runs are merged where one fit covers both. Each candidate run costs one
+line/circle fit; from :data:`COMPILED_MIN_VERTICES` vertices on these fits run as numba-compiled
+scalar loops (:mod:`fuzzyfeed.geometry._polyline_jit`, cached on disk like the other kernels,
+:mod:`fuzzyfeed.geometry._kernels`), below in numpy without importing numba. Both forms run the
+same search; their sums run in another order, so on a near-straight stretch whose fit residual
+equals the tolerance to the last bits they can cut the runs differently (both within the
+tolerance of the points).
+
+A sequence longer than a window is searched window after window (:func:`line_arc_runs_windowed`):
+the compiled search stops before any trial that would reach a window's last vertex and resumes in
+the next window from where it stopped, the last run found carried (the next may merge into it), so
+each of its trials is one the whole search makes and the runs are the whole search's, bit for bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+from typing import NamedTuple
+
+import numpy as np
+
+from fuzzyfeed.geometry.polyline_chords import Chords
+
+#: Fewest vertices a line/circle run must have to be taken as one (three points fit any circle).
+MIN_RUN = 5
+#: A run's fit may miss a point by this factor times the rounding tolerance (least squares is not
+#: the minimax fit).
+FIT_SLACK = 1.5
+#: Vertices (after merging tiny moves) from which the run search runs numba-compiled (~0.1 s per
+#: 10⁵ vertices): importing numba and LAPACK and loading the cached kernel costs ~1 s of CPU once
+#: per process, what the numpy form (~0.3 ms per vertex on short runs) spends on ~4000 vertices.
+COMPILED_MIN_VERTICES = 4096
+
+
+def _circle_fit_2d(xy: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares circle: Kåsa's algebraic fit refined by two Gauss–Newton steps on the
+    geometric distances (3×3 normal equations); None if the points are (numerically) collinear."""
+    c0 = xy.mean(axis=0)
+    p = xy - c0
+    scale = np.abs(p).max()
+    if scale == 0:
+        return None
+    x, y = p[:, 0] / scale, p[:, 1] / scale
+    z = x * x + y * y
+    n = float(len(x))
+    sx, sy = x.sum(), y.sum()
+    a = np.array([[x @ x, x @ y, sx], [x @ y, y @ y, sy], [sx, sy, n]])
+    try:
+        sol = np.linalg.solve(a, -np.array([x @ z, y @ z, z.sum()]))
+    except np.linalg.LinAlgError:
+        return None
+    cx, cy = -0.5 * sol[0], -0.5 * sol[1]
+    r2 = cx * cx + cy * cy - sol[2]
+    if not np.isfinite(r2) or r2 <= 0 or r2 > 1e12:
+        return None
+    radius = np.sqrt(r2)
+    for _ in range(2):
+        dx, dy = x - cx, y - cy
+        dist = np.sqrt(dx * dx + dy * dy)
+        if np.any(dist == 0):
+            return None
+        jx, jy = -dx / dist, -dy / dist
+        res = dist - radius
+        jtj = np.array([[jx @ jx, jx @ jy, -jx.sum()], [jx @ jy, jy @ jy, -jy.sum()],
+                        [-jx.sum(), -jy.sum(), n]])
+        try:
+            step = np.linalg.solve(jtj, -np.array([jx @ res, jy @ res, -res.sum()]))
+        except np.linalg.LinAlgError:
+            break
+        cx, cy, radius = cx + step[0], cy + step[1], radius + step[2]
+    if not np.isfinite(radius) or radius <= 0:
+        return None
+    return np.array([cx, cy]) * scale + c0, float(radius * scale)
+
+
+@dataclass(frozen=True)
+class _Fit:
+    kappa: float
+    center: np.ndarray | None      # 3-D centre of the circle (None for a line)
+    axis: np.ndarray               # line direction, or the circle plane's normal
+
+
+def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
+    """A line or a circle through every point of ``pts`` within ``tol``, or None."""
+    c0 = pts.mean(axis=0)
+    q = pts - c0
+    _, vecs = np.linalg.eigh(q.T @ q)          # principal axes, ascending variance
+    axis, second, normal = vecs[:, 2], vecs[:, 1], vecs[:, 0]
+    along = q @ axis
+    off_line = np.linalg.norm(q - along[:, None] * axis, axis=1)
+    if off_line.max() <= tol:
+        return _Fit(0.0, None, axis)
+    if np.abs(q @ normal).max() > tol:
+        return None
+    xy = np.column_stack([along, q @ second])
+    vt = (axis, second)
+    fit = _circle_fit_2d(xy)
+    if fit is None:
+        return None
+    center, radius = fit
+    if np.abs(np.linalg.norm(xy - center, axis=1) - radius).max() > tol:
+        return None
+    chords = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    if chords.max() >= 2 * radius:
+        return None
+    sagitta = radius - np.sqrt(radius * radius - 0.25 * chords * chords)
+    if sagitta.max() > path_tol:
+        return None
+    return _Fit(1.0 / radius, c0 + center[0] * vt[0] + center[1] * vt[1], normal)
+
+
+class Runs(NamedTuple):
+    """Runs in order (arrays, one entry per run): vertices first..last (inclusive; interiors
+    disjoint, a run may start where the previous one ends), κ, circle centre (NaN for a line),
+    axis (a line's direction, a circle plane's normal)."""
+
+    first: np.ndarray
+    last: np.ndarray
+    kappa: np.ndarray
+    center: np.ndarray
+    axis: np.ndarray
+
+
+def tangent_of(axis: np.ndarray, center: np.ndarray, point: np.ndarray, toward: np.ndarray) -> np.ndarray:
+    """Unit tangents (row-wise) of fitted runs (line direction or circle normal ``axis``, circle
+    ``center``, NaN for a line) at ``point``, oriented along ``toward``."""
+    line = np.isnan(center[:, :1])
+    t = np.where(line, axis, np.cross(axis, point - np.where(line, 0.0, center)))
+    n = np.linalg.norm(t, axis=1)[:, None]
+    t = np.where(n > 0, t / np.where(n > 0, n, 1.0), toward)
+    return np.where(np.einsum("ij,ij->i", t, toward)[:, None] >= 0, t, -t)
+
+
+def _run_candidates(pts: np.ndarray, tol: float) -> np.ndarray:
+    """Cheap screen (vectorised): can the :data:`MIN_RUN` vertices from i lie on one circle or line
+    within ``tol``? Their circumcurvatures (three consecutive points) must agree within what a
+    displacement of ``tol`` can change (8·tol/c² for chords c), with a factor 4 of margin."""
+    n = len(pts)
+    out = np.zeros(n, dtype=bool)
+    if n < MIN_RUN:
+        return out
+    d1 = pts[1:-1] - pts[:-2]
+    d2 = pts[2:] - pts[1:-1]
+    d3 = pts[2:] - pts[:-2]
+    la, lb, lc = (np.linalg.norm(d, axis=1) for d in (d1, d2, d3))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k3 = 2.0 * np.linalg.norm(np.cross(d1, d2), axis=1) / (la * lb * lc)
+        slack = 4.0 * 8.0 * tol / np.minimum(la, lb) ** 2
+    k3 = np.nan_to_num(k3, nan=np.inf, posinf=np.inf)
+    w = MIN_RUN - 2                      # circumcurvatures inside a window of MIN_RUN vertices
+    size = k3.size - w + 1
+    hi, lo, allowed = k3[:size].copy(), k3[:size].copy(), slack[:size].copy()
+    for s in range(1, w):                # window max/min by shifted copies (exact, no strided reduce)
+        np.maximum(hi, k3[s:s + size], out=hi)
+        np.minimum(lo, k3[s:s + size], out=lo)
+        np.minimum(allowed, slack[s:s + size], out=allowed)
+    with np.errstate(invalid="ignore"):
+        spread = hi - lo                 # inf - inf (a reversal): NaN, the full fit decides
+    ok = (spread <= allowed) | ~np.isfinite(spread)      # inf - inf: let the full fit decide
+    out[:ok.size] = ok
+    return out
+
+
+def line_arc_runs(pts: np.ndarray, turn: np.ndarray, tol: float, path_tol: float,
+          compiled: bool | None = None) -> Runs:
+    """Maximal runs [i, j] (inclusive vertex indices, consecutive runs may share an end vertex)
+    fitted by one line or circle: greedy from the start, galloping then bisecting on j, then
+    neighbours merged where one fit covers both. From :data:`COMPILED_MIN_VERTICES` vertices on
+    (``compiled`` forces a form) the same search runs as numba-compiled loops
+    (:mod:`fuzzyfeed.geometry._polyline_jit`); below, in numpy (no numba import)."""
+    maybe = _run_candidates(pts, tol)
+    if compiled is None:
+        compiled = len(pts) >= COMPILED_MIN_VERTICES
+    if compiled:
+        return _runs_compiled(pts, turn, maybe, tol, path_tol)
+    return _runs_numpy(pts, turn, maybe, tol, path_tol)
+
+
+@cache
+def run_search_kernel():
+    """The compiled run search (numba, cached on disk; see :func:`fuzzyfeed.geometry._kernels.compile_once`)."""
+    import numba
+
+    from fuzzyfeed.geometry._kernels import compile_once
+    from fuzzyfeed.geometry._polyline_jit import find_runs
+
+    f8, i8 = numba.float64, numba.int64
+    sig = i8(f8[:, ::1], f8[::1], numba.boolean[::1], f8, f8, i8[:, ::1], i8[::1], f8[:, ::1], i8, i8, i8,
+             i8[::1])
+    return compile_once(find_runs, sig, "the polyline run search", 10)
+
+
+def _runs_from(ij: np.ndarray, kind: np.ndarray, fit: np.ndarray) -> Runs:
+    center = np.where(kind[:, None] == 1, np.nan, fit[:, 1:4])
+    return Runs(ij[:, 0].astype(int), ij[:, 1].astype(int), fit[:, 0].copy(), center, fit[:, 4:7].copy())
+
+
+def _runs_compiled(pts, turn, maybe, tol, path_tol) -> Runs:
+    n = len(pts)
+    ij = np.zeros((n, 2), dtype=np.int64)
+    kind = np.zeros(n, dtype=np.int64)
+    fit = np.zeros((n, 7))
+    stop = np.zeros(1, dtype=np.int64)
+    count = run_search_kernel()(np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(turn, dtype=float),
+                           np.ascontiguousarray(maybe, dtype=bool), float(tol), float(path_tol), ij, kind, fit,
+                           0, 0, n, stop)
+    return _runs_from(ij[:count], kind[:count], fit[:count])
+
+
+def line_arc_runs_windowed(geo: Chords, tol: float, path_tol: float, window: int) -> Runs:
+    """The compiled run search window after window: each window holds ``window`` vertices past the
+    vertex the search resumes from (and the last run found, which the next may still merge into);
+    the kernel stops before a trial reaching the window's last vertex, so every trial is the one the
+    search over the whole sequence makes, and the runs are its runs, bit for bit (a window without
+    progress, inside one long run, is doubled)."""
+    m = geo.m
+    kernel = run_search_kernel()
+    done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    pend = None                  # (ij, kind, fit) of the last run found, global vertex indices
+    stop = np.zeros(1, dtype=np.int64)
+    i, extra = 0, window
+    while i + MIN_RUN - 1 < m:
+        carry = pend is not None and int(pend[0][1]) == i
+        lo = int(pend[0][0]) if carry else i
+        hi = min(m, i + extra)
+        pts = np.ascontiguousarray(geo.reduced[lo:hi])
+        turn = geo.turn(lo, hi)
+        size = (hi - lo) // (MIN_RUN - 1) + 2
+        ij = np.zeros((size, 2), dtype=np.int64)
+        kind = np.zeros(size, dtype=np.int64)
+        fit = np.zeros((size, 7))
+        if carry:
+            ij[0], kind[0], fit[0] = pend[0] - lo, pend[1], pend[2]
+        elif pend is not None:
+            done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
+            pend = None
+        limit = hi - lo if hi == m else hi - lo - 1
+        count = kernel(pts, turn, _run_candidates(pts, tol), float(tol), float(path_tol), ij, kind, fit,
+                       i - lo, int(carry), limit, stop)
+        resume = int(stop[0]) + lo
+        if resume == i and hi < m:                  # no trial fitted in the window: widen it
+            extra *= 2
+            continue
+        extra = window
+        if count:
+            done.append((ij[:count - 1] + lo, kind[:count - 1], fit[:count - 1]))
+            pend = (ij[count - 1] + lo, int(kind[count - 1]), fit[count - 1].copy())
+        i = resume
+        if hi == m:
+            break
+    if pend is not None:
+        done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
+    if not done:
+        return _runs_from(np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros((0, 7)))
+    return _runs_from(np.concatenate([d[0] for d in done]), np.concatenate([d[1] for d in done]),
+                      np.concatenate([d[2] for d in done]))
+
+
+def _runs_numpy(pts, turn, maybe, tol, path_tol) -> Runs:
+    n = len(pts)
+
+    def fits(i: int, j: int) -> _Fit | None:
+        if j - i + 1 < MIN_RUN or j >= n:
+            return None
+        if j - i >= 2 and turn[i + 1:j].max() >= np.pi / 2:
+            return None
+        return _fit_run(pts[i:j + 1], tol, path_tol)
+
+    runs: list[tuple[int, int, _Fit]] = []
+    i = 0
+    while i + MIN_RUN - 1 < n:
+        good_j = i + MIN_RUN - 1
+        fit = fits(i, good_j) if maybe[i] else None
+        if fit is None:
+            i += 1
+            continue
+        step, bad_j = MIN_RUN, None
+        while good_j < n - 1:
+            j = min(good_j + step, n - 1)
+            f = fits(i, j)
+            if f is None:
+                bad_j = j
+                break
+            good_j, fit = j, f
+            step *= 2
+        if bad_j is not None:
+            lo, hi = good_j, bad_j
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                f = fits(i, mid)
+                if f is None:
+                    hi = mid
+                else:
+                    lo, fit = mid, f
+            good_j = lo
+        runs.append((i, good_j, fit))
+        i = good_j
+        if i >= n - 1:
+            break
+    merged: list[tuple[int, int, _Fit]] = []
+    for run in runs:
+        if merged and merged[-1][1] == run[0]:
+            f = fits(merged[-1][0], run[1])
+            if f is not None:
+                merged[-1] = (merged[-1][0], run[1], f)
+                continue
+        merged.append(run)
+    return Runs(np.array([r[0] for r in merged], dtype=int), np.array([r[1] for r in merged], dtype=int),
+                 np.array([r[2].kappa for r in merged], dtype=float),
+                 np.array([np.full(3, np.nan) if r[2].center is None else r[2].center for r in merged],
+                          dtype=float).reshape(-1, 3),
+                 np.array([r[2].axis for r in merged], dtype=float).reshape(-1, 3))
