@@ -345,17 +345,52 @@ def _power_basis(p: int, knots: np.ndarray, points: np.ndarray, weights: np.ndar
         spans.flags.writeable = False
         out.flags.writeable = False
         return spans, out
-    breaks, coeffs = [knots[p]], []
-    for i in range(p, n):
-        if knots[i + 1] > knots[i]:
-            m = _span_basis_matrix(p, knots, i)
-            coeffs.append(m @ homogeneous[i - p: i + 1])
-            breaks.append(knots[i + 1])
-    spans = np.array(breaks)
+    i = np.arange(p, n)
+    i = i[knots[i + 1] > knots[i]]
+    spans = np.concatenate([[knots[p]], knots[i + 1]])
+    m = _span_basis_matrices(p, knots, i)
+    window = homogeneous[i[:, None] + np.arange(-p, 1)[None, :]]      # (spans, p + 1, dim + 1)
+    out = np.matmul(m, window)
     spans.flags.writeable = False
-    out = np.array(coeffs)
     out.flags.writeable = False
     return spans, out
+
+
+def _span_basis_matrices(p: int, knots: np.ndarray, i: np.ndarray) -> np.ndarray:
+    """:func:`_span_basis_matrix` for every span start ``i`` at once (spans, p + 1, p + 1): the
+    same recursion and the same floating-point operations (np.convolve of a linear factor is
+    c0·b_m + c1·b_{m-1}, the first term alone at m = 0; a term with a zero knot interval is not
+    added), on arrays over the spans: bear.nc's blend fit spent 3.6 s in the loop over its 14k spans."""
+    a = knots[i]
+    h = knots[i + 1] - a
+    ns = i.size
+    basis = np.zeros((ns, 1, p + 1))
+    basis[:, 0, 0] = 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for k in range(1, p + 1):
+            new = np.zeros((ns, k + 1, p + 1))
+            for j in range(k + 1):
+                r = i - k + j
+                acc = np.zeros((ns, p + 1))
+                if j >= 1:
+                    den = knots[r + k] - knots[r]
+                    term = _times_linear((a - knots[r]) / den, h / den, basis[:, j - 1])
+                    acc = np.where((den > 0.0)[:, None], acc + term, acc)
+                if j <= k - 1:
+                    den = knots[r + k + 1] - knots[r + 1]
+                    term = _times_linear((knots[r + k + 1] - a) / den, -h / den, basis[:, j])
+                    acc = np.where((den > 0.0)[:, None], acc + term, acc)
+                new[:, j] = acc
+            basis = new
+    return np.ascontiguousarray(basis.transpose(0, 2, 1))
+
+
+def _times_linear(c0: np.ndarray, c1: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(c0 + c1·t)·b(t) truncated to b's degree, per row: np.convolve(_linear(c0, c1), b)[:p + 1]
+    row by row."""
+    out = c0[:, None] * b
+    out[:, 1:] += c1[:, None] * b[:, :-1]
+    return out
 
 
 def curvature_from_derivatives(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
