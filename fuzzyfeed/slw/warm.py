@@ -4,8 +4,9 @@ numba keeps compiled kernels on disk beside their modules; a fresh checkout (or 
 has none, and the first schedule that needs one compiles it inside its own time (13.9 s on
 bench_slw's first polyline against 1.45 s warm; 21.6 s of compilation inside camotics bear.nc#1).
 :func:`warm_kernels` compiles or loads them once, outside the timed region: the NURBS kernel, u(s)
-(geometry/_arc_jit.py: the interpolator's arc-length inversions), the polyline run search of the blend fit, and the look-ahead's kernels (slw/_kernels.py, typed on first
-call: a short blended polyline and a curve scheduled with both transitions).
+(geometry/_arc_jit.py: the interpolator's arc-length inversions), the polyline run search of the
+blend fit, and the look-ahead's kernels (slw/_kernels.py, typed on first call: a short blended
+polyline and a curve scheduled with both transitions).
 """
 
 from __future__ import annotations
