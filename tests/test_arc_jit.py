@@ -122,3 +122,20 @@ def test_schedules_as_recorded_on_main(row):
     scale = [abs(want[0])] + [float(np.abs(tr.xyz).max()) * w.sum()] * 3 + [float(np.abs(tr.xyz).max())] * 3
     for g, v, sc in zip(got, want, scale):
         assert abs(g - v) <= 1e-12 * sc, (g, v)
+
+
+@pytest.mark.parametrize("name, machine", [("cam1000", "slow-y"), ("butterfly", "equal"), ("cusp", "equal"),
+                                           ("nurbs4", "slow-y")])
+def test_chord_exact_terms_compiled_bit_for_bit(name, machine, monkeypatch):
+    """The chord-exact interpolator with its per-tick terms compiled (geometry/_chord_jit.py)
+    against its numpy lines, on a scheduled tick array (corners, near-cusp, 2-D and 3-D)."""
+    from fuzzyfeed.geometry import interpolate as I
+
+    nurbs_kernel()
+    tr = schedule(_curve(name), EQUAL if machine == "equal" else SLOW_Y)
+    curve, s = tr.curve, np.array(tr.s_mm)
+    got = I.interpolate_u(curve, s, "best")
+    monkeypatch.setattr(I, "nurbs_compiled", lambda n: False)
+    want = I.interpolate_u(curve, s, "best")
+    assert np.array_equal(got.view(np.int64), want.view(np.int64)), np.flatnonzero(got != want)[:5]
+    assert np.array_equal(got, tr.u)

@@ -95,6 +95,22 @@ def arc_kernel():
     return compile_once(param_at, sig, "the arc-length kernel", 3)
 
 
+@cache
+def chord_kernels():
+    """Compiled (speeds, chunk_terms) of geometry/_chord_jit.py: the chord-exact interpolator's
+    per-tick terms."""
+    import numba
+
+    from fuzzyfeed.geometry._chord_jit import chunk_terms, speeds
+
+    ro = lambda ndim: numba.types.Array(numba.float64, ndim, "C", readonly=True)  # noqa: E731
+    f8 = numba.float64[::1]
+    compile_once(speeds, numba.void(ro(2), f8), "the interpolator's kernels", 2)
+    sig = numba.void(ro(2), ro(2), ro(2), ro(1), ro(1), ro(1), ro(1), ro(1), numba.int64, f8, f8,
+                     numba.boolean[::1], f8, f8)
+    return speeds, compile_once(chunk_terms, sig, "the interpolator's kernels", 3)
+
+
 def evaluate_power_basis_numpy(spans: np.ndarray, coeffs: np.ndarray, u: np.ndarray, order: int,
                                out: np.ndarray) -> None:
     """The numpy form of the compiled NURBS loop (same operations, same order), for small calls.
