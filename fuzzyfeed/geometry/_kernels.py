@@ -79,6 +79,38 @@ def nurbs_kernel():
     return compile_once(evaluate_power_basis, sig, "the NURBS kernel", 2)
 
 
+@cache
+def arc_kernel():
+    """Compiled u(s) (geometry/_arc_jit.py): ``kernel(spans, coeffs, breaks, cumulative,
+    end_speeds, target, iterations, tol, short_step, eps_span, nodes, weights, nodes3, weights3,
+    out)``, ArcLengthTable._param_block point by point."""
+    import numba
+
+    from fuzzyfeed.geometry._arc_jit import param_at
+
+    ro = lambda ndim: numba.types.Array(numba.float64, ndim, "C", readonly=True)  # noqa: E731
+    f8 = numba.float64
+    sig = numba.void(ro(1), ro(3), ro(1), ro(1), ro(2), ro(1), numba.int64, f8, f8, f8,
+                     ro(1), ro(1), ro(1), ro(1), numba.float64[::1])
+    return compile_once(param_at, sig, "the arc-length kernel", 3)
+
+
+@cache
+def chord_kernels():
+    """Compiled (speeds, chunk_terms) of geometry/_chord_jit.py: the chord-exact interpolator's
+    per-tick terms."""
+    import numba
+
+    from fuzzyfeed.geometry._chord_jit import chunk_terms, speeds
+
+    ro = lambda ndim: numba.types.Array(numba.float64, ndim, "C", readonly=True)  # noqa: E731
+    f8 = numba.float64[::1]
+    compile_once(speeds, numba.void(ro(2), f8), "the interpolator's kernels", 2)
+    sig = numba.void(ro(2), ro(2), ro(2), ro(1), ro(1), ro(1), ro(1), ro(1), numba.int64, f8, f8,
+                     numba.boolean[::1], f8, f8)
+    return speeds, compile_once(chunk_terms, sig, "the interpolator's kernels", 3)
+
+
 def evaluate_power_basis_numpy(spans: np.ndarray, coeffs: np.ndarray, u: np.ndarray, order: int,
                                out: np.ndarray) -> None:
     """The numpy form of the compiled NURBS loop (same operations, same order), for small calls.

@@ -14,7 +14,7 @@ from typing import Protocol
 
 import numpy as np
 
-from fuzzyfeed.geometry._kernels import evaluate_power_basis, nurbs_compiled
+from fuzzyfeed.geometry._kernels import arc_kernel, evaluate_power_basis, nurbs_compiled
 from fuzzyfeed.errors import NurbsError
 
 #: Gauss–Legendre order used per interval for arc length (exact for polynomials of degree 15).
@@ -121,6 +121,14 @@ class ArcLengthTable:
         # block by block (each point's iteration is independent): temporaries stay a few MB;
         # each Newton step evaluates C' at GAUSS_ORDER nodes and the point itself
         compiled = nurbs_compiled(flat.size * (GAUSS_ORDER + 1))
+        if compiled:
+            # the same iteration point by point, compiled (geometry/_arc_jit.py): the same floats
+            span = self.breaks[-1] - self.breaks[0]
+            arc_kernel()(curve._spans, curve._coeffs, self.breaks, self.cumulative, self.end_speeds,
+                         np.ascontiguousarray(np.clip(flat, 0.0, total)), int(iterations),
+                         1e-14 * max(total, 1.0), SHORT_STEP, 2 * np.finfo(float).eps * span,
+                         _GL_NODES, _GL_WEIGHTS, _GL3[0], _GL3[1], u)
+            return u.reshape(arr.shape) if arr.ndim else float(u[0])
         for start in range(0, flat.size, ARC_BLOCK_INTERVALS):
             block = slice(start, start + ARC_BLOCK_INTERVALS)
             u[block] = self._param_block(curve, np.clip(flat[block], 0.0, total), iterations, compiled)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.errors import InputError
+from fuzzyfeed.geometry._kernels import chord_kernels, nurbs_compiled
 from fuzzyfeed.geometry.nurbs import Nurbs
 
 #: Ticks per chunk of the chord-exact interpolation's curve evaluations (~300 B per tick each).
@@ -108,11 +109,21 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
     # a tangent can break only at a knot of multiplicity ≥ p (every knot of a polyline): the
     # ticks whose parameter interval holds one are the only ones whose deficit is capped below
     hard = _c0_knots(curve)
+    # the per-tick terms compiled (geometry/_chord_jit.py) where the NURBS kernel is
+    kernels = chord_kernels() if nurbs_compiled(n) else None
+    u = np.ascontiguousarray(u)
     first = True
     for _ in range(iterations):
         for c0 in range(0, n - 1, CHUNK_TICKS):
             c1 = min(c0 + CHUNK_TICKS, n - 1)      # chords c0 … c1 − 1 need points c0 … c1
             pts, d1, d2 = curve.evaluate(u[c0:c1 + 1], order=2)
+            if kernels is not None:   # the lines below in one compiled pass, the same floats
+                speeds, terms = kernels
+                d1n = np.empty(c1 + 1 - c0)
+                speeds(d1, d1n)
+                dl = np.diff(target[c0:c1 + 1])
+                terms(pts, d1, d2, d1n ** 3, dl, dl ** 3, hard, u, c0, chords, deficit, at_knot, sp2, d1d2)
+                continue
             ch = np.linalg.norm(np.diff(pts, axis=0), axis=1)
             chords[c0:c1] = ch
             dl = np.diff(target[c0:c1 + 1])

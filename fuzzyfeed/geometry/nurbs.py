@@ -21,6 +21,7 @@ import numpy as np
 from fuzzyfeed.geometry._kernels import evaluate_power_basis
 from fuzzyfeed.geometry.arc_length import ArcLengthTable
 from fuzzyfeed.errors import NurbsError
+from fuzzyfeed.geometry.power_basis import power_basis as _power_basis
 
 #: Scale guards (mm): coordinates beyond 1 km are not a machine's path; a control polygon smaller
 #: than 1 nm has no length to feed along.
@@ -279,69 +280,6 @@ def _check_knots(knots: object, n: int, p: int) -> np.ndarray:
                              f"({_fmt(arr[0])}, {_fmt(arr[-1])}) for a clamped curve")
     arr.flags.writeable = False
     return arr
-
-
-# ---------------------------------------------------------------------- power basis
-def _linear(c0: float, c1: float) -> np.ndarray:
-    return np.array([c0, c1])
-
-
-def _span_basis_matrix(p: int, knots: np.ndarray, i: int) -> np.ndarray:
-    """Power-basis coefficients of N_{i-p..i, p} on span [u_i, u_{i+1}) in t = (u - u_i)/h.
-
-    Row k holds the coefficient of t**k, column j the basis function N_{i-p+j, p}. Built with the
-    Cox–de Boor recursion (seed 002 eq. 2–3) on polynomials instead of numbers (seed 004 step 1-2).
-    """
-    a = knots[i]
-    h = knots[i + 1] - a
-    # basis[j] is N_{i-k+j, k} as a coefficient vector of length p+1 (low → high power)
-    basis = [np.zeros(p + 1) for _ in range(p + 1)]
-    basis[0][0] = 1.0
-    for k in range(1, p + 1):
-        new = [np.zeros(p + 1) for _ in range(k + 1)]
-        for j in range(k + 1):
-            r = i - k + j  # N_{r, k}
-            acc = np.zeros(p + 1)
-            if j >= 1:  # left term uses N_{r, k-1} = basis[j-1]
-                den = knots[r + k] - knots[r]
-                if den > 0.0:
-                    acc += np.convolve(_linear((a - knots[r]) / den, h / den), basis[j - 1])[: p + 1]
-            if j <= k - 1:  # right term uses N_{r+1, k-1} = basis[j]
-                den = knots[r + k + 1] - knots[r + 1]
-                if den > 0.0:
-                    acc += np.convolve(_linear((knots[r + k + 1] - a) / den, -h / den), basis[j])[: p + 1]
-            new[j] = acc
-        basis = new
-    return np.stack(basis, axis=1)
-
-
-def _power_basis(p: int, knots: np.ndarray, points: np.ndarray, weights: np.ndarray):
-    """Per-span power-basis coefficients of the homogeneous curve (w·P, w).
-
-    Returns the span breakpoints (distinct knots, length m + 1) and coefficients of shape
-    (m, p + 1, dim + 1): coefficient of t**k of span s is ``coeffs[s, k]``.
-    """
-    homogeneous = np.hstack([points * weights[:, None], weights[:, None]])
-    n = points.shape[0]
-    if p == 1:   # N = (1 - t, t) on every span: the same as the recursion, without the loop
-        i = np.arange(1, n)
-        i = i[knots[i + 1] > knots[i]]
-        spans = np.concatenate([[knots[1]], knots[i + 1]])
-        out = np.stack([homogeneous[i - 1], -homogeneous[i - 1] + homogeneous[i]], axis=1)
-        spans.flags.writeable = False
-        out.flags.writeable = False
-        return spans, out
-    breaks, coeffs = [knots[p]], []
-    for i in range(p, n):
-        if knots[i + 1] > knots[i]:
-            m = _span_basis_matrix(p, knots, i)
-            coeffs.append(m @ homogeneous[i - p: i + 1])
-            breaks.append(knots[i + 1])
-    spans = np.array(breaks)
-    spans.flags.writeable = False
-    out = np.array(coeffs)
-    out.flags.writeable = False
-    return spans, out
 
 
 def curvature_from_derivatives(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:

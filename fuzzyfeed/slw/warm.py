@@ -3,9 +3,11 @@
 numba keeps compiled kernels on disk beside their modules; a fresh checkout (or a new worktree)
 has none, and the first schedule that needs one compiles it inside its own time (13.9 s on
 bench_slw's first polyline against 1.45 s warm; 21.6 s of compilation inside camotics bear.nc#1).
-:func:`warm_kernels` compiles or loads them once, outside the timed region: the NURBS kernel, the
-polyline run search of the blend fit, and the look-ahead's kernels (slw/_kernels.py, typed on first
-call: a short blended polyline and a curve scheduled with both transitions).
+:func:`warm_kernels` compiles or loads them once, outside the timed region: the NURBS kernel, u(s)
+(geometry/_arc_jit.py: the interpolator's arc-length inversions), the interpolator's per-tick
+terms (geometry/_chord_jit.py), the polyline run search of the blend fit, and the look-ahead's
+kernels (slw/_kernels.py, typed on first call: a short blended polyline and a curve scheduled
+with both transitions).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 def warm_kernels() -> float:
     """Compile (first run) or load every kernel of :func:`fuzzyfeed.slw.schedule`; returns the CPU
     seconds it took."""
-    from fuzzyfeed.geometry._kernels import nurbs_kernel
+    from fuzzyfeed.geometry._kernels import arc_kernel, chord_kernels, nurbs_kernel
     from fuzzyfeed.geometry.nurbs import Nurbs
     from fuzzyfeed.geometry.polyline_runs import run_search_kernel as _runs_kernel
     from fuzzyfeed.machine.limits import MachineLimits
@@ -26,6 +28,8 @@ def warm_kernels() -> float:
 
     t0 = time.process_time()
     nurbs_kernel()
+    arc_kernel()
+    chord_kernels()
     _runs_kernel()
     # a zig-zag of short moves (blended, corners and kinks) and a cubic (no polyline fit)
     t = np.linspace(0.0, 6.0, 241)

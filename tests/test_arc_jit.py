@@ -1,0 +1,149 @@
+"""Issue 38 (compute): the compiled u(s) (geometry/_arc_jit.py) against the numpy iteration it
+replaces (ArcLengthTable._param_block), and against closed-form arc lengths; the chord-exact
+interpolator's compiled per-tick terms (geometry/_chord_jit.py) against its numpy lines; the
+power-basis conversion over all spans at once against the span-by-span recursion; and whole
+schedules against values recorded from main at 55c2bd9 (before these changes).
+
+On the machine they were written on the compiled forms give the numpy code's floats bit for bit
+(the same operations in the same order, numpy's einsum lanes and powers included); numpy's SIMD
+dispatch may round a last bit otherwise on another CPU, so the tests allow 1e-13 of the scale (as
+tests/test_slw_exact.py does)."""
+
+import numpy as np
+import pytest
+
+import slw_cases
+from fuzzyfeed.geometry import power_basis as PB
+from fuzzyfeed.geometry._kernels import nurbs_kernel
+from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.polyline_fit import fit_polyline
+from fuzzyfeed.io.shapes import load_shape
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.slw import schedule
+
+EQUAL = MachineLimits()
+SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+
+
+def _curves():
+    yield from (slw_cases.random_nurbs(seed)[0] for seed in range(16))   # 2-D, 3-D, rational
+    yield slw_cases.cusp_cubic()
+    yield load_shape("butterfly").curve
+    yield fit_polyline(slw_cases.cam_polyline(1500)).curve
+
+
+def _numpy_param_at(curve, s):
+    table, total = curve.arc_table, curve.length
+    s = np.clip(s, 0.0, total)
+    return np.concatenate([table._param_block(curve, s[i:i + 8192], 30, False)
+                           for i in range(0, s.size, 8192)])
+
+
+@pytest.mark.parametrize("index", range(19))
+def test_compiled_param_at_bit_for_bit(index):
+    curve = list(_curves())[index]
+    nurbs_kernel()                     # loaded: every call of more than a few points is compiled
+    rng = np.random.default_rng(index)
+    total = curve.length
+    # sorted (servo ticks), unsorted, the ends and repeated values
+    s = np.concatenate([[0.0, total, total, 0.5 * total], np.sort(rng.uniform(0.0, total, 20000)),
+                        rng.uniform(0.0, total, 3000)])
+    got = curve.param_at_length(s)
+    want = _numpy_param_at(curve, s)
+    span = curve.domain[1] - curve.domain[0]
+    assert np.abs(got - want).max() <= 1e-13 * span, np.flatnonzero(got != want)[:5]
+
+
+def test_compiled_param_at_closed_forms():
+    nurbs_kernel()
+    # a straight cubic with uneven control points: s(u) from the polynomial's own closed form;
+    # a rational quadratic quarter circle of radius R: s = R·θ
+    line = Nurbs(3, [0, 0, 0, 0, 1, 1, 1, 1], [[0, 0], [1, 0], [7, 0], [10, 0]])
+    s = np.linspace(0.0, 10.0, 5001)
+    u = line.param_at_length(s)
+    x = line(u)[:, 0]
+    assert np.allclose(x, s, rtol=0, atol=1e-12)
+    r = 25.0
+    arc = Nurbs(2, [0, 0, 0, 1, 1, 1], [[r, 0], [r, r], [0, r]], weights=[1, np.sqrt(0.5), 1])
+    s = np.linspace(0.0, 0.5 * np.pi * r, 7001)
+    p = arc(arc.param_at_length(s))
+    assert np.allclose(np.arctan2(p[:, 1], p[:, 0]) * r, s, rtol=0, atol=1e-11)
+
+
+def _old_power_basis(p, knots, points, weights):
+    homogeneous = np.hstack([points * weights[:, None], weights[:, None]])
+    breaks, coeffs = [knots[p]], []
+    for i in range(p, points.shape[0]):
+        if knots[i + 1] > knots[i]:
+            coeffs.append(PB._span_basis_matrix(p, knots, i) @ homogeneous[i - p: i + 1])
+            breaks.append(knots[i + 1])
+    return np.array(breaks), np.array(coeffs)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_power_basis_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(2, 6))
+    n = int(rng.integers(p + 1, 40))
+    inner = np.sort(np.round(rng.uniform(0.0, 1.0, n - p - 1), 1))     # repeated knots too
+    knots = np.concatenate([np.zeros(p + 1), inner, np.ones(p + 1)])
+    points = rng.normal(0.0, 10.0, (n, 2 + seed % 2))
+    weights = rng.uniform(0.2, 1.0, n) if seed % 3 else np.ones(n)
+    old = _old_power_basis(p, knots, points, weights)
+    new = PB.power_basis(p, knots, points, weights)
+    assert np.array_equal(old[0], new[0])
+    assert old[1].shape == new[1].shape
+    assert np.abs(old[1] - new[1]).max() <= 1e-13 * np.abs(old[1]).max()
+
+
+def _curve(name):
+    if name == "cusp":
+        return slw_cases.cusp_cubic()
+    if name.startswith("nurbs"):
+        return slw_cases.random_nurbs(int(name[5:]))[0]
+    if name == "cam1000":
+        return slw_cases.cam_polyline(1000)
+    return load_shape(name).curve
+
+
+# (path, machine, transition, ticks, Σ w_k u_k, Σ w_k x_k, Σ w_k y_k, Σ w_k z_k, xyz at tick K // 3)
+# with w = linspace(1, 2, K), recorded from main at 55c2bd9 with the NURBS kernel loaded
+RECORDED = [
+    ("cam1000", "equal", "cosine", 5383, 2323871.00233069, 5472.421197684773, 4448.3467980342375, 1176.448420314293, -7.92646246949247, 15.90653574126969, 1.2051992294489047),
+    ("cam1000", "slow-y", "seven-phase", 8998, 3888241.9315782515, 6308.333325860915, 6267.294239046752, 1785.3913251632398, -10.116931842188661, 15.106482205087127, 1.1430806386857304),
+    ("butterfly", "slow-y", "seven-phase", 9912, 8205.660509448406, 747398.7554055781, 485786.5176282951, 0.0, 80.87683454823822, 11.411013129535869, 0.0),
+    ("nurbs7", "equal", "cosine", 1501, 1136.8265535702642, -44728.405214985105, -101231.04995862367, -6044.685054969323, -24.502631583533887, -29.309268062632114, 5.657365260518162),
+    ("cusp", "slow-y", "cosine", 6618, 5144.487193713854, 526629.3891649623, 414379.88490968174, 0.0, 45.48029282294145, 36.61258710090827, 0.0),
+    ("trident2", "equal", "seven-phase", 1559, 1324.7695276940003, 22016.221912148536, 25198.052517966295, 0.0, 14.450755359658865, 12.007605408774932, 0.0),
+]
+
+
+@pytest.mark.parametrize("row", RECORDED, ids=lambda r: "/".join(r[:3]))
+def test_schedules_as_recorded_on_main(row):
+    name, machine, transition, ticks, *want = row
+    nurbs_kernel()
+    tr = schedule(_curve(name), EQUAL if machine == "equal" else SLOW_Y, transition=transition)
+    assert tr.u.size == ticks
+    w = np.linspace(1.0, 2.0, ticks)
+    got = [float(tr.u @ w), *(float(tr.xyz[:, i] @ w) for i in range(3)), *map(float, tr.xyz[ticks // 3])]
+    scale = [abs(want[0])] + [float(np.abs(tr.xyz).max()) * w.sum()] * 3 + [float(np.abs(tr.xyz).max())] * 3
+    for g, v, sc in zip(got, want, scale):
+        assert abs(g - v) <= 1e-12 * sc, (g, v)
+
+
+@pytest.mark.parametrize("name, machine", [("cam1000", "slow-y"), ("butterfly", "equal"), ("cusp", "equal"),
+                                           ("nurbs4", "slow-y")])
+def test_chord_exact_terms_compiled_bit_for_bit(name, machine, monkeypatch):
+    """The chord-exact interpolator with its per-tick terms compiled (geometry/_chord_jit.py)
+    against its numpy lines, on a scheduled tick array (corners, near-cusp, 2-D and 3-D)."""
+    from fuzzyfeed.geometry import interpolate as I
+
+    nurbs_kernel()
+    tr = schedule(_curve(name), EQUAL if machine == "equal" else SLOW_Y)
+    curve, s = tr.curve, np.array(tr.s_mm)
+    got = I.interpolate_u(curve, s, "best")
+    monkeypatch.setattr(I, "nurbs_compiled", lambda n: False)
+    want = I.interpolate_u(curve, s, "best")
+    span = curve.domain[1] - curve.domain[0]
+    assert np.abs(got - want).max() <= 1e-13 * span, np.flatnonzero(got != want)[:5]
+    assert np.abs(got - tr.u).max() <= 1e-13 * span
