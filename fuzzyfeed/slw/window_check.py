@@ -191,13 +191,15 @@ class BlockCheck:
             low = a_idx + int(np.argmin(vlim[a_idx:b_idx + 1]))
             if self.per_direction and (
                     all(segs[int(g)].v1 < segs[int(g)].v0 for g in np.unique(seg_id[a_idx:b_idx + 1]))
-                    or (self.carry and segs[int(seg_id[low])].v1 < segs[int(seg_id[low])].v0)):
+                    or (self.carry and low < b_idx and segs[int(seg_id[low])].v1 < segs[int(seg_id[low])].v0)):
                 # a fall (at its own, higher acceleration on unequal axes) late for a limit
                 # that falls faster: the junction where that limit is lowest, so the feed stays
                 # high up to there instead of dropping at the crossing's start (nurbs25 slow-Y);
                 # also when the crossing starts in the cruise before that fall (issue 38: a
                 # junction at the cruise's end capped at the fall's lowest limit, 39 mm/s where
-                # the limit is 92 — nurbs25 slow-Y seven-phase)
+                # the limit is 92 — nurbs25 slow-Y seven-phase), if that lowest limit is inside
+                # the crossing (at its end the limit still falls: a chain of splits towards the
+                # block's end, nurbs98 slow-Y)
                 at = low
             self._split(i, s[at], cap=cap)
             return False
