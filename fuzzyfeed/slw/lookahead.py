@@ -56,6 +56,10 @@ class SlidingWindow(WindowContent, BlockCheck):
         if approach not in (1, 2):
             raise ValueError(f"approach = {approach!r}; seed 000 Table 1 has approaches 1 and 2")
         self.approach = approach
+        # the window of issue 38 (a block's feed held below the centripetal limit only where the
+        # axis check needs it, the path's start a junction a merge may drop); approach 1 keeps
+        # the paper's window (seed 000's figures)
+        self.carry = approach == 2
         self.shape = check_shape(transition)
         self.cap = cap
         self.curve = curve

@@ -18,6 +18,9 @@ CRAWL = 1e-3
 #: is the tangential acceleration's); the preprocessor's corner caps use CORNER_MARGIN of it.
 CORNER_SHARE = 0.45
 CORNER_MARGIN = 0.9
+#: The path's first critical point is merged away when a rise from rest reaches less than this
+#: share of its cap within the first block (the window of issue 38; not with approach 1).
+START_REACH = 0.5
 #: A join whose unit tangent jumps by less than this (per axis) is no kink.
 KINK_MIN = 1e-9
 #: A block is cut where the tangential acceleration its directions allow changes by this factor …
@@ -48,6 +51,10 @@ class _WBlock:
     # which (0 the rises', 1 the falls', 2 both): a split gives each piece its own direction's
     # acceleration and only the ceilings inside it
     ceilings: tuple[tuple[float, float, int], ...] = ()
+    # the feed limit the check holds at the reference points (window_check.BlockCheck._feed_limit:
+    # the centripetal part lifted, the axis check holds it with the tangential part); set on
+    # first check
+    vfeed: np.ndarray | None = None
     # the ends and length, read ~10⁷ times on a long program: kept, not recomputed (ref is never
     # replaced: a split or merge makes new blocks)
     s0: float = field(init=False)
@@ -123,16 +130,26 @@ class WindowContent:
         transition between their caps needs: critical points closer than a transition needs
         (the vertices of a fine polyline) would otherwise each force a zero acceleration. The
         dropped point's limit stays in the block's reference points (the check holds it)."""
-        if len(self.blocks) < 2:
+        if not self.blocks:
             return False
         last, prev = self.juncs[-1], self.juncs[-2]
-        if not (last.critical and prev.critical) or len(self.juncs) - 1 <= 1:
+        if not last.critical:
             return False
-        if last.cap < prev.cap or last.cap < block.cap1:
-            return False
-        lo = min(prev.cap, block.cap1)
-        if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk, self.shape):
-            return False
+        if len(self.juncs) == 2 and prev.s == 0.0 and self.carry:
+            # the path's first critical point, when a rise from rest reaches less than
+            # START_REACH of its cap within the first block: a zero acceleration there would cut
+            # the start's rise at a low feed (nurbs88 slow-Y: 14 mm/s at 0.59 mm, cap 49)
+            if last.cap < block.cap1 or self.blocks[-1].length >= transition_distance(
+                    0.0, START_REACH * last.cap, self.acc, self.jerk, self.shape):
+                return False
+        else:
+            if not prev.critical or len(self.juncs) - 1 <= 1:
+                return False
+            if last.cap < prev.cap or last.cap < block.cap1:
+                return False
+            lo = min(prev.cap, block.cap1)
+            if self.blocks[-1].length >= transition_distance(lo, last.cap, self.acc, self.jerk, self.shape):
+                return False
         b = self.blocks[-1]
         up, down = self._start_acc(block.ref)
         head, acc, acc_down = b.ref, min(b.acc, up), min(b.acc_down, down)

@@ -81,7 +81,9 @@ class BlockCheck:
         s, v, a, seg_id = kernels.sample_segments(seg_arr[:, 0], seg_arr[:, 1], seg_arr[:, 2], seg_arr[:, 3],
                                                   b.s0, 0.5 * self.limits.ts_s)
         ref = b.ref
-        vlim, tan, kn = kernels.interp_reference(s, ref.s, ref.vlim, ref.tangent, ref.kn)
+        if b.vfeed is None:
+            b.vfeed = self._feed_limit(ref.s, ref.vlim, ref.tangent, ref.kn)
+        vlim, tan, kn = kernels.interp_reference(s, ref.s, b.vfeed, ref.tangent, ref.kn)
         r, _, _ = kernels.axis_ratio(v, a, tan, kn, self.axis_acc)
         near = kernels.near_limits(v, vlim, r, float(self.limits.feed_mm_s), EXACT_NEAR)
         if self.curve is None:
@@ -119,7 +121,8 @@ class BlockCheck:
                 part = slice(at, at + near.size)
                 at += near.size
                 vlim, tan, kn = d[6].copy(), d[7].copy(), d[8].copy()
-                vlim[near] = np.minimum(vlim[near], exact.vlim[part])
+                vlim[near] = np.minimum(vlim[near], self._feed_limit(
+                    exact.s[part], exact.vlim[part], exact.tangent[part], exact.kn[part]))
                 tan[near], kn[near] = exact.tangent[part], exact.kn[part]
                 self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
         for i, d in data:
@@ -144,7 +147,7 @@ class BlockCheck:
             # (at u interpolated between the points: no arc-length inversion, second-order close)
             exact = _evaluate(self.curve, self.limits, s[near], self.cap, np.interp(s[near], ref.s, ref.u))
             vlim, tan, kn = vlim.copy(), tan.copy(), kn.copy()
-            vlim[near] = np.minimum(vlim[near], exact.vlim)
+            vlim[near] = np.minimum(vlim[near], self._feed_limit(exact.s, exact.vlim, exact.tangent, exact.kn))
             tan[near], kn[near] = exact.tangent, exact.kn
         r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
         kinks = self._kink_samples(s, v, a)
@@ -163,9 +166,9 @@ class BlockCheck:
         # and at the reference points themselves: a corner's cap is one point, and samples either
         # side of it read the limit interpolated towards its neighbours, far above it
         inner = np.flatnonzero((ref.s > s[0]) & (ref.s < s[-1]))
-        over_ref = np.interp(ref.s[inner], s, v) - ref.vlim[inner] * (1.0 + POINT_RTOL) - 1e-12
+        over_ref = np.interp(ref.s[inner], s, v) - b.vfeed[inner] * (1.0 + POINT_RTOL) - 1e-12
         if over_ref.size and over_ref.max() > 0.0 and over_v.max() <= 0.0:
-            k = int(inner[np.argmax(over_ref / np.maximum(ref.vlim[inner], 1e-12))])
+            k = int(inner[np.argmax(over_ref / np.maximum(b.vfeed[inner], 1e-12))])
             self._split(i, float(ref.s[k]), cap=float(ref.vlim[k]))
             self.stats.caps_lowered += 1
             return False
@@ -185,12 +188,19 @@ class BlockCheck:
             # the crossing: a ramp is then followed in few, large steps
             cap = SPLIT_ROOM * float(vlim[a_idx:b_idx + 1].min())
             at = a_idx
-            if self.per_direction and all(segs[int(g)].v1 < segs[int(g)].v0
-                                          for g in np.unique(seg_id[a_idx:b_idx + 1])):
+            low = a_idx + int(np.argmin(vlim[a_idx:b_idx + 1]))
+            if self.per_direction and (
+                    all(segs[int(g)].v1 < segs[int(g)].v0 for g in np.unique(seg_id[a_idx:b_idx + 1]))
+                    or (self.carry and low < b_idx and segs[int(seg_id[low])].v1 < segs[int(seg_id[low])].v0)):
                 # a fall (at its own, higher acceleration on unequal axes) late for a limit
                 # that falls faster: the junction where that limit is lowest, so the feed stays
-                # high up to there instead of dropping at the crossing's start (nurbs25 slow-Y)
-                at = a_idx + int(np.argmin(vlim[a_idx:b_idx + 1]))
+                # high up to there instead of dropping at the crossing's start (nurbs25 slow-Y);
+                # also when the crossing starts in the cruise before that fall (issue 38: a
+                # junction at the cruise's end capped at the fall's lowest limit, 39 mm/s where
+                # the limit is 92 — nurbs25 slow-Y seven-phase), if that lowest limit is inside
+                # the crossing (at its end the limit still falls: a chain of splits towards the
+                # block's end, nurbs98 slow-Y)
+                at = low
             self._split(i, s[at], cap=cap)
             return False
         k = int(np.argmax(r))
@@ -227,6 +237,37 @@ class BlockCheck:
         self.stats.acc_lowered += 1
         self._invalidate()
         return False
+
+    def _feed_limit(self, s: np.ndarray, vlim: np.ndarray, tan: np.ndarray, kn: np.ndarray) -> np.ndarray:
+        """The feed limit a block's profile is held to between its junctions: ``vlim`` (eq. (8)-(12),
+        capped), except where its centripetal part v ≤ √(A_j/|κN_j|) binds exactly (no corner's or
+        cap's lower value there), which is lifted to the other parts (command, axial velocity,
+        chord, cap): inside a block the axis check holds |a_t·T_j + v²·κN_j| ≤ A_j itself, and a
+        fall whose tangential part opposes the centripetal one passes a bend faster than at zero
+        acceleration (issue 38: nurbs88 slow-Y, 53 mm/s against 38). A junction (zero
+        acceleration) keeps the full limit (:meth:`_split` caps at ``vlim``). Unchanged (the
+        paper's window) with approach 1."""
+        if not self.carry:
+            return vlim
+        lim = self.limits
+        vlim = np.asarray(vlim, dtype=float)
+        tan, kn = np.abs(np.asarray(tan, dtype=float)), np.abs(np.asarray(kn, dtype=float))
+        d = tan.shape[1]
+        acc, vel = self.axis_acc[:d].astype(float), np.asarray(lim.axis_vel_mm_s, dtype=float)[:d]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cen = np.min(np.where(kn > 0.0, np.sqrt(acc[None, :] / kn), np.inf), axis=1)
+            other = np.min(np.where(tan > 0.0, vel[None, :] / tan, np.inf), axis=1)
+            kappa = np.sqrt(np.sum(kn * kn, axis=1))
+            rho = np.where(kappa > 0.0, 1.0 / kappa, np.inf)
+            delta = lim.chord_tol_mm
+            chord = np.where(np.isinf(rho) | (2.0 * rho <= delta), np.inf,
+                             2.0 / lim.ts_s * np.sqrt(np.maximum(2.0 * rho * delta - delta * delta, 0.0)))
+        other = np.minimum(np.minimum(other, chord), lim.feed_mm_s)
+        if self.cap is not None:
+            other = np.minimum(other, self.cap(np.asarray(s, dtype=float)))
+        lift = (np.isfinite(kn).all(axis=1) & (cen > 0.0) & (cen < other)
+                & (np.abs(vlim - cen) <= 1e-9 * cen))
+        return np.where(lift, np.maximum(vlim, other), vlim) if lift.any() else vlim
 
     def _kink_samples(self, s: np.ndarray, v: np.ndarray, a: np.ndarray):
         """The ticks that pass a kink of the path inside the sampled stretch (a tangent break too
