@@ -162,12 +162,17 @@ def test_held_chain_through_a_stop_is_two_rest_to_rest_moves():
         assert held <= finer * (1 + 1e-9) and finer <= exact
 
 
-def test_held_chain_of_one_gap_is_the_free_gap():
+def test_held_chain_of_one_gap_is_rest_to_rest_at_zero_accelerations():
+    """One gap from rest to rest: s̈ = 0 at both rests (point_acceleration(0) = 0), so the held
+    chain is the gap held at a(0) ≤ 0 ≤ a(T): above the free gap, below the seven-phase move."""
     feed, acc, jerk = 100.0, 1000.0, 1e4
     for gap in (0.05, 3.0, 40.0):
         free = float(fl.gap_times(np.array([gap]), np.zeros(1), np.zeros(1), feed, acc, jerk)[0])
+        zero = float(fl.gap_times(np.array([gap]), np.zeros(1), np.zeros(1), feed, acc, jerk,
+                                  np.zeros(1), np.zeros(1))[0])
         held = fl.held_chain_s(np.array([gap]), np.zeros(2), np.array([acc]), feed, jerk)
-        assert held == pytest.approx(free, rel=2e-3)
+        assert held == pytest.approx(zero, rel=1e-12)
+        assert free < held <= fl.rest_to_rest_s(gap, feed, acc, jerk)
 
 
 def test_gap_times_refuses_end_accelerations_that_break_the_time_scaling():

@@ -4,8 +4,10 @@ The acceleration-limited bound (:func:`fuzzyfeed.slw.bound.path_bound`) knows no
 stop it is too optimistic, since under a jerk limit every stop-to-stop leg is a rest-to-rest
 move whose least time is the seven-phase (trapezoidal-acceleration) profile's. The floor is the
 larger of the bound and the sum of those rest-to-rest times over the legs between the path's
-full stops (the true corners passed at ≤ 1 % of F) — the measure issue 27 asks every schedule to
-be compared with.
+full stops (the corners the corner rule passes at 0: reversals and stationary points) — the
+measure issue 27 asks every schedule to be compared with. A corner passed at any feed > 0 is no
+stop: a leg that starts or ends moving is faster than rest to rest (square passes, their corners
+at 0.9 mm/s, ran at 0.990 × a floor that took them as stops); the corner chain bounds those.
 """
 
 from __future__ import annotations
@@ -15,8 +17,6 @@ import numpy as np
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.machine.limits import MachineLimits
 
-#: A true corner passed at no more than this share of the command feed is a full stop.
-STOP_SHARE = 0.01
 
 
 def seven_phase_s(dv: float, acc: float, jerk: float) -> float:
@@ -50,7 +50,7 @@ def legs_s(curve: Nurbs, limits: MachineLimits) -> float:
     from fuzzyfeed.slw.preprocess import corners
 
     s_c, cap = corners(curve, limits)
-    cuts = np.concatenate([[0.0], s_c[cap <= STOP_SHARE * limits.feed_mm_s], [curve.length]])
+    cuts = np.concatenate([[0.0], s_c[cap <= 0.0], [curve.length]])  # only the full stops
     acc = np.asarray(limits.axis_acc_mm_s2[:curve.dim])
     vel = np.asarray(limits.axis_vel_mm_s[:curve.dim])
     total = 0.0
@@ -370,21 +370,34 @@ def corner_chain_s(curve: Nurbs, limits: MachineLimits, bound=None) -> float:
     g, v1, v2 = np.diff(s), v[:-1], v[1:]
     least = np.zeros(g.size) if bound is None else bound_gap_times(bound, s)
     free = np.empty(g.size)
+    a1, a2 = np.minimum(acc, point_acceleration(v1, jerk)), np.minimum(acc, point_acceleration(v2, jerk))
     for k in range(0, g.size, CHAIN_BATCH):
         part = slice(k, k + CHAIN_BATCH)
-        free[part] = gap_times(g[part], v1[part], v2[part], feed, acc[part], jerk)
+        free[part] = gap_times(g[part], v1[part], v2[part], feed, acc[part], jerk, a1[part], -a2[part])
     return max(float(np.maximum(free, least).sum()), held_chain_s(g, v, acc, feed, jerk, least=least))
+
+
+def point_acceleration(v, jerk: float):
+    """The largest |s̈| a motion with |j| ≤ J and v ≥ 0 at every time (rest before its start and
+    after its end) can have where its feed is at most ``v``: √(2·J·v). With a(t) = α > 0,
+    a(t − τ) ≥ α − J·τ, so v(t − α/J) ≤ v(t) − α²/(2J), which must be ≥ 0; α < 0 the same forward
+    in time. At a rest point s̈ = 0."""
+    return np.sqrt(2.0 * jerk * np.maximum(np.asarray(v, dtype=float), 0.0))
 
 
 def bound_gap_times(bound, s: np.ndarray) -> np.ndarray:
     """Per gap [s_i, s_i+1], the acceleration-limited bound's time over its grid intervals wholly
-    inside the gap (Σ 2·ds/(v_k + v_k+1), as the bound's own time): every schedule within the
-    limits is at most the bound's feed at every point (the phase-plane envelope), so it spends at
-    least that long there."""
+    inside the gap (its own interval times, :attr:`Bound.interval_s`, else Σ 2·ds/(v_k + v_k+1)):
+    every schedule within the limits is at most the bound's feed at every point (the phase-plane
+    envelope), so it spends at least that long there."""
     gs, v = np.asarray(bound.s_mm, dtype=float), np.asarray(bound.feed_mm_s, dtype=float)
-    pair = v[:-1] + v[1:]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dt = np.where(pair > 0.0, 2.0 * np.diff(gs) / pair, 0.0)  # 0: a rest point proves nothing
+    if getattr(bound, "interval_s", None) is not None:
+        dt = np.asarray(bound.interval_s, dtype=float)
+        dt = np.where(np.isfinite(dt), dt, 0.0)  # a stationary stretch proves nothing here
+    else:
+        pair = v[:-1] + v[1:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dt = np.where(pair > 0.0, 2.0 * np.diff(gs) / pair, 0.0)  # 0: a rest point proves nothing
     cum = np.concatenate([[0.0], np.cumsum(dt)])
     first = np.searchsorted(gs, s[:-1], side="left")       # the first grid point ≥ s_i
     last = np.searchsorted(gs, s[1:], side="right") - 1     # the last grid point ≤ s_i+1
@@ -395,17 +408,19 @@ def held_chain_s(gaps: np.ndarray, v: np.ndarray, acc: np.ndarray, feed: float, 
                  bins: int = HELD_BINS, least: np.ndarray | None = None) -> float:
     """The chain with each point's tangential acceleration shared by its two gaps (s̈ is
     continuous under a jerk limit): at interior point k, α_k ∈ [−A_k, A_k] (A_k the smaller of its
-    gaps' bounds) lies in one of 2·``bins`` bins [lo, hi]; the gap after it starts with
+    gaps' bounds and √(2·J·v_k)) lies in one of 2·``bins`` bins [lo, hi]; the gap after it starts with
     a ≤ max(hi, 0), the gap before it ends with a ≥ min(lo, 0) (the signs keep the time-scaling
     proof of :func:`gap_times`), and Σ gap times is least over the bins' sequence (dynamic
     programming, exact over the bins). ``gaps`` (m, all > 0), ``v`` the m + 1 points' feeds
-    (rest at both ends: their accelerations free), ``acc`` per gap; ``least`` (optional, per gap)
+    (their accelerations within √(2·J·v), :func:`point_acceleration`: 0 at the rests at both
+    ends), ``acc`` per gap; ``least`` (optional, per gap)
     a time each gap takes anyway, whatever its bins (each gap's cost is the larger)."""
     m = gaps.size
     if m == 0:
         return 0.0
     edge = np.linspace(0.0, 1.0, bins + 1)[1:]  # e_1 … e_n, fractions of A_k
     a_point = np.concatenate([[acc[0]], np.minimum(acc[:-1], acc[1:]), [acc[-1]]])
+    a_point = np.minimum(a_point, point_acceleration(v, jerk))  # ≤ √(2·J·v_k) at a feed ≤ v_k
     # option c of a gap's start: c = 0 → a ≤ 0, c ≥ 1 → a ≤ e_c·A; of its end f: a ≥ −e_f·A (f ≥ 1)
     frac = np.concatenate([[0.0], edge])
     n = bins + 1
@@ -428,10 +443,10 @@ def held_chain_s(gaps: np.ndarray, v: np.ndarray, acc: np.ndarray, feed: float, 
     starts = np.concatenate([np.zeros(n - 1, dtype=int), np.arange(1, n)])
     if m == 1:  # rest to rest: both accelerations free
         return float(cost[0, n - 1, n - 1])
-    best = cost[0, n - 1, ends]  # point 1's bins; the start at rest, its acceleration free (≤ A)
+    best = cost[0, n - 1, ends]  # point 1's bins; the start at rest (a ≤ √(2·J·v_0))
     for i in range(1, m - 1):  # point i + 1's bins
         best = (best[:, None] + cost[i][starts][:, ends]).min(axis=0)
-    return float((best + cost[m - 1][starts, n - 1]).min())  # the end's acceleration free
+    return float((best + cost[m - 1][starts, n - 1]).min())  # the end at rest (a ≥ −√(2·J·v_m))
 
 
 def jerk_floor(curve: Nurbs, limits: MachineLimits, bound=None) -> float:
