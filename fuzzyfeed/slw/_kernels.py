@@ -103,6 +103,68 @@ def travel_time(ds, v):
     return t
 
 
+@numba.njit(cache=True, nogil=True)
+def _branch_time(x0, acc, width):
+    """∫₀^width dσ/√(x0 + 2·acc·σ) = 2·width/(√x1 + √x0), x1 = x0 + 2·acc·width (acc ≥ 0; stable
+    as acc → 0; inf from rest with acc = 0)."""
+    if width <= 0.0:
+        return 0.0
+    m = math.sqrt(x0 + 2.0 * acc * width) + math.sqrt(x0)
+    return 2.0 * width / m if m > 0.0 else np.inf
+
+
+@numba.njit(cache=True, nogil=True)
+def interval_times(ds, x, x_cap, tangent, kn, axis_acc, out):
+    """Per grid interval, the time of the phase-plane envelope inside it, into ``out``:
+    ∫ dσ/√E(σ), E(σ) = min(x_i + 2·a_f·σ, x_i+1 + 2·a_b·(ds − σ), c) with a_f the hardest
+    acceleration at point i and a_b the hardest braking at point i+1 (both from
+    :func:`acc_range` at the points' own x, as the passes use them; negatives taken as 0) and c
+    the larger of the two points' pointwise limits (``x_cap``). Forward branch up to the crossing
+    σ* of the two lines, backward after it, each cruising at c where it reaches it. E ≥ the line
+    x_i → x_i+1 that :func:`travel_time` integrates (the passes keep x_i+1 ≤ x_i + 2·a_f·ds and
+    x_i ≤ x_i+1 + 2·a_b·ds), so each interval's time is at most its 2·ds/(v_i + v_i+1): the
+    same where the line is the envelope (acceleration-limited from end to end), shorter where an
+    end is held by a limit (leaving a corner or a rest, reaching a feed or a cap)."""
+    n = x.size
+    for i in range(n - 1):
+        h = ds[i]
+        if h <= 0.0:
+            out[i] = 0.0
+            continue
+        x0, x1 = max(x[i], 0.0), max(x[i + 1], 0.0)
+        c = max(x_cap[i], x_cap[i + 1], x0, x1)
+        if c <= 0.0:  # a stationary stretch: never passed
+            out[i] = np.inf
+            continue
+        lo0, hi0 = acc_range(x0, tangent[i], kn[i], axis_acc)
+        lo1, hi1 = acc_range(x1, tangent[i + 1], kn[i + 1], axis_acc)
+        af, ab = max(hi0, 0.0), max(-lo1, 0.0)
+        if not (af < np.inf):
+            af = 1e300
+        if not (ab < np.inf):
+            ab = 1e300
+        # the crossing of x0 + 2·af·σ and x1 + 2·ab·(h − σ), clipped to [0, h]
+        den = 2.0 * (af + ab)
+        if den > 0.0:
+            sig = min(max((x1 + 2.0 * ab * h - x0) / den, 0.0), h)
+        else:
+            sig = h if x0 <= x1 else 0.0
+        # forward part [0, sig]: rises from x0 at af until c
+        rise = (c - x0) / (2.0 * af) if af > 0.0 else np.inf
+        up = min(rise, sig)
+        t = _branch_time(x0, af, up)
+        if sig > up:
+            t += (sig - up) / math.sqrt(c)
+        # backward part [sig, h]: falls to x1 at ab, measured from the end
+        w = h - sig
+        fall = (c - x1) / (2.0 * ab) if ab > 0.0 else np.inf
+        down = min(fall, w)
+        t += _branch_time(x1, ab, down)
+        if w > down:
+            t += (w - down) / math.sqrt(c)
+        out[i] = t
+
+
 # ---------------------------------------------------------------------- transitions (profile.py)
 # The same arithmetic as fuzzyfeed.slw.profile.transition_time / _bisect, compiled: the look-ahead
 # calls the bisections ~10⁴ times on a long program, each ~40 distances (2·10⁶ Python calls).

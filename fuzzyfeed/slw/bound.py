@@ -63,14 +63,20 @@ def pointwise_limit(samples: PathSamples, limits: MachineLimits) -> tuple[np.nda
 
 
 def _passes(s: np.ndarray, x_lim: np.ndarray, tangent: np.ndarray, kn: np.ndarray,
-            limits: MachineLimits) -> tuple[np.ndarray, float]:
+            limits: MachineLimits, x_cap: np.ndarray | None = None) -> tuple[np.ndarray, float, np.ndarray]:
+    """The passes' feed at the grid points, the time and each interval's time: the envelope of
+    the passes inside each interval (:func:`fuzzyfeed.slw._kernels.interval_times`), under
+    ``x_cap`` (the pointwise limit without the corners' caps; default ``x_lim``) between points."""
     import fuzzyfeed.slw._kernels as _kernels
 
     ds = np.diff(s)
-    x = _kernels.phase_plane_passes(ds, np.ascontiguousarray(x_lim), tangent, kn,
-                                    np.asarray(limits.axis_acc_mm_s2, dtype=float))
+    acc = np.asarray(limits.axis_acc_mm_s2, dtype=float)
+    x = _kernels.phase_plane_passes(ds, np.ascontiguousarray(x_lim), tangent, kn, acc)
     v = np.sqrt(np.maximum(x, 0.0))
-    return v, float(_kernels.travel_time(ds, v))
+    dt = np.empty(ds.size)
+    cap = x_lim if x_cap is None else x_cap
+    _kernels.interval_times(ds, x, np.ascontiguousarray(cap, dtype=float), tangent, kn, acc, dt)
+    return v, float(dt.sum()), dt
 
 
 def time_optimal_bound(samples: PathSamples, limits: MachineLimits,
@@ -85,7 +91,7 @@ def time_optimal_bound(samples: PathSamples, limits: MachineLimits,
     if feed_cap is not None:
         cap = np.asarray(feed_cap, dtype=float)
         x_lim = np.minimum(x_lim, cap * cap)
-    v, t = _passes(s, x_lim, tangent, kn, limits)
+    v, t, _ = _passes(s, x_lim, tangent, kn, limits)
     return FeedProfile(samples, v, "bound", limits.feed_mm_s), t
 
 
@@ -98,6 +104,9 @@ class Bound:
     feed_mm_s: np.ndarray
     time_s: float
     time_halved_s: float = float("nan")
+    #: Each grid interval's time (s; the envelope of the passes inside it, summing to time_s), or
+    #: None: then 2·ds/(v_i + v_i+1).
+    interval_s: np.ndarray | None = None
 
     @property
     def grid_change(self) -> float:
@@ -123,7 +132,14 @@ def _evaluate(curve: Nurbs, limits: MachineLimits, s: np.ndarray):
 
 
 def _grid(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
-    """Adaptive grid: s, x_lim, tangent, κN; corners and knots on it."""
+    """Adaptive grid: s, x_lim (the corners' caps applied), tangent, κN; corners and knots on it."""
+    s, x, t, k, _ = _grid_raw(curve, limits, max_step_mm)
+    return s, x, t, k
+
+
+def _grid_raw(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
+    """:func:`_grid` and the pointwise limit without the corners' caps (the limit on either side
+    of a corner, between grid points)."""
     from fuzzyfeed.slw.preprocess import corners
 
     total = float(curve.length)
@@ -155,10 +171,11 @@ def _grid(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
         x = np.concatenate([x, xm])[order]
         t = np.concatenate([t, tm])[order]
         k = np.concatenate([k, km])[order]
+    raw = x.copy()
     if corner_s.size:
         idx = np.searchsorted(s, corner_s)
         x[idx] = np.minimum(x[idx], corner_cap * corner_cap)
-    return s, x, t, k
+    return s, x, t, k, raw
 
 
 def path_bound(curve: Nurbs, limits: MachineLimits, feed_cap=None, halve: bool = True,
@@ -169,14 +186,15 @@ def path_bound(curve: Nurbs, limits: MachineLimits, feed_cap=None, halve: bool =
     interpolated linearly in s. With ``halve``, the passes run again on the grid with every
     interval split in two, and :attr:`Bound.grid_change` says how much the time moved.
     """
-    s, x, t, k = _grid(curve, limits, max_step_mm)
+    s, x, t, k, raw = _grid_raw(curve, limits, max_step_mm)
     cap_x = None
     if feed_cap is not None:
         cs, cv = (np.asarray(a, dtype=float) for a in feed_cap)
         scale = cs[-1] / s[-1] if s[-1] > 0 else 1.0
         cap_x = lambda q: np.interp(q * scale, cs, cv) ** 2  # noqa: E731
         x = np.minimum(x, cap_x(s))
-    v, time_s = _passes(s, x, t, k, limits)
+        raw = np.minimum(raw, cap_x(s))
+    v, time_s, dt = _passes(s, x, t, k, limits, raw)
     halved = float("nan")
     if halve:
         mid = 0.5 * (s[:-1] + s[1:])
@@ -188,9 +206,11 @@ def path_bound(curve: Nurbs, limits: MachineLimits, feed_cap=None, halve: bool =
         s2[0::2], s2[1::2] = s, mid
         x2 = np.empty(2 * n - 1)
         x2[0::2], x2[1::2] = x, xm
+        r2 = x2.copy()
+        r2[0::2] = raw
         t2 = np.empty((2 * n - 1, 3))
         t2[0::2], t2[1::2] = t, tm
         k2 = np.empty((2 * n - 1, 3))
         k2[0::2], k2[1::2] = k, km
-        _, halved = _passes(s2, x2, np.ascontiguousarray(t2), np.ascontiguousarray(k2), limits)
-    return Bound(s, v, time_s, halved)
+        _, halved, _ = _passes(s2, x2, np.ascontiguousarray(t2), np.ascontiguousarray(k2), limits, r2)
+    return Bound(s, v, time_s, halved, dt)

@@ -4,8 +4,10 @@ The acceleration-limited bound (:func:`fuzzyfeed.slw.bound.path_bound`) knows no
 stop it is too optimistic, since under a jerk limit every stop-to-stop leg is a rest-to-rest
 move whose least time is the seven-phase (trapezoidal-acceleration) profile's. The floor is the
 larger of the bound and the sum of those rest-to-rest times over the legs between the path's
-full stops (the true corners passed at ≤ 1 % of F) — the measure issue 27 asks every schedule to
-be compared with.
+full stops (the corners the corner rule passes at 0: reversals and stationary points) — the
+measure issue 27 asks every schedule to be compared with. A corner passed at any feed > 0 is no
+stop: a leg that starts or ends moving is faster than rest to rest (square passes, their corners
+at 0.9 mm/s, ran at 0.990 × a floor that took them as stops); the corner chain bounds those.
 """
 
 from __future__ import annotations
@@ -15,8 +17,6 @@ import numpy as np
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.machine.limits import MachineLimits
 
-#: A true corner passed at no more than this share of the command feed is a full stop.
-STOP_SHARE = 0.01
 
 
 def seven_phase_s(dv: float, acc: float, jerk: float) -> float:
@@ -50,7 +50,7 @@ def legs_s(curve: Nurbs, limits: MachineLimits) -> float:
     from fuzzyfeed.slw.preprocess import corners
 
     s_c, cap = corners(curve, limits)
-    cuts = np.concatenate([[0.0], s_c[cap <= STOP_SHARE * limits.feed_mm_s], [curve.length]])
+    cuts = np.concatenate([[0.0], s_c[cap <= 0.0], [curve.length]])  # only the full stops
     acc = np.asarray(limits.axis_acc_mm_s2[:curve.dim])
     vel = np.asarray(limits.axis_vel_mm_s[:curve.dim])
     total = 0.0
@@ -370,68 +370,122 @@ def corner_chain_s(curve: Nurbs, limits: MachineLimits, bound=None) -> float:
     g, v1, v2 = np.diff(s), v[:-1], v[1:]
     least = np.zeros(g.size) if bound is None else bound_gap_times(bound, s)
     free = np.empty(g.size)
+    a1, a2 = np.minimum(acc, point_acceleration(v1, jerk)), np.minimum(acc, point_acceleration(v2, jerk))
     for k in range(0, g.size, CHAIN_BATCH):
         part = slice(k, k + CHAIN_BATCH)
-        free[part] = gap_times(g[part], v1[part], v2[part], feed, acc[part], jerk)
+        free[part] = gap_times(g[part], v1[part], v2[part], feed, acc[part], jerk, a1[part], -a2[part])
     return max(float(np.maximum(free, least).sum()), held_chain_s(g, v, acc, feed, jerk, least=least))
+
+
+def point_acceleration(v, jerk: float):
+    """The largest |s̈| a motion with |j| ≤ J and v ≥ 0 at every time (rest before its start and
+    after its end) can have where its feed is at most ``v``: √(2·J·v). With a(t) = α > 0,
+    a(t − τ) ≥ α − J·τ, so v(t − α/J) ≤ v(t) − α²/(2J), which must be ≥ 0; α < 0 the same forward
+    in time. At a rest point s̈ = 0."""
+    return np.sqrt(2.0 * jerk * np.maximum(np.asarray(v, dtype=float), 0.0))
 
 
 def bound_gap_times(bound, s: np.ndarray) -> np.ndarray:
     """Per gap [s_i, s_i+1], the acceleration-limited bound's time over its grid intervals wholly
-    inside the gap (Σ 2·ds/(v_k + v_k+1), as the bound's own time): every schedule within the
-    limits is at most the bound's feed at every point (the phase-plane envelope), so it spends at
-    least that long there."""
+    inside the gap (its own interval times, :attr:`Bound.interval_s`, else Σ 2·ds/(v_k + v_k+1)):
+    every schedule within the limits is at most the bound's feed at every point (the phase-plane
+    envelope), so it spends at least that long there."""
     gs, v = np.asarray(bound.s_mm, dtype=float), np.asarray(bound.feed_mm_s, dtype=float)
-    pair = v[:-1] + v[1:]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dt = np.where(pair > 0.0, 2.0 * np.diff(gs) / pair, 0.0)  # 0: a rest point proves nothing
+    if getattr(bound, "interval_s", None) is not None:
+        dt = np.asarray(bound.interval_s, dtype=float)
+        dt = np.where(np.isfinite(dt), dt, 0.0)  # a stationary stretch proves nothing here
+    else:
+        pair = v[:-1] + v[1:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dt = np.where(pair > 0.0, 2.0 * np.diff(gs) / pair, 0.0)  # 0: a rest point proves nothing
     cum = np.concatenate([[0.0], np.cumsum(dt)])
     first = np.searchsorted(gs, s[:-1], side="left")       # the first grid point ≥ s_i
     last = np.searchsorted(gs, s[1:], side="right") - 1     # the last grid point ≤ s_i+1
     return np.where(last > first, cum[np.minimum(last, cum.size - 1)] - cum[np.minimum(first, cum.size - 1)], 0.0)
 
 
+def signed_gap_times(gaps, c1, c2, feed: float, acc, jerk: float, a_start, a_end):
+    """:func:`gap_times` for motions that start with a ≤ ``a_start`` and end with a ≥ ``a_end``
+    of either sign. A start with a(0) ≤ a_s < 0: a(t) ≤ a_s + J·t, so over τ₀ = |a_s|/J
+    v(t) ≤ c₁ − |a_s|·t + J·t²/2 ≤ c₁: at τ₀ the feed is ≤ c₁' = c₁ − a_s²/(2J) (< 0: no such
+    motion) with a(τ₀) ≤ 0, and the window covers at most d₀ = c₁·τ₀ − |a_s|³/(3J²); an end with
+    a(T) ≥ a_e > 0 the same backwards (τ₁, c₂', d₁). A motion of T ≥ τ₀ + τ₁ is then a held
+    motion (a ≤ 0 at τ₀, a ≥ 0 at T − τ₁: :func:`gap_times`) over at least the gap − d₀ − d₁
+    between the windows, plus τ₀ + τ₁; one of T < τ₀ + τ₁ is in a window all along, at a feed
+    ≤ max(c₁, c₂), so T ≥ gap / max(c₁, c₂). The lower of the two cases that can happen."""
+    gaps, c1, c2, a_start, a_end = (np.broadcast_to(np.asarray(x, dtype=float), np.shape(gaps)).copy()
+                                    for x in (gaps, c1, c2, a_start, a_end))
+    acc = np.broadcast_to(np.asarray(acc, dtype=float), gaps.shape)
+    p, q = np.maximum(-a_start, 0.0), np.maximum(a_end, 0.0)
+    tau = (p + q) / jerk
+    c1s, c2s = c1 - p * p / (2.0 * jerk), c2 - q * q / (2.0 * jerk)
+    rest = gaps - (c1 * p / jerk - p ** 3 / (3.0 * jerk * jerk)) - (c2 * q / jerk - q ** 3 / (3.0 * jerk * jerk))
+    feasible = (c1s >= 0.0) & (c2s >= 0.0)
+    middle = np.zeros(gaps.size)
+    run = feasible & (rest > 0.0)
+    if run.any():
+        middle[run] = gap_times(rest[run], c1s[run], c2s[run], feed, acc[run], jerk,
+                                np.maximum(a_start[run], 0.0), np.minimum(a_end[run], 0.0))
+    held = np.where(feasible, tau + middle, np.inf)
+    cmax = np.maximum(c1, c2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        short = np.where(cmax > 0.0, gaps / cmax, np.inf)
+    return np.where((tau > 0.0) & (short < tau), short, held)
+
+
 def held_chain_s(gaps: np.ndarray, v: np.ndarray, acc: np.ndarray, feed: float, jerk: float,
                  bins: int = HELD_BINS, least: np.ndarray | None = None) -> float:
     """The chain with each point's tangential acceleration shared by its two gaps (s̈ is
     continuous under a jerk limit): at interior point k, α_k ∈ [−A_k, A_k] (A_k the smaller of its
-    gaps' bounds) lies in one of 2·``bins`` bins [lo, hi]; the gap after it starts with
-    a ≤ max(hi, 0), the gap before it ends with a ≥ min(lo, 0) (the signs keep the time-scaling
-    proof of :func:`gap_times`), and Σ gap times is least over the bins' sequence (dynamic
-    programming, exact over the bins). ``gaps`` (m, all > 0), ``v`` the m + 1 points' feeds
-    (rest at both ends: their accelerations free), ``acc`` per gap; ``least`` (optional, per gap)
-    a time each gap takes anyway, whatever its bins (each gap's cost is the larger)."""
+    gaps' bounds and √(2·J·v_k), :func:`point_acceleration`) lies in one of 2·``bins`` bins
+    [lo, hi] (edges e_j·A_k, e_j = j/bins); the gap after it starts with a ≤ hi, the gap before it
+    ends with a ≥ lo (:func:`signed_gap_times`: a negative start or a positive end costs its
+    window), and Σ gap times is least over the bins' sequence (dynamic programming, exact over
+    the bins). ``gaps`` (m, all > 0), ``v`` the m + 1 points' feeds (the rests at both ends: their
+    accelerations 0), ``acc`` per gap; ``least`` (optional, per gap) a time each gap takes anyway,
+    whatever its bins (each gap's cost is the larger)."""
     m = gaps.size
     if m == 0:
         return 0.0
-    edge = np.linspace(0.0, 1.0, bins + 1)[1:]  # e_1 … e_n, fractions of A_k
+    frac = np.linspace(0.0, 1.0, bins + 1)  # e_0 = 0, e_1 … e_bins = 1, fractions of A_k
     a_point = np.concatenate([[acc[0]], np.minimum(acc[:-1], acc[1:]), [acc[-1]]])
-    # option c of a gap's start: c = 0 → a ≤ 0, c ≥ 1 → a ≤ e_c·A; of its end f: a ≥ −e_f·A (f ≥ 1)
-    frac = np.concatenate([[0.0], edge])
-    n = bins + 1
+    a_point = np.minimum(a_point, point_acceleration(v, jerk))  # ≤ √(2·J·v_k) at a feed ≤ v_k
+    # a gap's start options a ≤ s·A_k, s in SV; its end options a ≥ e·A_k+1, e in EV
+    sv = np.concatenate([-frac[1:bins][::-1], frac])        # −e_{bins−1} … 0 … e_bins
+    ev = np.concatenate([-frac[::-1], frac[1:bins]])         # −e_bins … 0 … e_{bins−1}
+    n = 2 * bins
     c_idx, f_idx = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     c_idx, f_idx = c_idx.ravel(), f_idx.ravel()
     rows = np.repeat(np.arange(m), n * n)
-    a_start = frac[np.tile(c_idx, m)] * a_point[rows]
-    a_end = -frac[np.tile(f_idx, m)] * a_point[rows + 1]
+    a_start = sv[np.tile(c_idx, m)] * a_point[rows]
+    a_end = ev[np.tile(f_idx, m)] * a_point[rows + 1]
     cost = np.empty(rows.size)
     for k in range(0, rows.size, CHAIN_BATCH):
         part = slice(k, k + CHAIN_BATCH)
         r = rows[part]
-        cost[part] = gap_times(gaps[r], v[r], v[r + 1], feed, acc[r], jerk, a_start[part], a_end[part])
+        cost[part] = signed_gap_times(gaps[r], v[r], v[r + 1], feed, acc[r], jerk, a_start[part], a_end[part])
     cost = cost.reshape(m, n, n)  # [gap, start option, end option]
+    # a stronger option's motions are among a weaker one's, so each bound holds for every
+    # stronger option too: the larger start values (SV ascending) and the smaller end values
+    # (EV ascending) are weaker; each option takes the largest bound of those weaker than it
+    cost = np.maximum.accumulate(cost[:, ::-1, :], axis=1)[:, ::-1, :]
+    cost = np.maximum.accumulate(cost, axis=2)
     if least is not None:
         cost = np.maximum(cost, np.asarray(least, dtype=float)[:, None, None])
-    # an interior point's bin b: negative bins j = 1…n end the gap before at −e_j, start the next
-    # at 0; positive bins start the next at e_j and end the gap before at 0
-    ends = np.concatenate([np.arange(1, n), np.zeros(n - 1, dtype=int)])
-    starts = np.concatenate([np.zeros(n - 1, dtype=int), np.arange(1, n)])
-    if m == 1:  # rest to rest: both accelerations free
-        return float(cost[0, n - 1, n - 1])
-    best = cost[0, n - 1, ends]  # point 1's bins; the start at rest, its acceleration free (≤ A)
+    # an interior point's bins: negative j = 1…bins, [−e_j, −e_j−1]: the gap before ends at
+    # a ≥ −e_j (EV index bins − j), the next starts at a ≤ −e_j−1 (SV index bins − j); positive
+    # j, [e_j−1, e_j]: the gap before ends at a ≥ e_j−1 (EV bins + j − 1), the next starts at
+    # a ≤ e_j (SV bins − 1 + j)
+    j = np.arange(1, bins + 1)
+    ends = np.concatenate([bins - j, bins + j - 1])
+    starts = np.concatenate([bins - j, bins - 1 + j])
+    first, last = n - 1, 0  # the rests: a ≤ a_point[0] (SV e_bins), a ≥ −a_point[m] (EV −e_bins)
+    if m == 1:
+        return float(cost[0, first, last])
+    best = cost[0, first, ends]  # point 1's bins
     for i in range(1, m - 1):  # point i + 1's bins
         best = (best[:, None] + cost[i][starts][:, ends]).min(axis=0)
-    return float((best + cost[m - 1][starts, n - 1]).min())  # the end's acceleration free
+    return float((best + cost[m - 1][starts, last]).min())
 
 
 def jerk_floor(curve: Nurbs, limits: MachineLimits, bound=None) -> float:
