@@ -73,9 +73,10 @@ class Uniform:
     apart: tuple[Apart, ...] = ()
 
 
-def _scaled_plans(path: ProgramPath, machine: Machine, scale: float) -> list[Plan]:
-    return [plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
-                               c.motion.arc_radius_mm), machine) for c in path.chains]
+def _scaled_plans(path: ProgramPath, machine: Machine, scale: float):
+    """The chains' plans at ``scale``, one at a time (an iterator: never all of them held)."""
+    return (plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
+                               c.motion.arc_radius_mm), machine) for c in path.chains)
 
 
 def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
