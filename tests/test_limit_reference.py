@@ -157,3 +157,19 @@ def test_the_profile_changes_where_the_plan_does():
     assert np.array_equal(by_plan, by_profile)
     assert by_profile[3] and not by_profile[0]
     assert not R._changed(R._Profile.of(p1), p1, machine).any()
+
+
+def test_the_last_run_takes_run_programs_p99_rerun_where_the_fast_path_leaves_it_unsettled():
+    # two 3 m passes at F6000 joined by 2 mm steps: the corners break the tolerance, and the p99
+    # over every tick (~0.3 µm, the straight lines') falls within the fast path's bounds
+    text = ("G21 G90 G94\nG0 X0 Y0 Z1\nG1 Z0 F300\nG1 X3000 F6000\nG1 Y2\nG1 X0\nG1 Y4\nG1 X3000\nM2\n")
+    machine = load_machine("reference")
+    path = program_path(parse_program(text), machine.chord_tol_mm)
+    feeds, passes, whole = _reference_with_plans(path, machine)
+    assert not whole.p99_settled          # the limit reference's last run as main made it
+    ref = R.limit_reference(path, machine)
+    assert ref.passes == passes
+    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(ref.feeds, feeds))
+    assert ref.run.p99_settled
+    ticks = run_program(ref.path, machine, feeds=list(ref.feeds), fast=False)
+    assert ref.run.p99_um == ticks.p99_um and ref.run.max_um == ticks.max_um
