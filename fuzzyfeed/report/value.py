@@ -309,6 +309,8 @@ class Evaluation:
             r = replace(r, reference=ValueRow.of("limit reference", ref.run), reference_converged=ref.converged,
                         reference_apart=_at_apart(ref.run, r.uniform_apart),
                         reference_deferred=False)
+            del ref
+            release_free_memory()      # the passes' freed heap, before the CSV rows are made again
         return replace(self, report=r, uniform=u, path=None)
 
     def column_pieces(self):
@@ -397,6 +399,8 @@ def evaluate_program(program: Program, machine: Machine, table: RuleTable, *, ca
             ref = limit_reference(path, machine)
             ref_row, converged = ValueRow.of("limit reference", ref.run), ref.converged
             ref_apart = _at_apart(ref.run, u.apart)
+            del ref
+            release_free_memory()      # the passes' freed heap, before the CSV rows are made again
     report = ValueReport(
         name=program.path.name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written),
