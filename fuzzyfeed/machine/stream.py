@@ -72,7 +72,7 @@ class StreamRun:
     (ticks over the threshold, merged while segment, lookback segment, nearest segment and 0.1 mm
     of path hold: the most demanding tick of each run, smallest speed/√error)."""
 
-    plan: Plan
+    plan: Plan | None            # None once a run keeps only its rows (program/run.py: without_plan)
     seg_max_mm: np.ndarray
     hist_bins: np.ndarray
     hist_counts: np.ndarray
