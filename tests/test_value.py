@@ -207,7 +207,7 @@ def test_a_chain_with_nothing_measured_adds_no_segment_to_the_feed_trace():
 
     from fuzzyfeed.machine.planner import Motion
     from fuzzyfeed.program.run import Chain
-    from fuzzyfeed.report.value import _along
+    from fuzzyfeed.report.value_trace import _along
 
     def chain(points, measured):
         pts = np.array(points, float)

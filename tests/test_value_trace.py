@@ -1,4 +1,4 @@
-"""The value plot's feed trace made block by block and thinned (fuzzyfeed.report.value, issue 36):
+"""The value plot's feed trace made block by block and thinned (fuzzyfeed.report.value_trace, issue 36):
 the same step plot of F, and every replaced point within the stated share of the extent of the
 segment drawn in its place."""
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from fuzzyfeed.machine.planner import Motion
 from fuzzyfeed.program.run import Chain
-from fuzzyfeed.report import value as V
+from fuzzyfeed.report import value_trace as V
 
 
 def _path(rng, n_chains=3, n=1500):

@@ -72,7 +72,7 @@ class StreamRun:
     (ticks over the threshold, merged while segment, lookback segment, nearest segment and 0.1 mm
     of path hold: the most demanding tick of each run, smallest speed/√error)."""
 
-    plan: Plan
+    plan: Plan | None            # None once a run keeps only its rows (program/run.py: without_plan)
     seg_max_mm: np.ndarray
     hist_bins: np.ndarray
     hist_counts: np.ndarray
@@ -276,7 +276,9 @@ def _stream(plan, machine, measured, keep_mm, windows, block, boxes, skip_mm, bo
     k_end = tick_count(plan, ts)
     lookback = lookback_ticks(machine)
     fb, fa = servo_coefficients(machine)
-    f64 = lambda a: np.array(a, dtype=np.float64, order="C")  # noqa: E731  writable C copies: one compilation
+    # writable C float64 arrays (one compilation): the plan's own where they are (the kernel only reads
+    # them; a copy of a 10⁶-segment plan is ~80 MB), copies of the others (the motion's read-only points)
+    f64 = lambda a: np.require(a, dtype=np.float64, requirements=["C", "W"])  # noqa: E731
     arrays = (f64(motion.points), f64(plan.unit), f64(plan.length), f64(plan.segment_arc_start()),
               f64(plan.t_start), f64(plan.v_entry), f64(plan.v_peak), f64(plan.acc), f64(plan.t_acc),
               f64(plan.t_cruise), np.array(meas, dtype=np.bool_), fb, fa)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,7 +25,8 @@ from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
 from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS, segment_windows, warmup_ticks
 from fuzzyfeed.program.apart import Apart, describe, masked, no_places, run_max_um, set_apart
-from fuzzyfeed.program.run import Chain, ChainRun, ProgramPath, ProgramRun, run_chain, run_program
+from fuzzyfeed.program.run import (Chain, ChainRun, ProgramPath, ProgramRun, run_chain, run_program, settle_p99,
+                                  without_plan)
 
 #: A uniform factor whose whole run passes this many servo periods is reported from its hot
 #: stretches (time: the planner's) without the whole run.
@@ -72,9 +73,10 @@ class Uniform:
     apart: tuple[Apart, ...] = ()
 
 
-def _scaled_plans(path: ProgramPath, machine: Machine, scale: float) -> list[Plan]:
-    return [plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
-                               c.motion.arc_radius_mm), machine) for c in path.chains]
+def _scaled_plans(path: ProgramPath, machine: Machine, scale: float):
+    """The chains' plans at ``scale``, one at a time (an iterator: never all of them held)."""
+    return (plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
+                               c.motion.arc_radius_mm), machine) for c in path.chains)
 
 
 def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
@@ -340,12 +342,28 @@ class Reference:
     converged: bool
 
 
+@dataclass(frozen=True, eq=False)
+class _Profile:
+    """What :func:`_changed` compares of a chain's plan (~32 bytes a segment of its ~104): per
+    segment the entry, peak and exit speed and the acceleration (the plan's own arrays, no copy)."""
+
+    v_entry: np.ndarray
+    v_peak: np.ndarray
+    v_exit: np.ndarray
+    acc: np.ndarray
+
+    @classmethod
+    def of(cls, plan: Plan) -> _Profile:
+        return cls(plan.v_entry, plan.v_peak, plan.v_exit, plan.acc)
+
+
 @dataclass
 class _Measured:
     """What a pass of the limit reference needs of a chain's run, spliced from the stretches
-    re-run: the largest error per segment and the events (ticks over the tolerance)."""
+    re-run: its plan's speed profile (:class:`_Profile`, not the plan), the largest error per
+    segment and the events (ticks over the tolerance)."""
 
-    plan: Plan
+    profile: _Profile
     seg_max_mm: np.ndarray
     contour_mm: np.ndarray
     speed_mm_s: np.ndarray
@@ -354,28 +372,29 @@ class _Measured:
     lookback_segment: np.ndarray
 
     @classmethod
-    def of(cls, r: ChainRun) -> _Measured:
+    def of(cls, r: ChainRun, plan: Plan) -> _Measured:
         s = r.stream
-        return cls(r.plan, s.seg_max_mm, s.contour_mm, s.speed_mm_s, s.tick_segment, s.nearest_segment,
-                   s.lookback_segment)
+        return cls(_Profile.of(plan), s.seg_max_mm, s.contour_mm, s.speed_mm_s, s.tick_segment,
+                   s.nearest_segment, s.lookback_segment)
 
-    def splice(self, r: ChainRun, redone: np.ndarray) -> _Measured:
-        """This run with the segments ``redone`` (bool per segment) taken from ``r``, a run of the
-        stretches that hold them."""
+    def splice(self, r: ChainRun, plan: Plan, redone: np.ndarray) -> _Measured:
+        """This run with the segments ``redone`` (bool per segment) taken from ``r``, a run of
+        ``plan``'s stretches that hold them."""
         s = r.stream
         old = ~redone[self.tick_segment]
         new = redone[s.tick_segment]
         cat = lambda a, b: np.concatenate([a[old], b[new]])  # noqa: E731
-        return _Measured(r.plan, np.where(redone, s.seg_max_mm, self.seg_max_mm),
+        return _Measured(_Profile.of(plan), np.where(redone, s.seg_max_mm, self.seg_max_mm),
                          cat(self.contour_mm, s.contour_mm), cat(self.speed_mm_s, s.speed_mm_s),
                          cat(self.tick_segment, s.tick_segment), cat(self.nearest_segment, s.nearest_segment),
                          cat(self.lookback_segment, s.lookback_segment))
 
 
-def _changed(old: Plan, new: Plan, machine: Machine) -> np.ndarray:
+def _changed(old: Plan | _Profile, new: Plan, machine: Machine) -> np.ndarray:
     """Segments whose run may differ between two plans of the same path (bool per segment): those
     whose speed profile changed, and after each the ones commanded within a warm-up of the servo
-    (its memory; :data:`~fuzzyfeed.machine.stream.WARMUP_TIME_CONSTANTS`)."""
+    (its memory; :data:`~fuzzyfeed.machine.stream.WARMUP_TIME_CONSTANTS`). ``old``: a plan or its
+    :class:`_Profile`."""
     diff = ((old.v_entry != new.v_entry) | (old.v_peak != new.v_peak) | (old.v_exit != new.v_exit)
             | (old.acc != new.acc))
     out = diff.copy()
@@ -399,19 +418,25 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
                     tol_um: float | None = None, progress=None) -> Reference:
     """Feeds lowered piece by piece where the run breaks the tolerance (module docstring). Each
     pass re-runs only the stretches whose speed profile the new feeds changed (and the servo's
-    memory after them); the result is one whole run on the final feeds."""
+    memory after them); the result is one whole run on the final feeds, its p99 settled as
+    :func:`~fuzzyfeed.program.run.run_program`'s (:func:`~fuzzyfeed.program.run.settle_p99`).
+
+    Memory: per chain its rows (the largest error per segment, the events) and its plan's speed
+    profile (:class:`_Profile`); a pass holds one new plan at a time, dropped once its stretches
+    are run (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`)."""
     tol = (machine.contour_tol_um if tol_um is None else tol_um) * 1e-3
     chains = tuple(refine_chain(c, piece_mm) for c in path.chains)
     refined = ProgramPath(program=path.program, chains=chains, chord_tol_mm=path.chord_tol_mm)
     feeds = [c.motion.feed_mm_s.copy() for c in chains]
     reachable = [_reachable_feed(c.motion, machine) for c in chains]
-    first: list[ChainRun] = [run_chain(c, machine, keep_mm=tol) for c in chains]
-    state = [_Measured.of(r) for r in first]
+    state: list[_Measured] = []
+    runs: list[ChainRun] = []        # each chain's last whole run: its rows, without plans
+    for c in chains:
+        r = run_chain(c, machine, keep_mm=tol)
+        state.append(_Measured.of(r, r.plan))
+        runs.append(without_plan(r))
+        del r
     touched = [False] * len(chains)
-    # the runs' rows without their plans (~0.1 KB a segment): ``state`` keeps the plan each pass
-    # compares with, and only that one
-    runs = [replace(r, plan=None) for r in first]
-    del first
     passes = 1
     while passes < REFERENCE_PASSES:
         changed = False
@@ -424,10 +449,11 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
                 feeds[i] = new
                 plan = plan_motion(Motion(chain.motion.points, new, chain.motion.rapid,
                                           chain.motion.arc_radius_mm), machine)
-                redo = _changed(m.plan, plan, machine)
-                r = run_chain(chain, machine, plan=plan, keep_mm=tol,
+                redo = _changed(m.profile, plan, machine)
+                r = run_chain(chain, machine, plan=plan, keep_mm=tol, keep_plan=False,
                               windows=segment_windows(plan, machine, np.flatnonzero(redo)))
-                state[i] = m.splice(r, redo)
+                state[i] = m.splice(r, plan, redo)
+                del plan, r, m
                 touched[i] = changed = True
         passes += 1
         if progress is not None:
@@ -438,16 +464,17 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             stale = [i for i, t in enumerate(touched) if t]
             for i in stale:
                 r = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
-                state[i] = _Measured.of(r)
-                runs[i] = replace(r, plan=None)
+                state[i] = _Measured.of(r, r.plan)
+                runs[i] = without_plan(r)
                 touched[i] = False
+                del r
             if not any((state[i].contour_mm > tol).any() for i in stale):
                 break
     del state
     for i, t in enumerate(touched):
         if t:
             runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol, keep_plan=False)
-    final = ProgramRun(path=refined, machine=machine, runs=tuple(runs))
+    final = settle_p99(refined, machine, runs, lambda i: feeds[i], keep_mm=tol, keep_plans=False)
     return Reference(path=refined, feeds=tuple(feeds), run=final, passes=passes,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
 

@@ -361,8 +361,16 @@ def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = Non
                          "give a longer --ts-s)")
     sr = stream_plan(plan, machine, chain.seg_measured, keep_mm=keep_mm, windows=windows, fast=fast,
                      skip_mm=skip_mm)
-    return ChainRun(plan=plan if keep_plan else None, stream=sr, tick_move=chain.seg_move[sr.tick_segment],
-                    time_s=float(plan.time_s))
+    run = ChainRun(plan=plan, stream=sr, tick_move=chain.seg_move[sr.tick_segment], time_s=float(plan.time_s))
+    return run if keep_plan else without_plan(run)
+
+
+def without_plan(run: ChainRun) -> ChainRun:
+    """``run`` without its plan (~0.1 KB a segment), neither its own nor its summaries' (the
+    :class:`~fuzzyfeed.machine.stream.StreamRun` keeps the plan it ran): its rows and time only."""
+    if run.plan is None and run.stream.plan is None:
+        return run
+    return replace(run, plan=None)   # ChainRun drops its stream's plan with its own
 
 
 def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | None = None,
@@ -376,21 +384,33 @@ def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | N
     unsettled, tick by tick."""
     if not (np.isfinite(feed_scale) and feed_scale > 0):
         raise InputError(f"feed_scale = {feed_scale!r}; must be finite and > 0")
-    runs = []
-    for i, chain in enumerate(path.chains):
-        f = feeds[i] if feeds is not None else (chain.motion.feed_mm_s * feed_scale if feed_scale != 1.0 else None)
-        runs.append(run_chain(chain, machine, f, keep_plan=keep_plans, fast=fast))
+
+    def feed(i: int) -> np.ndarray | None:
+        if feeds is not None:
+            return feeds[i]
+        return path.chains[i].motion.feed_mm_s * feed_scale if feed_scale != 1.0 else None
+
+    runs = [run_chain(chain, machine, feed(i), keep_plan=keep_plans, fast=fast) for i, chain in enumerate(path.chains)]
+    return settle_p99(path, machine, runs, feed, keep_plans=keep_plans, fast=fast)
+
+
+def settle_p99(path: ProgramPath, machine: Machine, runs: list[ChainRun], feed, keep_mm: float | None = None,
+               keep_plans: bool = True, fast: bool = True) -> ProgramRun:
+    """The program run of the whole-chain ``runs`` of ``path`` (``feed(i)``: chain i's feeds, None
+    for its own) with its p99 the tick pass's: where the fast path's bounds leave it unsettled
+    (:attr:`ProgramRun.p99_settled`: a p99 within the fast path's threshold, ~1 µm), the chains with
+    bounded ticks are run again with a quarter of that p99 as the threshold, then, if still
+    unsettled (after :data:`P99_RETRIES`), tick by tick (:func:`run_program` and the limit
+    reference's last run share it). ``keep_mm``: the events' threshold of the runs."""
+    runs = list(runs)
     out = ProgramRun(path=path, machine=machine, runs=tuple(runs))
-    # an unsettled p99 (within the threshold: ~1 µm) is made again from the chains with bounded
-    # ticks, with a threshold under a quarter of it, then, if still unsettled, every tick searched
     for attempt in range(P99_RETRIES + 1):
         if not fast or out.p99_settled:
             break
         skip = 0.25 * out.p99_um * 1e-3 if attempt < P99_RETRIES else 0.0
         for i, chain in enumerate(path.chains):
             if runs[i].stream.skipped_ticks:
-                f = feeds[i] if feeds is not None else (chain.motion.feed_mm_s * feed_scale if feed_scale != 1.0 else None)
-                runs[i] = run_chain(chain, machine, f, plan=runs[i].plan, keep_plan=keep_plans, fast=skip > 0.0,
-                                    skip_mm=skip)
+                runs[i] = run_chain(chain, machine, feed(i), plan=runs[i].plan, keep_mm=keep_mm,
+                                    keep_plan=keep_plans, fast=skip > 0.0, skip_mm=skip)
         out = ProgramRun(path=path, machine=machine, runs=tuple(runs))
     return out
