@@ -18,20 +18,11 @@ from hypothesis import strategies as st
 import slw_cases
 from fuzzyfeed.geometry.sampling import samples_at
 from fuzzyfeed.machine.limits import MachineLimits, feed_limit_components, feed_limits
-from fuzzyfeed.slw import measure, schedule
-from test_slw_properties import PATH_JERK_RTOL, TICK_RTOL, chord_jerk
+from fuzzyfeed.slw import schedule
+from test_slw_properties import assert_keeps_limits
 
 SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
 EQUAL = MachineLimits()
-
-
-def assert_keeps_limits(traj):
-    m = measure(traj)
-    for key in ("feed", "axis_vel", "axis_acc", "jerk"):
-        assert m[key] <= 1.0 + TICK_RTOL, (key, m[key])
-    assert m["chord"] <= 1.005, m["chord"]
-    assert chord_jerk(traj).max() <= 1.0 + PATH_JERK_RTOL
-    assert m["start_feed_mm_s"] == 0.0 == m["end_feed_mm_s"]
 
 
 def junction_share(traj, limits):
