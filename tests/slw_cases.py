@@ -155,3 +155,32 @@ def cusp_cubic() -> Nurbs:
     pts = rng.uniform(0, 100, (n, 2))
     inner = np.sort(rng.uniform(0, 1, n - 4))
     return Nurbs(3, np.concatenate([[0] * 4, inner, [1] * 4]), pts)
+
+
+#: The machines of the recorded schedules (tests/test_arc_jit.py, tests/test_slw_kernels.py): the
+#: default limits on every axis, and a Y axis at half the speed and a quarter of the acceleration.
+EQUAL = MachineLimits()
+SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+RECORDED_MACHINES = {"equal": EQUAL, "slow-y": SLOW_Y}
+
+
+def named_curve(name: str) -> Nurbs:
+    """The path a recorded row names: "cusp" (cusp_cubic), "nurbsN" (random_nurbs(N)), "cam1000"
+    (cam_polyline(1000)), else a shipped shape."""
+    if name == "cusp":
+        return cusp_cubic()
+    if name.startswith("nurbs"):
+        return random_nurbs(int(name[5:]))[0]
+    if name == "cam1000":
+        return cam_polyline(1000)
+    from fuzzyfeed.io.shapes import load_shape
+
+    return load_shape(name).curve
+
+
+def recorded_schedule(name: str, machine: str, **options):
+    """The schedule of a recorded row: ``named_curve(name)`` on RECORDED_MACHINES[machine]
+    ("equal" or "slow-y"), ``options`` passed to slw.schedule (transition=...)."""
+    from fuzzyfeed.slw import schedule
+
+    return schedule(named_curve(name), RECORDED_MACHINES[machine], **options)

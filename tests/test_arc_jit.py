@@ -18,11 +18,6 @@ from fuzzyfeed.geometry._kernels import nurbs_kernel
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.polyline_fit import fit_polyline
 from fuzzyfeed.io.shapes import load_shape
-from fuzzyfeed.machine.limits import MachineLimits
-from fuzzyfeed.slw import schedule
-
-EQUAL = MachineLimits()
-SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
 
 
 def _curves():
@@ -96,16 +91,6 @@ def test_power_basis_bit_for_bit(seed):
     assert np.abs(old[1] - new[1]).max() <= 1e-13 * np.abs(old[1]).max()
 
 
-def _curve(name):
-    if name == "cusp":
-        return slw_cases.cusp_cubic()
-    if name.startswith("nurbs"):
-        return slw_cases.random_nurbs(int(name[5:]))[0]
-    if name == "cam1000":
-        return slw_cases.cam_polyline(1000)
-    return load_shape(name).curve
-
-
 # (path, machine, transition, ticks, Σ w_k u_k, Σ w_k x_k, Σ w_k y_k, Σ w_k z_k, xyz at tick K // 3)
 # with w = linspace(1, 2, K), recorded with the NURBS kernel loaded and the numpy u(s) and interpolation
 # (main 55c2bd9; the slow-Y rows from branch sched38j's window, which changed those schedules)
@@ -123,7 +108,7 @@ RECORDED = [
 def test_schedules_as_recorded_on_main(row):
     name, machine, transition, ticks, *want = row
     nurbs_kernel()
-    tr = schedule(_curve(name), EQUAL if machine == "equal" else SLOW_Y, transition=transition)
+    tr = slw_cases.recorded_schedule(name, machine, transition=transition)
     assert tr.u.size == ticks
     w = np.linspace(1.0, 2.0, ticks)
     got = [float(tr.u @ w), *(float(tr.xyz[:, i] @ w) for i in range(3)), *map(float, tr.xyz[ticks // 3])]
@@ -140,7 +125,7 @@ def test_chord_exact_terms_compiled_bit_for_bit(name, machine, monkeypatch):
     from fuzzyfeed.geometry import interpolate as I
 
     nurbs_kernel()
-    tr = schedule(_curve(name), EQUAL if machine == "equal" else SLOW_Y)
+    tr = slw_cases.recorded_schedule(name, machine)
     curve, s = tr.curve, np.array(tr.s_mm)
     got = I.interpolate_u(curve, s, "best")
     monkeypatch.setattr(I, "nurbs_compiled", lambda n: False)

@@ -132,17 +132,6 @@ def test_the_limit_reference_is_the_one_with_plans_on_a_raster_of_several_passes
     assert ref.run.max_um > 0
 
 
-def test_a_run_without_its_plan_keeps_no_plan_anywhere():
-    machine = load_machine("reference")
-    program = parse_program("G21 G90 G94\nG0 X0 Y0 Z1\nG1 Z0 F300\nG1 X10 F3000\nG1 Y10\nG1 X0\nM2\n")
-    path = program_path(program, machine.chord_tol_mm)
-    kept = run_program(path, machine)
-    dropped = run_program(path, machine, keep_plans=False)
-    assert all(r.plan is not None and r.stream.plan is not None for r in kept.runs)
-    assert all(r.plan is None and r.stream.plan is None for r in dropped.runs)
-    assert dropped.time_s == kept.time_s and dropped.max_um == kept.max_um and dropped.p99_um == kept.p99_um
-
-
 def test_the_profile_changes_where_the_plan_does():
     machine = load_machine("reference")
     pts = np.array([[0, 0, 0], [5, 0, 0], [10, 0, 0], [10, 5, 0], [10, 10, 0], [5, 10, 0]], float)

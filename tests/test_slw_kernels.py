@@ -10,17 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import slw_cases
-from fuzzyfeed.io.shapes import load_shape
-from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.slw import _kernels as K
-from fuzzyfeed.slw import schedule
 from fuzzyfeed.slw.lookahead import SlidingWindow
 from fuzzyfeed.slw.preprocess import Reference
 from fuzzyfeed.slw.profile import COSINE, SEVEN_PHASE, lowest_end_speed, max_end_speed, max_rise
 from fuzzyfeed.slw.window_blocks import _Junction, _WBlock
 
-EQUAL = MachineLimits()
-SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
+EQUAL = slw_cases.EQUAL
 
 
 def _same(a, b):
@@ -105,16 +101,6 @@ def test_plan_window_equals_the_python_scans(shape):
             assert [j.v for j in w.juncs] == want
 
 
-def _curve(name):
-    if name == "cusp":
-        return slw_cases.cusp_cubic()
-    if name.startswith("nurbs"):
-        return slw_cases.random_nurbs(int(name[5:]))[0]
-    if name == "cam1000":
-        return slw_cases.cam_polyline(1000)
-    return load_shape(name).curve
-
-
 # (path, machine, transition, ticks, Σ|a_k|, Σ v_k²) of schedules made by main at db78ea5, before
 # the compiled window (the sums over the ticks change with any change of the profile); the slow-Y
 # rows re-recorded at branch sched38p (issue 38: a block's rises and falls at their own tangential
@@ -157,7 +143,7 @@ RECORDED = [
 
 @pytest.mark.parametrize("name, machine, transition, ticks, acc_sum, v2_sum", RECORDED)
 def test_schedules_as_recorded_before_the_kernels(name, machine, transition, ticks, acc_sum, v2_sum):
-    tr = schedule(_curve(name), EQUAL if machine == "equal" else SLOW_Y, transition=transition)
+    tr = slw_cases.recorded_schedule(name, machine, transition=transition)
     assert tr.t_s.size == ticks
     assert tr.cycle_time_s == pytest.approx((ticks - 1) * EQUAL.ts_s, rel=1e-9)
     assert float(np.abs(tr.acc_mm_s2).sum()) == pytest.approx(acc_sum, rel=1e-9)

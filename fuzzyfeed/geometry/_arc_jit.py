@@ -15,6 +15,8 @@ import math
 import numba
 import numpy as np
 
+from fuzzyfeed.geometry._nurbs_jit import find_span
+
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _speed(spans, coeffs, x, hint):
@@ -25,18 +27,9 @@ def _speed(spans, coeffs, x, hint):
     m = coeffs.shape[0]
     p = coeffs.shape[1] - 1
     dim = coeffs.shape[2] - 1
-    k = hint[0]
     # the span search of the NURBS kernel; nearby points usually stay in the last span
-    if not (spans[k] <= x < spans[k + 1]):
-        lo, hi = 0, m
-        while hi - lo > 1:
-            mid = (lo + hi) >> 1
-            if spans[mid] <= x:
-                lo = mid
-            else:
-                hi = mid
-        k = lo
-        hint[0] = k
+    k = find_span(spans, m, x, hint[0])
+    hint[0] = k
     h = spans[k + 1] - spans[k]
     t = (x - spans[k]) / h
     # homogeneous components 0, 1, (2), w: Horner on the value (a) and its t-derivative (b)

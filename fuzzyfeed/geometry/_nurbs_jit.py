@@ -10,6 +10,24 @@ import numba
 import numpy as np
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def find_span(spans, m, x, k):
+    """The span k of ``x`` among the ``m`` spans [spans[k], spans[k + 1]): the hint ``k`` when x
+    lies in it, else bisection for the last k < m with spans[k] <= x (0 when none is), i.e.
+    np.searchsorted(spans, x, side="right") - 1 clipped to [0, m - 1] (cf. The NURBS Book
+    A2.1, FindSpan)."""
+    if spans[k] <= x < spans[k + 1]:
+        return k
+    lo, hi = 0, m
+    while hi - lo > 1:
+        mid = (lo + hi) >> 1
+        if spans[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
 @numba.njit(cache=True, nogil=True)
 def evaluate_power_basis(spans, coeffs, u, order, out):
     # seed 004 step 3: Horner on the span's homogeneous power-basis polynomial and its
@@ -24,16 +42,8 @@ def evaluate_power_basis(spans, coeffs, u, order, out):
     k = 0
     for i in range(u.size):
         x = u[i]
-        # span search: sorted input usually stays in the same or the next span
-        if not (spans[k] <= x < spans[k + 1]):
-            lo, hi = 0, m
-            while hi - lo > 1:
-                mid = (lo + hi) >> 1
-                if spans[mid] <= x:
-                    lo = mid
-                else:
-                    hi = mid
-            k = lo
+        # sorted input usually stays in the same or the next span
+        k = find_span(spans, m, x, k)
         h = spans[k + 1] - spans[k]
         t = (x - spans[k]) / h
         for d in range(dh):

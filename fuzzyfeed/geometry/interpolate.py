@@ -25,6 +25,7 @@ import numpy as np
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.geometry._kernels import chord_kernels, nurbs_compiled
 from fuzzyfeed.geometry.nurbs import Nurbs
+from fuzzyfeed.geometry.polyline_chords import pad3
 
 #: Ticks per chunk of the chord-exact interpolation's curve evaluations (~300 B per tick each).
 CHUNK_TICKS = 16384
@@ -72,10 +73,6 @@ def interpolate_u(curve: Nurbs, s_mm: np.ndarray, method: str = "best") -> np.nd
     u[0], u[-1] = lo, hi
     return np.maximum.accumulate(u)
 
-
-
-def _pad3(a: np.ndarray) -> np.ndarray:
-    return a if a.shape[1] == 3 else np.hstack([a, np.zeros((a.shape[0], 3 - a.shape[1]))])
 
 
 def _chords(curve: Nurbs, u: np.ndarray) -> np.ndarray:
@@ -131,7 +128,7 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
             # (a tangent break) the chord cuts the corner and retargeting would make the tick jump
             d1n = np.linalg.norm(d1, axis=1)
             with np.errstate(divide="ignore", invalid="ignore"):
-                kap = np.linalg.norm(np.cross(_pad3(d1), _pad3(d2)), axis=1) / d1n ** 3
+                kap = np.linalg.norm(np.cross(pad3(d1), pad3(d2)), axis=1) / d1n ** 3
             kap = np.nan_to_num(kap, nan=0.0, posinf=0.0)
             part = np.maximum(dl - ch, 0.0)
             capped = np.minimum(part, dl ** 3 * np.maximum(kap[:-1], kap[1:]) ** 2 / 12.0 + 1e-3 * part)

@@ -17,6 +17,7 @@ import numpy as np
 from fuzzyfeed.base.checks import expect, float_array
 from fuzzyfeed.errors import InputError
 from fuzzyfeed.geometry.nurbs import MAX_COORDINATE_MM, Nurbs, curvature_from_derivatives
+from fuzzyfeed.geometry.polyline_chords import pad3
 
 #: Seed 002 samples its paths at 2000 points (Δu = 0.0005 on [0, 1]).
 DEFAULT_POINTS = 2000
@@ -95,12 +96,6 @@ class PathSamples:
                 "curvature_1_mm": self.curvature}
 
 
-def _pad3(a: np.ndarray) -> np.ndarray:
-    if a.shape[1] == 3:
-        return a
-    return np.hstack([a, np.zeros((a.shape[0], 3 - a.shape[1]))])
-
-
 def samples_at(curve: Nurbs, u: np.ndarray, s: np.ndarray | None = None) -> PathSamples:
     """Sample ``curve`` at the given parameters (sorted, inside the domain)."""
     u = np.asarray(u, dtype=float)
@@ -109,8 +104,8 @@ def samples_at(curve: Nurbs, u: np.ndarray, s: np.ndarray | None = None) -> Path
     with np.errstate(divide="ignore", invalid="ignore"):
         tangent = d1 / speed[:, None]
     s = curve.arc_length(u) if s is None else s
-    return PathSamples(u=u, xyz=_pad3(c), s=s, tangent=_pad3(tangent),
-                       curvature=curvature_from_derivatives(d1, d2), d1=_pad3(d1), d2=_pad3(d2),
+    return PathSamples(u=u, xyz=pad3(c), s=s, tangent=pad3(tangent),
+                       curvature=curvature_from_derivatives(d1, d2), d1=pad3(d1), d2=pad3(d2),
                        dim=curve.dim, curve=curve)
 
 
@@ -201,7 +196,7 @@ def three_point_curvature(points: np.ndarray) -> np.ndarray:
         i = int(np.argwhere(big)[0, 0])
         raise InputError(f"points[{i}] = {pts[i].tolist()}; coordinates must lie within "
                          f"±{MAX_COORDINATE_MM:g} mm (1 km)")
-    pts = _pad3(pts)
+    pts = pad3(pts)
     d_a = pts[:-2] - pts[1:-1]   # P1 - P2
     d_b = pts[2:] - pts[1:-1]    # P3 - P2
     ta = np.linalg.norm(d_a, axis=1)
@@ -265,7 +260,7 @@ def samples_from_points(points: np.ndarray, curve: Nurbs | None = None, *,
             max_step_mm = wider
     result = polyline_curvature(pts, tolerance_mm, path_tolerance_mm)
     dim = pts.shape[1]
-    xyz = _pad3(pts)
+    xyz = pad3(pts)
     chords = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
     if chords.sum() <= 0:
         raise InputError("points: all points coincide; a path needs length > 0")

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import json
 import os
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from fuzzyfeed.base.files import read_text, resolve_file, shipped_dir, shipped_names
+from fuzzyfeed.base.toml_lines import load_toml
 from fuzzyfeed.errors import NurbsError, ShapeFileError
 from fuzzyfeed.program.model import GCODE_SUFFIXES
 from fuzzyfeed.io.shape import Shape
@@ -100,13 +100,7 @@ def _read_text(path: Path) -> str:
 
 
 def _load_toml(path: Path) -> Shape:
-    try:
-        data = tomllib.loads(_read_text(path))
-    except tomllib.TOMLDecodeError as exc:
-        raise ShapeFileError(f"{path}: invalid TOML: {exc}") from None
-    except RecursionError:
-        raise ShapeFileError(f"{path}: nested too deeply to be a shape file") from None
-    return shape_from_mapping(data, path)
+    return shape_from_mapping(load_toml(_read_text(path), path, ShapeFileError, "a shape file"), path)
 
 
 def _load_json(path: Path) -> Shape:

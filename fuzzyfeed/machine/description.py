@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -47,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.base.files import read_text, resolve_file, shipped_names
-from fuzzyfeed.base.toml_lines import KeyLines, Locator, file_locator
+from fuzzyfeed.base.toml_lines import KeyLines, Locator, file_locator, load_toml
 from fuzzyfeed.errors import MachineLimitsError
 from fuzzyfeed.machine.limits import (AXES, DEFAULT_AXIS_ACC_MM_S2, DEFAULT_AXIS_VEL_MM_S, DEFAULT_JERK_MM_S3,
                                       DEFAULT_TS_S, MAX_LIMIT, MachineLimits)
@@ -269,12 +268,7 @@ def parse_machine(text: str, path: str | os.PathLike = "<machine>") -> Machine:
     for section, key, first, again in lines.duplicates:
         raise MachineLimitsError(f"{path}:{again}: key {key!r} given twice in "
                                  f"[{section or 'top level'}] (first at line {first}); give it once")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise MachineLimitsError(f"{path}: invalid TOML: {exc}") from None
-    except RecursionError:
-        raise MachineLimitsError(f"{path}: nested too deeply to be a machine file") from None
+    data = load_toml(text, path, MachineLimitsError, "a machine file")
     return machine_from_mapping(data, file_locator(path, lines), path)
 
 

@@ -216,14 +216,21 @@ class ChainRun:
     #                               stream's plan then dropped too: ~0.1 KB a segment)
     stream: StreamRun
     tick_move: np.ndarray
-    time_s: float = float("nan")   # the plan's time (kept when the plan is not)
+    time_s: float                  # the plan's time (kept when the plan is not)
 
     def __post_init__(self):
-        plan = self.plan if self.plan is not None else self.stream.plan
-        if plan is not None and not np.isfinite(self.time_s):
-            object.__setattr__(self, "time_s", float(plan.time_s))
-        if self.plan is None and self.stream.plan is not None:    # without its plan, its stream's too
-            object.__setattr__(self, "stream", replace(self.stream, plan=None))
+        if self.plan is None and self.stream.plan is not None:
+            raise ValueError("a ChainRun without its plan holds none in its stream either "
+                             "(build it with ChainRun.without_plan)")
+
+    def without_plan(self) -> ChainRun:
+        """This run without its plan (~0.1 KB a segment), neither its own nor its summaries' (the
+        :class:`~fuzzyfeed.machine.stream.StreamRun` keeps the plan it ran): its rows and time
+        only; ``self`` when it holds none."""
+        if self.plan is None and self.stream.plan is None:
+            return self
+        return ChainRun(plan=None, stream=replace(self.stream, plan=None), tick_move=self.tick_move,
+                        time_s=self.time_s)
 
     @property
     def tick_time_s(self) -> np.ndarray:
@@ -362,15 +369,12 @@ def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = Non
     sr = stream_plan(plan, machine, chain.seg_measured, keep_mm=keep_mm, windows=windows, fast=fast,
                      skip_mm=skip_mm)
     run = ChainRun(plan=plan, stream=sr, tick_move=chain.seg_move[sr.tick_segment], time_s=float(plan.time_s))
-    return run if keep_plan else without_plan(run)
+    return run if keep_plan else run.without_plan()
 
 
 def without_plan(run: ChainRun) -> ChainRun:
-    """``run`` without its plan (~0.1 KB a segment), neither its own nor its summaries' (the
-    :class:`~fuzzyfeed.machine.stream.StreamRun` keeps the plan it ran): its rows and time only."""
-    if run.plan is None and run.stream.plan is None:
-        return run
-    return replace(run, plan=None)   # ChainRun drops its stream's plan with its own
+    """``run`` without its plan: :meth:`ChainRun.without_plan`."""
+    return run.without_plan()
 
 
 def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | None = None,

@@ -168,17 +168,24 @@ def _per_gap(acc, T):
     return acc if acc.ndim == 0 else acc.reshape(-1, 1) * np.ones_like(T)
 
 
+def _bisect(lo, hi, steps: int, above):
+    """``steps`` halvings of the brackets [lo, hi] (arrays) of a monotone predicate: where
+    ``above(mid)`` holds hi moves to mid, elsewhere lo does. Returns (lo, hi)."""
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        up = above(mid)
+        lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
+    return lo, hi
+
+
 def _max_distance_bisect(T, c1, c2, feed: float, acc: float, jerk: float, points: int = CHAIN_POINTS):
     """:func:`max_distance` with α* by bisection (the tests' reference for the closed form)."""
     T, c1, c2 = (np.asarray(x, dtype=float)[:, None] for x in (T, c1, c2))
     acc = _per_gap(acc, T)
     t = T * np.linspace(0.0, 1.0, points + 1)[None, :]
     r = T - t
-    lo, hi = -acc * np.ones(t.shape), acc * np.ones(t.shape)
-    for _ in range(ALPHA_STEPS):
-        mid = 0.5 * (lo + hi)
-        up = c1 + _rise(mid, t, acc, jerk) >= c2 + _fall(mid, r, acc, jerk)
-        lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
+    lo, hi = _bisect(-acc * np.ones(t.shape), acc * np.ones(t.shape), ALPHA_STEPS,
+                     lambda mid: c1 + _rise(mid, t, acc, jerk) >= c2 + _fall(mid, r, acc, jerk))
     w = np.minimum(np.minimum(c1 + _rise(hi, t, acc, jerk), c2 + _fall(lo, r, acc, jerk)), feed)
     return _tent_sum(w, T / points, feed, acc)
 
@@ -228,11 +235,7 @@ def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float, a_start=None, 
             break
         step[todo] *= 2.0
         lo[todo], hi[todo] = hi[todo], hi[todo] + step[todo]
-    for _ in range(TIME_STEPS):
-        mid = 0.5 * (lo + hi)
-        covers = reach(mid, every) >= gaps
-        lo, hi = np.where(covers, lo, mid), np.where(covers, mid, hi)
-    return lo
+    return _bisect(lo, hi, TIME_STEPS, lambda mid: reach(mid, every) >= gaps)[0]
 
 
 def _capped_integral(width, start, end, acc):
@@ -265,11 +268,8 @@ def max_distance_held(T, c1, c2, a0, a1, feed: float, acc, jerk: float, points: 
     acc = _per_gap(acc, T)
     t = T * np.linspace(0.0, 1.0, points + 1)[None, :]
     r = T - t
-    lo, hi = -acc * np.ones(t.shape), acc * np.ones(t.shape)
-    for _ in range(steps):
-        mid = 0.5 * (lo + hi)
-        up = c1 + _reach(mid, t, a0, acc, jerk) >= c2 + _reach(-a1, r, -mid, acc, jerk)
-        lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
+    lo, hi = _bisect(-acc * np.ones(t.shape), acc * np.ones(t.shape), steps,
+                     lambda mid: c1 + _reach(mid, t, a0, acc, jerk) >= c2 + _reach(-a1, r, -mid, acc, jerk))
     w = np.minimum(np.minimum(c1 + _reach(hi, t, a0, acc, jerk), c2 + _reach(-a1, r, -lo, acc, jerk)), feed)
     w = np.maximum(w, 0.0)  # v ≥ 0: where the bound is below, no motion; 0 only loosens it
     return _tent_sum(w, T / points, feed, acc)
