@@ -141,15 +141,15 @@ def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | No
     return _interpret(path, lines, newline, len(lines), ex.n_rows, [ex.tl, ex.tc, ex.tv], rows=ex, tools=tools)
 
 
-def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None, start=None,
+def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None, read_state=None,
                capture=None) -> Program:
     """The program from its tokens ``[line, letter, value]`` (the list is emptied: the words go once
     their columns are made, ~24 B a word): per line (or, with ``rows``, per executed row) the words.
-    A window of a program's lines (:mod:`fuzzyfeed.program.windows`): ``start`` the state in force
-    before its first line (a ``ReadState``: its lines are the program's from ``start.line``),
+    A window of a program's lines (:mod:`fuzzyfeed.program.windows`): ``read_state`` the state in force
+    before its first line (a ``ReadState``: its lines are the program's from ``read_state.line``),
     ``capture`` a dict given the per-line state the next window starts from and what the window's
     joins are checked with."""
-    line0 = 0 if start is None else int(start.line)
+    line0 = 0 if read_state is None else int(read_state.line)
 
     def fail(i: int, message: str):
         if rows is None:
@@ -163,7 +163,7 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None,
         where, number = rows.where(int(i))
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
-    w = line_words(tokens, n, end_line, len(lines), fail, text_of, tools, start)
+    w = line_words(tokens, n, end_line, len(lines), fail, text_of, tools, read_state)
     if capture is not None:
         capture.update(codes=w.codes, motion=w.motion, feed_value=w.feed_value, feed_scale=w.feed_scale,
                        scale=w.scale, tool=w.tool, loaded=w.loaded, comp_side=w.comp_side,
@@ -284,11 +284,11 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None,
         inc = np.where(given & ~absolute, v, 0.0)
         sets.append((np.where(is_set, v, 0.0), is_set))
         incs.append(inc)
-        if start is None:
+        if read_state is None:
             pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k])
         else:
             pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k],
-                                                                 line0, float(start.pos[k]), int(start.epoch[k]))
+                                                                 line0, float(read_state.pos[k]), int(read_state.epoch[k]))
         if capture is not None:
             capture["increments"] = capture.get("increments", False) or bool(np.any(inc != 0))
     polar_moves = polar & updates & ~cycle_line
@@ -312,12 +312,12 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None,
         i, k = (int(v) for v in np.argwhere(far)[0])
         fail(i, f"{'XYZ'[k]} reaches {pos_after[i, k]:.6g} mm; coordinates must lie within "
                 f"±{MAX_COORDINATE_MM:g} mm (1 km)")
-    if start is None:
+    if read_state is None:
         pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
         epoch_before = np.vstack([np.full((1, 3), _START_EPOCH, dtype=np.int64), epoch_after[:-1]])
     else:
-        pos_before = np.vstack([np.asarray(start.pos, float)[None], pos_after[:-1]])
-        epoch_before = np.vstack([np.asarray(start.epoch, np.int64)[None], epoch_after[:-1]])
+        pos_before = np.vstack([np.asarray(read_state.pos, float)[None], pos_after[:-1]])
+        epoch_before = np.vstack([np.asarray(read_state.epoch, np.int64)[None], epoch_after[:-1]])
     if capture is not None:
         capture.update(pos_after=pos_after, epoch_after=epoch_after.copy())
     for k in range(3):
@@ -332,7 +332,7 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None,
     move_rows = np.flatnonzero(moving | home_line | nurbs_first)
     units_col = gcol["units"]
     if move_rows.size and (units_col is None or not (units_col[:move_rows[0] + 1] >= 0).any()) and (
-            start is None or not (start.units_given or start.moved)):
+            read_state is None or not (read_state.units_given or read_state.moved)):
         i = int(move_rows[0])
         _notice(f"{path}:{int(rows.where(i)[1]) if rows is not None else i + 1 + line0}: no G20/G21 before the "
                 "first move: read in mm, as GRBL and a metric LinuxCNC start (a machine that starts in "
@@ -489,7 +489,8 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None,
                    arc_plane=arc_plane.astype(np.int8), no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
                    rows=row_info, rotary=abc_has[move_rows], known=known[move_rows], stops=stops,
-                   comp_unknown=comp_unknown)
+                   comp_unknown=comp_unknown,
+                   inch_before=read_state is not None and read_state.codes["units"] == 200)
 
 
 def _notice(message: str) -> None:

@@ -276,7 +276,7 @@ def _read_window(path: Path, lines: list[str], newline: str, state: ReadState, t
     tokens = list(tokenise(body, path, lines))
     del body
     capture: dict = {}
-    prog = _interpret(path, lines, newline, end_line, n, tokens, tools=tools, start=state, capture=capture)
+    prog = _interpret(path, lines, newline, end_line, n, tokens, tools=tools, read_state=state, capture=capture)
     if capture.get("increments") or capture.get("sequential") or (capture["comp_side"] != 0).any():
         raise Fallback("G91 increments, frames followed line by line, polar words, cycles, splines or "
                        "cutter compensation")
