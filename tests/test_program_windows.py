@@ -155,12 +155,16 @@ def test_advise_in_windows_is_the_whole_advice(tmp_path, monkeypatch, capsys, in
 
 def test_a_cut_longer_than_a_window_grows_it(tmp_path, monkeypatch, capsys):
     prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
-    assert len(list(read_windows(prog, window_lines=20))) == 2
-    _compare(tmp_path, prog, monkeypatch, capsys, 20, "--feed-mm-min", "1200")
+    with pytest.raises(Fallback):           # a cut over MAX_GROWTH windows: read whole
+        list(read_windows(prog, window_lines=20))
+    wins = list(read_windows(prog, window_lines=80))
+    assert [w.program.n_cuts for w in wins] == [0, 1, 1]         # the header, then one cut a window
+    assert min(len(w.program.lines) for w in wins[1:]) > 12 * 24     # each grown to hold its cut
+    _compare(tmp_path, prog, monkeypatch, capsys, 80, "--feed-mm-min", "1200")
 
 
 @pytest.mark.parametrize("change, why", [
-    ("G91 G1 X0.1", "G91"), ("G55", "frames"), ("G92 X0", "frames"), ("#1=2", "parameters"),
+    ("G91 G1 X0.1", "G91"), ("G55", "frames"), ("G52 X1", "frames"), ("G41.1 D3", "compensation"), ("#1=2", "parameters"),
     ("G81 X1 Y1 Z-1 R1", "cycles"),
 ])
 def test_what_cannot_be_joined_falls_back(tmp_path, change, why):

@@ -10,8 +10,9 @@ numbers and epochs. A window is kept up to the line of its last move where a fre
 whole read's chain (a move that starts a cut, or one that ends the cut before it: a rapid, a kept
 move); the lines from there are read again with the next window, so that every cut lies in one
 window, each window's cuts are complete and the stop of every move is decided by the move after it
-(:attr:`Program.stops`). A window that holds no such line is read again twice as long: a cut longer
-than a window is read whole (memory then grows with the longest cut, not with the program).
+(:attr:`Program.stops`). A window that holds no such line is read again twice as long, up to
+:data:`MAX_GROWTH` times: a cut longer than that is not split (the program is read whole, as
+before: memory then grows with the program).
 
 Where a join would not be exact the read gives up (:class:`Fallback`) and the caller reads the
 program whole, as before: parameters, expressions or O-words (executed rows), G91 axis
@@ -38,6 +39,9 @@ from fuzzyfeed.program.read_words import CARRIED_GROUPS
 
 #: Lines in a window (a window that holds no restart line is read again twice as long).
 WINDOW_LINES = 100_000
+#: A window grows (twice as long, read again) at most to this many times :data:`WINDOW_LINES`
+#: to hold a cut; a longer cut: the program is read whole (the same memory, read once).
+MAX_GROWTH = 4
 #: Programs of at least this many lines are read in windows by ``advise`` (smaller ones whole).
 MIN_LINES = 200_000
 #: Bytes read from the file at a time.
@@ -225,6 +229,8 @@ def read_windows(path, tools: dict | None = None, window_lines: int = WINDOW_LIN
                 return
             r = _restart(capture, len(lines))
             if r == 0:
+                if w >= MAX_GROWTH * int(window_lines):
+                    raise Fallback(f"a cut longer than {w} lines: read whole")
                 w *= 2
                 continue
             nxt = _state_at(capture, r - 1, a + r, state)
