@@ -63,7 +63,16 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
     if selector is None and machine is None and options.reference and not options.verify_rs274:
         from fuzzyfeed.advice.program_windows import windowed_result
 
-        windowed = windowed_result(spec, options, path, table, step_mm, step, tools)
+        def whole():                   # the whole read, where the windows cannot give its result
+            program = read_program(path, tools=tools)
+            if program.n_cuts == 0:
+                return NothingResult(spec, options, path, program)
+            return ProgramResult(spec, options, path, program, table, None, step_mm, step, None)
+
+        def checks(csv, gcode, gcode_g52, plot, report):
+            _check_outputs(csv, gcode, gcode_g52, plot)
+            _refuse_report(report)
+        windowed = windowed_result(spec, options, path, table, step_mm, step, tools, whole, checks, _feed_note)
         if windowed is not None:       # a long program: read, advised and written in windows
             return windowed
     program = read_program(path, tools=tools)

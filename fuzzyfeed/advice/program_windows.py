@@ -29,22 +29,16 @@ def windowed_lines(path: Path) -> int | None:
     return scan.n_lines if scan is not None and scan.n_lines >= MIN_LINES else None
 
 
-def windowed_result(spec, options, path: Path, table, step_mm: float, step: float, tools):
-    """A :class:`~fuzzyfeed.advice.program_windows.WindowedProgramResult` for a long program whose
-    table is the plain one (None: read it whole)."""
-    from fuzzyfeed.advice.program import NothingResult, ProgramResult
+def windowed_result(spec, options, path: Path, table, step_mm: float, step: float, tools, whole, checks,
+                    feed_note):
+    """A :class:`WindowedProgramResult` for a long program whose table is the plain one (None: read
+    it whole). ``whole()`` makes the whole read's result, ``checks(csv, gcode, gcode_g52, plot,
+    report)`` refuses outputs a program cannot have, ``feed_note(cap)`` the sidecar's F note."""
     from fuzzyfeed.fuzzy.rules import MACHINE
-    from fuzzyfeed.program.read import read_program
 
     if table.inputs == MACHINE or windowed_lines(path) is None:
         return None
-
-    def whole():
-        program = read_program(path, tools=tools)
-        if program.n_cuts == 0:
-            return NothingResult(spec, options, path, program)
-        return ProgramResult(spec, options, path, program, table, None, step_mm, step, None)
-    return WindowedProgramResult(spec, options, path, table, step_mm, step, tools, whole)
+    return WindowedProgramResult(spec, options, path, table, step_mm, step, tools, whole, checks, feed_note)
 
 
 class WindowedProgramResult(AdviceResult):
@@ -54,10 +48,10 @@ class WindowedProgramResult(AdviceResult):
     kind = "program"
 
     def __init__(self, source, options, path: Path, table, step_mm: float, feed_step_mm_min: float,
-                 tools, whole, window_lines: int | None = None):
+                 tools, whole, checks, feed_note, window_lines: int | None = None):
         self.source, self.options, self.path, self.table = source, options, path, table
         self.step_mm, self.feed_step_mm_min, self.tools = step_mm, feed_step_mm_min, tools
-        self._make_whole = whole
+        self._make_whole, self._checks, self._feed_note = whole, checks, feed_note
         self._whole = None
         self._totals = None
         self.window_lines = window_lines
@@ -84,14 +78,12 @@ class WindowedProgramResult(AdviceResult):
         return self.whole().advice
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
-        from fuzzyfeed.advice.program import _check_outputs, _refuse_report
         from fuzzyfeed.errors import FuzzyfeedError
         from fuzzyfeed.program.windows import Fallback
 
         if plot or report or gcode_g52 or (csv is None and gcode is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
-        _check_outputs(csv, gcode, gcode_g52, plot)
-        _refuse_report(report)
+        self._checks(csv, gcode, gcode_g52, plot, report)
         try:
             with warnings.catch_warnings(record=True) as said:
                 warnings.simplefilter("always")
@@ -104,7 +96,6 @@ class WindowedProgramResult(AdviceResult):
         return lines
 
     def _write_windows(self, csv, gcode) -> list[str]:
-        from fuzzyfeed.advice.program import _feed_note
         from fuzzyfeed.base.atomic import atomic_write
         from fuzzyfeed.fuzzy.provenance import provenance
         from fuzzyfeed.io.csv import ColumnStream, write_metadata
@@ -124,7 +115,7 @@ class WindowedProgramResult(AdviceResult):
                                              window_lines=self.window_lines or WINDOW_LINES)
         if csv is not None:
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
-            record["F_mm_min"] = _feed_note(cap)
+            record["F_mm_min"] = self._feed_note(cap)
             write_metadata(csv, out.names, record)
         lines = []
         if csv is not None:
