@@ -155,6 +155,9 @@ def test_advise_in_windows_is_the_whole_advice(tmp_path, monkeypatch, capsys, in
 
 def test_a_cut_longer_than_a_window_grows_it(tmp_path, monkeypatch, capsys):
     prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
+    with pytest.raises(Fallback):           # by default a window does not grow: read whole
+        list(read_windows(prog, window_lines=80))
+    monkeypatch.setattr(windows, "MAX_GROWTH", 4)
     with pytest.raises(Fallback):           # a cut over MAX_GROWTH windows: read whole
         list(read_windows(prog, window_lines=20))
     wins = list(read_windows(prog, window_lines=80))

@@ -40,8 +40,9 @@ from fuzzyfeed.program.read_words import CARRIED_GROUPS
 #: Lines in a window (a window that holds no restart line is read again twice as long).
 WINDOW_LINES = 100_000
 #: A window grows (twice as long, read again) at most to this many times :data:`WINDOW_LINES`
-#: to hold a cut; a longer cut: the program is read whole (the same memory, read once).
-MAX_GROWTH = 4
+#: to hold a cut; a longer cut: the program is read whole (the same memory, read once). 1: no
+#: growth (a single-cut raster then pays one window's read before it is read whole, not three)
+MAX_GROWTH = 1
 #: Programs of at least this many lines are read in windows by ``advise`` (smaller ones whole).
 MIN_LINES = 200_000
 #: Bytes read from the file at a time.
@@ -229,7 +230,7 @@ def read_windows(path, tools: dict | None = None, window_lines: int = WINDOW_LIN
                 return
             r = _restart(capture, len(lines))
             if r == 0:
-                if w >= MAX_GROWTH * int(window_lines):
+                if w >= MAX_GROWTH * int(window_lines):       # MAX_GROWTH read when called (tests set it)
                     raise Fallback(f"a cut longer than {w} lines: read whole")
                 w *= 2
                 continue
