@@ -72,9 +72,11 @@ def _same_as_whole(path, window_lines: int):
     return len(wins)
 
 
-def test_windows_equal_the_whole_read_on_the_library():
-    """Windows of 40 and 300 lines on every program of the library and the tests: the same lines,
-    per-line state and moves as the whole read (or a fallback, never a different program)."""
+def test_windows_equal_the_whole_read_on_the_library(monkeypatch):
+    """Windows of 40 and 300 lines (grown to hold a cut) on every program of the library and the
+    tests: the same lines, per-line state and moves as the whole read (or a fallback, never a
+    different program)."""
+    monkeypatch.setattr(windows, "MAX_GROWTH", 1 << 20)
     files = _programs()
     assert len(files) > 50
     joined = 0
