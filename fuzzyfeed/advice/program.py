@@ -58,6 +58,23 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
     from fuzzyfeed.base.memory import fix_mmap_threshold
 
     fix_mmap_threshold()               # large programs: the columns a read drops go back to the system
+    step = options.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
+    step_mm = options.step_mm or DEFAULT_STEP_MM
+    if selector is None and machine is None and options.reference and not options.verify_rs274:
+        from fuzzyfeed.advice.program_windows import windowed_result
+
+        def whole():                   # the whole read, where the windows cannot give its result
+            program = read_program(path, tools=tools)
+            if program.n_cuts == 0:
+                return NothingResult(spec, options, path, program)
+            return ProgramResult(spec, options, path, program, table, None, step_mm, step, None)
+
+        def checks(csv, gcode, gcode_g52, plot, report):
+            _check_outputs(csv, gcode, gcode_g52, plot)
+            _refuse_report(report)
+        windowed = windowed_result(spec, options, path, table, step_mm, step, tools, whole, checks, _feed_note)
+        if windowed is not None:       # a long program: read, advised and written in windows
+            return windowed
     program = read_program(path, tools=tools)
     if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
         return NothingResult(spec, options, path, program)
@@ -66,8 +83,6 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
         described = [f"{k + 1} (line {int(program.move_line[program.cut_moves(k)[0]]) + 1})"
                      for k in range(program.n_cuts)]
         cuts = [pick_by_index(program.path, selector, described)]
-    step = options.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
-    step_mm = options.step_mm or DEFAULT_STEP_MM
     if machine is not None:
         from fuzzyfeed.report.value import evaluate_program
 

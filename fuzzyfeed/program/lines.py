@@ -239,7 +239,7 @@ def feed_units_inch(program: Program) -> np.ndarray:
                               "in a program with loops or subroutine calls; fuzzyfeed cannot write F words "
                               "into it safely (each run of a line may read its F in other units)")
         return np.full(inch.size, bool(seen[0]) if seen.size else False)
-    return np.concatenate([[False], inch[:-1]])
+    return np.concatenate([[bool(program.inch_before)], inch[:-1]])
 
 
 def split_lines(program: Program, m: int, raw: str, fractions, feeds: list[str]) -> list[str]:

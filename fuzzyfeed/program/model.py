@@ -130,6 +130,9 @@ class Program:
     #: (LinuxCNC offsets it), so it is not judged and its line is never split (the controller's
     #: entry and corner rules depend on the move as written)
     comp_unknown: np.ndarray | None = None
+    #: G20 in force before the first line: a window of a program's lines read from the state before
+    #: it (:mod:`fuzzyfeed.program.windows`); an F on the first line is read in those units
+    inch_before: bool = False
 
     @property
     def n_cuts(self) -> int:

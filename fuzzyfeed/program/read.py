@@ -59,21 +59,23 @@ _START_EPOCH = START_EPOCH
 
 
 def _axis_positions(n: int, setv: np.ndarray, is_set: np.ndarray, inc: np.ndarray,
-                    pre: np.ndarray, post: np.ndarray):
+                    pre: np.ndarray, post: np.ndarray, line0: int = 0, pos0: float = 0.0,
+                    epoch0: int = _START_EPOCH):
     """Position of one axis after every line, and its epoch (0 = known; −(i+1) = unknown
-    constant since line i), from absolute sets, increments and frame resets (see module docs)."""
+    constant since line i), from absolute sets, increments and frame resets (see module docs);
+    a window of lines from line ``line0`` starts at ``pos0`` with epoch ``epoch0``."""
     inc = np.where(post, 0.0, inc)
     has = is_set | pre | post
     base = np.where(is_set, setv, 0.0)
-    epoch_evt = np.where(is_set, 0, -(np.arange(n) + 1))
+    epoch_evt = np.where(is_set, 0, -(np.arange(n) + 1 + line0))
     c = np.cumsum(inc)
     d = c - inc
     last = np.where(has, np.arange(n), -1)
     np.maximum.accumulate(last, out=last)
     known = last >= 0
     li = np.maximum(last, 0)
-    pos = np.where(known, base[li] + c - d[li], c)
-    epoch = np.where(known, epoch_evt[li], _START_EPOCH)
+    pos = np.where(known, base[li] + c - d[li], c if epoch0 == _START_EPOCH and pos0 == 0.0 else pos0 + c)
+    epoch = np.where(known, epoch_evt[li], epoch0)
     return pos, epoch
 
 
@@ -139,12 +141,19 @@ def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | No
     return _interpret(path, lines, newline, len(lines), ex.n_rows, [ex.tl, ex.tc, ex.tv], rows=ex, tools=tools)
 
 
-def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None) -> Program:
+def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None, read_state=None,
+               capture=None) -> Program:
     """The program from its tokens ``[line, letter, value]`` (the list is emptied: the words go once
-    their columns are made, ~24 B a word): per line (or, with ``rows``, per executed row) the words."""
+    their columns are made, ~24 B a word): per line (or, with ``rows``, per executed row) the words.
+    A window of a program's lines (:mod:`fuzzyfeed.program.windows`): ``read_state`` the state in force
+    before its first line (a ``ReadState``: its lines are the program's from ``read_state.line``),
+    ``capture`` a dict given the per-line state the next window starts from and what the window's
+    joins are checked with."""
+    line0 = 0 if read_state is None else int(read_state.line)
+
     def fail(i: int, message: str):
         if rows is None:
-            fail_at(path, int(i) + 1, message)
+            fail_at(path, int(i) + 1 + line0, message)
         where, number = rows.where(int(i))
         raise PathFormatError(f"{where}:{number}: {message}")
 
@@ -154,7 +163,11 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
         where, number = rows.where(int(i))
         return lines[number - 1].strip() if where == path else f"line {number} of {Path(where).name}"
 
-    w = line_words(tokens, n, end_line, len(lines), fail, text_of, tools)
+    w = line_words(tokens, n, end_line, len(lines), fail, text_of, tools, read_state)
+    if capture is not None:
+        capture.update(codes=w.codes, motion=w.motion, feed_value=w.feed_value, feed_scale=w.feed_scale,
+                       scale=w.scale, tool=w.tool, loaded=w.loaded, comp_side=w.comp_side,
+                       units_given=(w.gcol["units"] >= 0) if w.gcol["units"] is not None else np.zeros(n, bool))
     # the words as columns and the modal state per line (fuzzyfeed.program.read_words)
     (absolute, blocks, col, cols, comp_code, comp_radius, comp_side, coord, f_col, feed_mode,
      feed_scale, feed_value, fm_change, gany, gcol, gline, has, has_f, ij_absolute, inch, length_mode,
@@ -271,8 +284,17 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
         inc = np.where(given & ~absolute, v, 0.0)
         sets.append((np.where(is_set, v, 0.0), is_set))
         incs.append(inc)
-        pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k])
+        if read_state is None:
+            pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k])
+        else:
+            pos_after[:, k], epoch_after[:, k] = _axis_positions(n, sets[k][0], is_set, inc, pre[k], post[k],
+                                                                 line0, float(read_state.pos[k]), int(read_state.epoch[k]))
+        if capture is not None:
+            capture["increments"] = capture.get("increments", False) or bool(np.any(inc != 0))
     polar_moves = polar & updates & ~cycle_line
+    if capture is not None:
+        capture["sequential"] = bool(polar_moves.any() or follow_offsets or follow_cycles or blocks
+                                     or (gcol["motion"] is not None and np.isin(gcol["motion"], [50, 51]).any()))
     if polar_moves.any() or follow_offsets or follow_cycles:   # these depend on the point before
         offsets = None
         if follow_offsets:
@@ -290,10 +312,16 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
         i, k = (int(v) for v in np.argwhere(far)[0])
         fail(i, f"{'XYZ'[k]} reaches {pos_after[i, k]:.6g} mm; coordinates must lie within "
                 f"±{MAX_COORDINATE_MM:g} mm (1 km)")
-    pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
-    epoch_before = np.vstack([np.full((1, 3), _START_EPOCH, dtype=np.int64), epoch_after[:-1]])
+    if read_state is None:
+        pos_before = np.vstack([np.zeros((1, 3)), pos_after[:-1]])
+        epoch_before = np.vstack([np.full((1, 3), _START_EPOCH, dtype=np.int64), epoch_after[:-1]])
+    else:
+        pos_before = np.vstack([np.asarray(read_state.pos, float)[None], pos_after[:-1]])
+        epoch_before = np.vstack([np.asarray(read_state.epoch, np.int64)[None], epoch_after[:-1]])
+    if capture is not None:
+        capture.update(pos_after=pos_after, epoch_after=epoch_after.copy())
     for k in range(3):
-        epoch_before[:, k] = np.where(pre[k], -(np.arange(n) + 1), epoch_before[:, k])
+        epoch_before[:, k] = np.where(pre[k], -(np.arange(n) + 1 + line0), epoch_before[:, k])
     known = np.all(epoch_before == epoch_after, axis=1)
     del epoch_before, epoch_after, sets, incs, v, inc, is_set, given   # a 10⁶-line program: ~100 MB
 
@@ -303,9 +331,10 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
         nurbs_first[a] = True
     move_rows = np.flatnonzero(moving | home_line | nurbs_first)
     units_col = gcol["units"]
-    if move_rows.size and (units_col is None or not (units_col[:move_rows[0] + 1] >= 0).any()):
+    if move_rows.size and (units_col is None or not (units_col[:move_rows[0] + 1] >= 0).any()) and (
+            read_state is None or not (read_state.units_given or read_state.moved)):
         i = int(move_rows[0])
-        _notice(f"{path}:{int(rows.where(i)[1]) if rows is not None else i + 1}: no G20/G21 before the "
+        _notice(f"{path}:{int(rows.where(i)[1]) if rows is not None else i + 1 + line0}: no G20/G21 before the "
                 "first move: read in mm, as GRBL and a metric LinuxCNC start (a machine that starts in "
                 "inches reads it 25.4 x larger); put G21 or G20 at the top to say which")
     kind = np.full(move_rows.size, KEPT, dtype=np.int8)
@@ -425,6 +454,8 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
     brk = (bcum[move_rows + 1] - bcum[prev_line]) > 0
     chain_start = advisable & (~prev_is_adv | brk)
     cut = np.where(advisable, np.cumsum(chain_start) - 1, -1)
+    if capture is not None:     # where a window may end: a move whose chain does not reach back
+        capture.update(restart=chain_start | stopper, move_rows=move_rows)
     # a cut that does not move at all is no cut
     if cut.size and cut.max() >= 0:
         lengths = np.zeros(cut.max() + 1)
@@ -458,7 +489,8 @@ def _interpret(path, lines, newline, end_line, n, tokens, rows=None, tools=None)
                    arc_plane=arc_plane.astype(np.int8), no_split=no_split,
                    has_z_words=bool(xyz_has[2].any()), nurbs=nurbs, nurbs_lines=nurbs_lines,
                    rows=row_info, rotary=abc_has[move_rows], known=known[move_rows], stops=stops,
-                   comp_unknown=comp_unknown)
+                   comp_unknown=comp_unknown,
+                   inch_before=read_state is not None and read_state.codes["units"] == 200)
 
 
 def _notice(message: str) -> None:

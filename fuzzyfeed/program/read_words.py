@@ -36,11 +36,19 @@ def ffill(values: np.ndarray, has: np.ndarray, default):
     return out
 
 
-def line_words(tokens: list, n: int, end_line: int, n_lines: int, fail, text_of, tools) -> SimpleNamespace:
+#: Modal groups whose code in force a window of lines starts from (fuzzyfeed.program.windows).
+CARRIED_GROUPS = {"units": 210, "distance": 900, "arc_distance": 911, "plane": 170, "feed_mode": 940,
+                  "coord": 540, "length": 490, "comp": 400, "retract": 990}
+
+
+def line_words(tokens: list, n: int, end_line: int, n_lines: int, fail, text_of, tools,
+               start=None) -> SimpleNamespace:
     """The columns and per-line modal state (module docstring) of ``n`` lines (rows) from
     ``tokens`` (emptied: the words go once their columns are made, ~24 B a word); ``fail(i, msg)``
     raises at line ``i``, ``text_of(i)`` is its text. ``release()`` of the result drops the G words
-    (the columns ``cols`` and ``gcol`` are the caller's to clear)."""
+    (the columns ``cols`` and ``gcol`` are the caller's to clear). ``start``: the state in force
+    before the first line (a :class:`fuzzyfeed.program.windows.ReadState`; None: a program's
+    start), for a window of a program's lines."""
     tl, tc, tv = tokens
     tokens.clear()
 
@@ -121,6 +129,8 @@ def line_words(tokens: list, n: int, end_line: int, n_lines: int, fail, text_of,
 
     # --- modal state per line ---
     def modal(name, default):
+        if start is not None and name in start.codes:
+            default = start.codes[name]
         c = gcol[name]
         if c is None:
             return np.full(n, default, dtype=np.int64)
@@ -137,7 +147,8 @@ def line_words(tokens: list, n: int, end_line: int, n_lines: int, fail, text_of,
     length_mode = modal("length", 490)
     motion_col = gcol["motion"]
     motion_set = motion_col >= 0 if motion_col is not None else np.zeros(n, bool)
-    motion = ffill(motion_col, motion_set, -1) if motion_col is not None else np.full(n, -1)
+    motion0 = -1 if start is None else start.motion
+    motion = ffill(motion_col, motion_set, motion0) if motion_col is not None else np.full(n, motion0)
     # G5.2 / G5.3 blocks: lines between them are control points
     nurbs_open = np.zeros(n, bool)
     g52_lines = np.flatnonzero(gline("motion", 52)) if motion_col is not None else np.zeros(0, int)
@@ -173,20 +184,21 @@ def line_words(tokens: list, n: int, end_line: int, n_lines: int, fail, text_of,
     # LinuxCNC sets F to 0 at every G94/G95 (also when already in force) and at a change of mode
     fm_change = np.zeros(n, bool)
     fm_change[1:] = feed_mode[1:] != feed_mode[:-1]
-    fm_change[0] = feed_mode[0] != 94
+    fm_change[0] = feed_mode[0] != (94 if start is None else start.codes["feed_mode"] // 10)
     if gcol["feed_mode"] is not None:
         fm_change |= np.isin(gcol["feed_mode"], [940, 950])
-    feed_value = ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0)
+    feed_value = ffill(np.where(has_f, f_col, 0.0), has_f | fm_change, 0.0 if start is None else start.feed_value)
     # mm per unit of the F in force: LinuxCNC sets F (order of execution step 4) before it changes
     # units (step 14), and its canonical layer converts F with the units then in force, so
     # `G21` … `G20 F6` is 6 mm/min (issue 37): an F is read in the units of the line before
-    scale_before = np.concatenate([[1.0], scale[:-1]])
-    feed_scale = ffill(np.where(has_f, scale_before, 1.0), has_f | fm_change, 1.0)
+    scale_before = np.concatenate([[1.0 if start is None else start.scale], scale[:-1]])
+    feed_scale = ffill(np.where(has_f, scale_before, 1.0), has_f | fm_change,
+                       1.0 if start is None else start.feed_scale)
     if has_f.any() and (f_col[has_f] < 0).any():
         i = int(np.flatnonzero(has_f & (f_col < 0))[0])
         fail(i, f"F{f_col[i]:g}: a feed must be >= 0")
     t_col = col("T")
-    tool = ffill(np.where(has("T"), t_col, -1), has("T"), -1).astype(np.int64)
+    tool = ffill(np.where(has("T"), t_col, -1), has("T"), -1 if start is None else start.tool).astype(np.int64)
     # the tool in the spindle: the T in force at an M6, or M61's Q
     m6 = np.zeros(n, bool)
     m6[m_line[m_int == 6]] = True
@@ -194,8 +206,9 @@ def line_words(tokens: list, n: int, end_line: int, n_lines: int, fail, text_of,
     m61[m_line[m_int == 61]] = True
     loaded_set = m6 | (m61 & has("Q"))
     loaded = ffill(np.where(m6, tool, np.where(loaded_set, np.nan_to_num(col("Q")), 0)).astype(np.int64),
-                    loaded_set, 0)
+                    loaded_set, 0 if start is None else start.loaded)
     comp_code = modal("comp", 400)
+    codes = None if start is None else {name: modal(name, code) for name, code in CARRIED_GROUPS.items()}
     comp_side, comp_radius = comp_per_line(comp_code, gany("comp"), col("D"), loaded, plane, scale, tools,
                                            fail)
 
@@ -203,4 +216,4 @@ def line_words(tokens: list, n: int, end_line: int, n_lines: int, fail, text_of,
         nonlocal g10, g_line
         g10 = g_line = None
 
-    return SimpleNamespace(release=release, absolute=absolute, blocks=blocks, col=col, cols=cols, comp_code=comp_code, comp_radius=comp_radius, comp_side=comp_side, coord=coord, f_col=f_col, feed_mode=feed_mode, feed_scale=feed_scale, feed_value=feed_value, fm_change=fm_change, gany=gany, gcol=gcol, gline=gline, has=has, has_f=has_f, ij_absolute=ij_absolute, inch=inch, length_mode=length_mode, loaded=loaded, m_break=m_break, m_int=m_int, m_line=m_line, m_stop=m_stop, m_val=m_val, modal=modal, motion=motion, nurbs_open=nurbs_open, plane=plane, polar=polar, scale=scale, scale_before=scale_before, t_col=t_col, tool=tool, units=units)
+    return SimpleNamespace(release=release, codes=codes, absolute=absolute, blocks=blocks, col=col, cols=cols, comp_code=comp_code, comp_radius=comp_radius, comp_side=comp_side, coord=coord, f_col=f_col, feed_mode=feed_mode, feed_scale=feed_scale, feed_value=feed_value, fm_change=fm_change, gany=gany, gcol=gcol, gline=gline, has=has, has_f=has_f, ij_absolute=ij_absolute, inch=inch, length_mode=length_mode, loaded=loaded, m_break=m_break, m_int=m_int, m_line=m_line, m_stop=m_stop, m_val=m_val, modal=modal, motion=motion, nurbs_open=nurbs_open, plane=plane, polar=polar, scale=scale, scale_before=scale_before, t_col=t_col, tool=tool, units=units)

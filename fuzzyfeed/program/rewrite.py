@@ -42,22 +42,24 @@ CHUNK_LINES = 1 << 14
 
 
 def rewrite_chunks(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
-                   piece_feed_mm_min: np.ndarray):
+                   piece_feed_mm_min: np.ndarray, carry: dict | None = None):
     """:func:`rewrite_program`'s text in chunks of about :data:`CHUNK_LINES` lines, to be written as
-    they come (the text of a 10⁶-line program is never held whole)."""
+    they come (the text of a 10⁶-line program is never held whole). ``carry``: for a window of a
+    program's lines (:mod:`fuzzyfeed.program.windows`), ``carry["f"]`` the F in force (mm/min, None:
+    none yet) before its first line, set to the F in force after its last."""
     if program.rows is not None:
         from fuzzyfeed.program.rewrite_rows import rewrite_rows
 
         yield rewrite_rows(program, piece_move, piece_end, piece_feed_mm_min)
         return
     nl = program.newline
-    for part in _rewrite_parts(program, piece_move, piece_end, piece_feed_mm_min):
+    for part in _rewrite_parts(program, piece_move, piece_end, piece_feed_mm_min, carry):
         if part:
             yield nl.join(part) + nl
 
 
 def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
-                   piece_feed_mm_min: np.ndarray):
+                   piece_feed_mm_min: np.ndarray, carry: dict | None = None):
     """Lists of output lines, in order."""
     lines = program.lines
     n_lines = len(lines)
@@ -100,7 +102,7 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
         want_last[li] = text
     mode_change = program.feed_reset
     out_lines = []
-    f_in_force = None   # mm/min
+    f_in_force = None if carry is None else carry["f"]   # mm/min
     end = min(program.end_line + 1, n_lines)
     change_lines = set(np.flatnonzero(mode_change[:end]).tolist())
     f_lines = has_f.tolist()
@@ -139,5 +141,7 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
         if len(out_lines) >= CHUNK_LINES:
             yield out_lines
             out_lines = []
+    if carry is not None:
+        carry["f"] = f_in_force
     yield out_lines
     yield lines[end:]

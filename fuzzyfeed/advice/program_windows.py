@@ -1,0 +1,150 @@
+"""A long program advised without a machine window by window (issue 36: memory bounded by a window
+of lines, not by the program): ``advise PROGRAM -o x.csv [--gcode y.ngc]`` on a program of at
+least :data:`~fuzzyfeed.program.windows.MIN_LINES` lines. The CSV and the program are written
+as the windows are advised (:func:`~fuzzyfeed.program.window_advice.advise_in_windows`); the
+result is the whole read's, byte for byte. Where the windows cannot give it (see
+:mod:`fuzzyfeed.program.windows`), and for anything else asked of the result (the text, the
+columns, a plot, rs274's check), the program is read whole and advised as before
+(:class:`~fuzzyfeed.advice.program.ProgramResult`)."""
+
+from __future__ import annotations
+
+import contextlib
+import warnings
+from pathlib import Path
+
+from fuzzyfeed.advice.result import AdviceResult
+
+
+def windowed_lines(path: Path) -> int | None:
+    """The program's line count when it is long enough to be read in windows, else None."""
+    from fuzzyfeed.program.windows import MIN_LINES, scan_file
+
+    try:
+        if path.stat().st_size < MIN_LINES * 4:     # a line of a program is at least a few bytes
+            return None
+    except OSError:
+        return None
+    scan = scan_file(path)
+    return scan.n_lines if scan is not None and scan.n_lines >= MIN_LINES else None
+
+
+def windowed_result(spec, options, path: Path, table, step_mm: float, step: float, tools, whole, checks,
+                    feed_note):
+    """A :class:`WindowedProgramResult` for a long program whose table is the plain one (None: read
+    it whole). ``whole()`` makes the whole read's result, ``checks(csv, gcode, gcode_g52, plot,
+    report)`` refuses outputs a program cannot have, ``feed_note(cap)`` the sidecar's F note."""
+    from fuzzyfeed.fuzzy.rules import MACHINE
+
+    if table.inputs == MACHINE or windowed_lines(path) is None:
+        return None
+    return WindowedProgramResult(spec, options, path, table, step_mm, step, tools, whole, checks, feed_note)
+
+
+class WindowedProgramResult(AdviceResult):
+    """A long program advised in windows when written (module docstring); ``whole()`` makes the
+    whole read's :class:`~fuzzyfeed.advice.program.ProgramResult` when it is needed."""
+
+    kind = "program"
+
+    def __init__(self, source, options, path: Path, table, step_mm: float, feed_step_mm_min: float,
+                 tools, whole, checks, feed_note, window_lines: int | None = None):
+        self.source, self.options, self.path, self.table = source, options, path, table
+        self.step_mm, self.feed_step_mm_min, self.tools = step_mm, feed_step_mm_min, tools
+        self._make_whole, self._checks, self._feed_note = whole, checks, feed_note
+        self._whole = None
+        self._totals = None
+        self.window_lines = window_lines
+
+    def whole(self):
+        if self._whole is None:
+            self._whole = self._make_whole()
+        return self._whole
+
+    @property
+    def windowed(self) -> bool:
+        """True once the outputs were written window by window."""
+        return self._totals is not None
+
+    @property
+    def text(self) -> str:
+        return self.whole().text
+
+    def columns(self) -> dict:
+        return self.whole().columns()
+
+    @property
+    def advice(self):
+        return self.whole().advice
+
+    def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
+        from fuzzyfeed.errors import FuzzyfeedError
+        from fuzzyfeed.program.windows import Fallback
+
+        if plot or report or gcode_g52 or (csv is None and gcode is None) or self._whole is not None:
+            return self.whole()._write(csv, gcode, gcode_g52, plot, report)
+        self._checks(csv, gcode, gcode_g52, plot, report)
+        try:
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always")
+                lines = self._write_windows(csv, gcode)
+        except (Fallback, FuzzyfeedError):
+            self._totals = None
+            return self.whole()._write(csv, gcode, gcode_g52, plot, report)
+        for w in said:           # the reader's notices, once (none when the whole read took over)
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return lines
+
+    def _write_windows(self, csv, gcode) -> list[str]:
+        from fuzzyfeed.base.atomic import atomic_write
+        from fuzzyfeed.fuzzy.provenance import provenance
+        from fuzzyfeed.io.csv import ColumnStream, write_metadata
+        from fuzzyfeed.program.window_advice import advise_in_windows
+        from fuzzyfeed.program.windows import WINDOW_LINES
+
+        cap = self.options.feed_mm_min
+        with contextlib.ExitStack() as stack:
+            out = write = None
+            if csv is not None:
+                out = ColumnStream(stack.enter_context(atomic_write(csv, "w", newline="")), csv)
+            if gcode is not None:
+                write = stack.enter_context(atomic_write(gcode, "w", newline="")).write
+            self._totals = advise_in_windows(self.path, self.table, step_mm=self.step_mm, cap_mm_min=cap,
+                                             feed_step_mm_min=self.feed_step_mm_min, tools=self.tools,
+                                             sink=None if out is None else out.write, write=write,
+                                             window_lines=self.window_lines or WINDOW_LINES)
+        if csv is not None:
+            record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
+            record["F_mm_min"] = self._feed_note(cap)
+            write_metadata(csv, out.names, record)
+        lines = []
+        if csv is not None:
+            lines.append(f"wrote {csv}")
+        if gcode:
+            lines.append(f"wrote {gcode}")
+        return lines
+
+    def summary(self) -> list[str]:
+        t = self._totals
+        if t is None:
+            return self.whole().summary()
+        cap, step = self.options.feed_mm_min, self.feed_step_mm_min
+        mean = t.pct_sum / t.pct_count
+        return [f"{self.path.name}: {t.lines} lines, {t.moves} moves, {t.cuts} cut(s), {t.cuts} advised; rules "
+                f"{self.table.name!r}; F from the program" + (f", capped at {cap:g} mm/min" if cap else ""),
+                f"advised fraction of the programmed F  min {t.pct_min:.2f} %  mean {mean:.2f} %  "
+                f"max {t.pct_max:.2f} %   (F rounded down to {step:g} mm/min steps)",
+                f"feed moves of the advised cuts: {t.time_written_s:.3f} s at the programmed F, "
+                f"{t.time_advised_s:.3f} s at the advised F (no acceleration); {t.splits} split points",
+                t.coverage().summary()]
+
+    def figures(self) -> dict:
+        t = self._totals
+        if t is None:
+            return self.whole().figures()
+        return {"cuts": t.cuts, "cuts_advised": t.cuts, "time_written_s": t.time_written_s,
+                "time_advised_s": t.time_advised_s, "feed_pct_min": t.pct_min,
+                "feed_pct_mean": t.pct_sum / t.pct_count, **t.coverage().figures()}
+
+    def _plot(self, output) -> None:
+        self.whole()._plot(output)

@@ -1,0 +1,118 @@
+"""The plain advice of a long program window by window (:mod:`fuzzyfeed.program.windows`): read a
+window, advise its cuts in pieces (:func:`fuzzyfeed.program.stream.stream_program_advice`), hand
+their CSV rows on, write its lines back (:func:`fuzzyfeed.program.rewrite.rewrite_chunks`, the F in
+force carried from window to window), drop it. Every cut lies in one window, so its advice is the
+whole read's, bit for bit; the rows get the file's line and cut numbers. What the summary needs
+is kept as sums (no per-sample or per-move array of the program): the advised fraction's min, max,
+sum and count, the times at the programmed and advised F, the split points and the coverage.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fuzzyfeed.fuzzy.rules import RuleTable
+from fuzzyfeed.program.coverage import Coverage, NotJudged, FIRST_LINES, REASONS, program_coverage
+from fuzzyfeed.program.feeds import DEFAULT_MIN_PIECE_MM, pieces_times
+from fuzzyfeed.program.rewrite import rewrite_chunks
+from fuzzyfeed.program.stream import concat_pieces, stream_program_advice
+from fuzzyfeed.program.windows import WINDOW_LINES, Fallback, read_windows
+
+
+@dataclass
+class WindowTotals:
+    """What the summary of a program advised in windows says, summed window by window."""
+
+    lines: int = 0
+    moves: int = 0
+    cuts: int = 0
+    windows: int = 0
+    pct_min: float = np.inf
+    pct_max: float = -np.inf
+    pct_sum: float = 0.0
+    pct_count: int = 0
+    splits: int = 0
+    time_written_s: float = 0.0
+    time_advised_s: float = 0.0
+    coverages: list = field(default_factory=list)   # (line0, Coverage) of every window
+
+    def coverage(self) -> Coverage:
+        """The windows' coverages as one (counts and sums added, first lines in file order)."""
+        cov = [c for _, c in self.coverages]
+        groups = []
+        for key, text in REASONS:
+            parts = [(line0, g) for line0, c in self.coverages for g in c.not_judged if g.key == key]
+            if not parts:
+                continue
+            lines = list(dict.fromkeys(v + line0 for line0, g in parts for v in g.first_lines))[:FIRST_LINES]
+            groups.append(NotJudged(key=key, text=text, moves=sum(g.moves for _, g in parts),
+                                    length_mm=sum(g.length_mm for _, g in parts), first_lines=tuple(lines)))
+        return Coverage(moves=sum(c.moves for c in cov), judged_moves=sum(c.judged_moves for c in cov),
+                        length_mm=sum(c.length_mm for c in cov),
+                        judged_length_mm=sum(c.judged_length_mm for c in cov),
+                        unknown_length_moves=sum(c.unknown_length_moves for c in cov),
+                        time_s=sum(c.time_s for c in cov), judged_time_s=sum(c.judged_time_s for c in cov),
+                        unknown_time_moves=sum(c.unknown_time_moves for c in cov), not_judged=tuple(groups))
+
+
+def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: float | None,
+                      feed_step_mm_min: float, min_piece_mm: float = DEFAULT_MIN_PIECE_MM, tools=None,
+                      sink=None, write=None, window_lines: int = WINDOW_LINES) -> WindowTotals:
+    """Advise the program at ``path`` window by window: ``sink(columns)`` takes every piece's CSV
+    rows (as :func:`~fuzzyfeed.program.stream.stream_program_advice` makes them, with the file's cut
+    and line numbers), ``write(text)`` the rewritten program in chunks. Raises
+    :class:`~fuzzyfeed.program.windows.Fallback` where the windows cannot give the whole read's
+    result (see there; also a program with no cut, or any error: the whole read names it)."""
+    from fuzzyfeed.errors import FuzzyfeedError
+
+    totals = WindowTotals()
+    carry = {"f": None}
+    rest: list = []
+    newline = None
+    try:
+        for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
+            wp = win.program
+            newline = wp.newline
+            totals.windows += 1
+            totals.lines += len(wp.lines)
+            totals.moves += wp.kind.size
+            pieces = []
+            if wp.n_cuts:
+                for piece in stream_program_advice(wp, table, step_mm=step_mm, cap_mm_min=cap_mm_min,
+                                                   feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm):
+                    cols = piece.columns
+                    if win.line0 or win.cut0:
+                        cols = dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
+                    if sink is not None:
+                        sink(cols)
+                    pct = cols["feed_pct"]
+                    if pct.size:
+                        totals.pct_min = min(totals.pct_min, float(pct.min()))
+                        totals.pct_max = max(totals.pct_max, float(pct.max()))
+                        totals.pct_sum += float(np.sum(pct))
+                        totals.pct_count += pct.size
+                    pieces.append(piece)
+                pm, pe, pf = concat_pieces(pieces)
+                t_prog, t_adv = pieces_times(wp, pm, pe, pf)
+                totals.time_written_s += t_prog
+                totals.time_advised_s += t_adv
+                totals.splits += int(np.sum(np.diff(pm) == 0))
+            else:
+                pm, pe, pf = concat_pieces([])
+            del pieces
+            totals.cuts += wp.n_cuts
+            totals.coverages.append((win.line0, program_coverage(wp)))
+            if write is not None:
+                for chunk in rewrite_chunks(wp, pm, pe, pf, carry=carry):
+                    write(chunk)
+        for block in rest:
+            totals.lines += len(block)
+            if write is not None and block:
+                write(newline.join(block) + newline)
+    except FuzzyfeedError as exc:
+        raise Fallback(str(exc)) from None
+    if totals.cuts == 0:
+        raise Fallback("no cut: the whole read says so")
+    return totals
