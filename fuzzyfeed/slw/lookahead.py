@@ -86,6 +86,8 @@ class SlidingWindow(WindowContent, BlockCheck):
         self.blocks: list[_WBlock] = []
         self.stats = LookaheadStats()
         self._front_checks = 0
+        # called with the window at the top of its loop (slw/resume.py keeps states there)
+        self.keep = None
 
     # ------------------------------------------------------------------ junction feeds
     def _backward(self, end_feed: float) -> list[float]:
@@ -160,6 +162,8 @@ class SlidingWindow(WindowContent, BlockCheck):
             return True
 
         while True:
+            if self.keep is not None and not exhausted:
+                self.keep(self)
             while not exhausted and (not self.blocks or self._ahead_mm() < self.window_mm):
                 pull()
             if not self.blocks:
