@@ -116,6 +116,8 @@ class BlockCheck:
             u_all = np.concatenate([np.interp(d[2][d[9]], self.blocks[i].ref.s, self.blocks[i].ref.u)
                                     for i, d in data if d is not None and d[9].size])
             exact = _evaluate(self.curve, self.limits, s_all, self.cap, u_all)
+            # pointwise: one call for every block's samples (the same values as one per block)
+            lifted = self._feed_limit(exact.s, exact.vlim, exact.tangent, exact.kn)
             at = 0
             for i, d in data:
                 if d is None or not d[9].size:
@@ -124,8 +126,7 @@ class BlockCheck:
                 part = slice(at, at + near.size)
                 at += near.size
                 vlim, tan, kn = d[6].copy(), d[7].copy(), d[8].copy()
-                vlim[near] = np.minimum(vlim[near], self._feed_limit(
-                    exact.s[part], exact.vlim[part], exact.tangent[part], exact.kn[part]))
+                vlim[near] = np.minimum(vlim[near], lifted[part])
                 tan[near], kn[near] = exact.tangent[part], exact.kn[part]
                 self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
         for i, d in data:
