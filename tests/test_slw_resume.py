@@ -87,3 +87,38 @@ def test_same_until_is_the_last_shared_point():
     assert same_until(old, new) == 15.0
     s = np.linspace(0.0, 14.999, 1000)
     assert np.array_equal(old(s), new(s))
+
+
+# (path, machine, transition, breaches at these fractions of the ticks, ticks, Σ w_k u_k, Σ w_k x_k,
+# Σ w_k y_k, Σ w_k z_k, xyz at tick K // 3, cycle time) with w = linspace(1, 2, K), recorded on main
+# 2a1349a (every repair a whole pass); general19 is random curve 19 of slw_cases.general_nurbs on its
+# ratio machine, one real tick repair
+RECORDED = [
+    ("butterfly", "equal", "cosine", (1 / 3, 2 / 3), 6377, 5295.09195877545, 482665.73523655767,
+     313766.6263244132, 0.0, 82.07611690670171, 9.69903035342124, 0.0, 6.376),
+    ("passes", "slow-y", "seven-phase", (1 / 3, 2 / 3), 14932, 6266225.363051946, 222485.477492602,
+     228580.50676442834, 0.0, 16.910031110515746, 18.0, 0.0, 14.931000000000001),
+    ("general19", "ratio", "cosine", (), 5925, 5559.069425066879, 152061.80534786772, -83840.99734522423,
+     0.0, 25.93094351913216, -15.488462285114743, 0.0, 2.962),
+]
+
+
+@pytest.mark.parametrize("row", RECORDED, ids=lambda r: "/".join(r[:3]))
+def test_repaired_schedules_as_recorded_on_main(monkeypatch, row):
+    name, machine, transition, at, ticks, *want = row
+    if name == "general19":
+        rng = np.random.default_rng(19)
+        curve = slw_cases.general_nurbs(rng)
+        limits = slw_cases.ratio_machine(rng)
+    else:
+        curve, limits = _curve(name), (MachineLimits() if machine == "equal" else SLOW_Y)
+    _with_breaches(monkeypatch, at)
+    tr = schedule(curve, limits, transition=transition)
+    assert tr.u.size == ticks
+    w = np.linspace(1.0, 2.0, ticks)
+    got = [float(tr.u @ w), *(float(tr.xyz[:, i] @ w) for i in range(3)), *map(float, tr.xyz[ticks // 3]),
+           tr.cycle_time_s]
+    big = float(np.abs(tr.xyz).max())
+    scale = [abs(want[0])] + [big * w.sum()] * 3 + [big] * 3 + [want[-1]]
+    for g, v, sc in zip(got, want, scale):
+        assert abs(g - v) <= 1e-12 * sc, (g, v)
