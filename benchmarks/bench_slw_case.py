@@ -64,6 +64,7 @@ def main() -> None:
              a=traj.acc_mm_s2, j=traj.jerk_mm_s3)
     if prof:
         pstats.Stats(prof).sort_stats("cumulative").print_stats(40)
+        pstats.Stats(prof).sort_stats("tottime").print_stats(30)
 
 
 if __name__ == "__main__":

@@ -108,3 +108,39 @@ def test_outside_the_domain_is_the_numpy_error():
     assert exact_arrays(curve, lim, np.array([1.0, 2.0]), None, u) is None
     with pytest.raises(NurbsError):
         _evaluate(curve, lim, np.array([1.0, 2.0]), None, u)
+
+
+@pytest.mark.parametrize("name", ["random", "butterfly", "cam"])
+def test_window_feed_limit_bit_for_bit(name):
+    """The window's lifted feed limit (window_check.BlockCheck._feed_limit, compiled in
+    _exact_jit.window_feed_limit) against its numpy form: the path's own points (the lift fires
+    where the centripetal part binds), random κN with zeros and a non-finite row, with and
+    without a cap, on equal and unequal axes."""
+    from fuzzyfeed.slw.lookahead import SlidingWindow
+
+    if name == "random":
+        curve = slw_cases.random_nurbs(5)[0]
+    elif name == "butterfly":
+        curve = load_shape("butterfly").curve
+    else:
+        curve = fit_polyline(slw_cases.cam_polyline(2000)).curve
+    rng = np.random.default_rng(11)
+    s, u = _points(curve, rng, 5000)
+    fired = 0
+    for limits in (MachineLimits(), SLOW_Y):
+        ref = _evaluate(curve, limits, s, None, u)
+        kn = ref.kn * np.where(rng.random((s.size, 1)) < 0.2, 10.0 ** rng.uniform(-3, 3, (s.size, 1)), 1.0)
+        kn[rng.random(kn.shape) < 0.05] = 0.0
+        kn[::501] = np.inf
+        cap = FeedCap(np.array([0.0, curve.length / 3, curve.length / 3, curve.length]),
+                      np.array([30.0, 60.0, 20.0, 80.0]), curve.length)
+        for c in (None, cap):
+            w = SlidingWindow(limits, curve, 2, c)
+            for k in (ref.kn, kn):
+                with np.errstate(all="ignore"):
+                    cen = np.min(np.where(np.abs(k) > 0, np.sqrt(w.axis_acc / np.abs(k)), np.inf), axis=1)
+                vlim = np.where(np.isfinite(cen) & (rng.random(s.size) < 0.5), cen, ref.vlim)
+                want = w._feed_limit_numpy(s, vlim, ref.tangent, k)
+                fired += int((want != vlim).sum())
+                assert np.array_equal(w._feed_limit(s, vlim, ref.tangent, k), want, equal_nan=True)
+    assert fired > 100  # the lift fired

@@ -82,17 +82,25 @@ def param_at(spans, coeffs, breaks, cumulative, end_speeds, target, iterations, 
              eps_span, nodes, weights, nodes3, weights3, out):
     """u(s) at each ``target`` (already clipped to [0, L]) into ``out``: ArcLengthTable._param_block."""
     nb = breaks.size
+    nc = cumulative.size
     hint = np.zeros(1, dtype=np.int64)
+    lo = 0
     for i in range(target.size):
         tg = target[i]
-        # np.searchsorted(cumulative, target, side="right") - 1, clipped to the intervals
-        lo, hi = 0, cumulative.size
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if cumulative[mid] <= tg:
-                lo = mid + 1
+        # np.searchsorted(cumulative, target, side="right") - 1, clipped to the intervals: lo is
+        # the count of entries <= tg, the one lo with cumulative[lo - 1] <= tg < cumulative[lo];
+        # sorted targets (servo ticks) mostly keep the last point's or take the next one
+        if not ((lo == 0 or cumulative[lo - 1] <= tg) and (lo == nc or tg < cumulative[lo])):
+            if lo < nc and cumulative[lo] <= tg and (lo + 1 == nc or tg < cumulative[lo + 1]):
+                lo += 1
             else:
-                hi = mid
+                lo, hi = 0, nc
+                while lo < hi:
+                    mid = (lo + hi) >> 1
+                    if cumulative[mid] <= tg:
+                        lo = mid + 1
+                    else:
+                        hi = mid
         k = min(max(lo - 1, 0), nb - 2)
         a = breaks[k]
         b = breaks[k + 1]

@@ -146,3 +146,50 @@ def exact_limits(d1, d2, speed, speed3, s, cap_s, cap_v, vel, acc, feed, delta, 
             y = k[j]
             kn[i, j] = maxf if y == np.inf else (-maxf if y == -np.inf else y)
     return True
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _np_min(a, b):
+    """np.minimum of two floats (a NaN either side wins)."""
+    if math.isnan(a) or math.isnan(b):
+        return math.nan
+    return a if a <= b else b
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def window_feed_limit(s, vlim, tan, kn, acc, vel, feed, delta, two_over_ts, cap_s, cap_v, out):
+    """window_check.BlockCheck._feed_limit point by point into ``out`` (the same operations in the
+    same order as its numpy form, value for value): ``vlim`` where the centripetal part
+    √(A_j/|κN_j|) does not bind, else lifted to min(axial velocity, chord, command, cap)."""
+    n, d = tan.shape
+    has_cap = cap_s.size > 0
+    for i in range(n):
+        cen = np.inf
+        other = np.inf
+        ksum = 0.0
+        finite = True
+        for j in range(d):
+            k = abs(kn[i, j])
+            t = abs(tan[i, j])
+            if not math.isfinite(k):
+                finite = False
+            x = math.sqrt(acc[j] / k) if k > 0.0 else np.inf
+            cen = x if x < cen else cen      # np.min: no NaN here (k > 0, A_j > 0)
+            y = vel[j] / t if t > 0.0 else np.inf
+            other = y if y < other else other
+            ksum = ksum + k * k if j > 0 else k * k
+        kappa = math.sqrt(ksum)
+        rho = 1.0 / kappa if kappa > 0.0 else np.inf
+        if math.isinf(rho) or 2.0 * rho <= delta:
+            chord = np.inf
+        else:
+            c = 2.0 * rho * delta - delta * delta
+            chord = two_over_ts * math.sqrt(c if (c >= 0.0 or math.isnan(c)) else 0.0)
+        other = _np_min(_np_min(other, chord), feed)
+        if has_cap:
+            other = _np_min(other, _np_min(_cap_at(s[i], cap_s, cap_v, True), _cap_at(s[i], cap_s, cap_v, False)))
+        v = vlim[i]
+        if finite and cen > 0.0 and cen < other and abs(v - cen) <= 1e-9 * cen:
+            out[i] = math.nan if (math.isnan(v) or math.isnan(other)) else (v if v >= other else other)
+        else:
+            out[i] = v

@@ -86,6 +86,9 @@ class SlidingWindow(WindowContent, BlockCheck):
         self.blocks: list[_WBlock] = []
         self.stats = LookaheadStats()
         self._front_checks = 0
+        # called with the window at the top of its loop (slw/resume.py keeps states there)
+        self.keep = None
+        self._planned = None   # _final_blocks' two plans, for _front_holds
 
     # ------------------------------------------------------------------ junction feeds
     def _backward(self, end_feed: float) -> list[float]:
@@ -97,10 +100,11 @@ class SlidingWindow(WindowContent, BlockCheck):
             v[i] = max_start_speed(v[i + 1], b.length, self.juncs[i].cap, b.acc_down, self.jerk, self.shape)
         return v
 
-    def _plan(self, end_feed: float) -> None:
+    def _plan(self, end_feed: float) -> np.ndarray:
         """Junction feeds of the window: a backward scan (each junction no faster than what
         reaches the next within its block) and a forward scan from the committed first junction
-        (compiled: _kernels.plan_window, the arithmetic of :meth:`_plan_python`)."""
+        (compiled: _kernels.plan_window, the arithmetic of :meth:`_plan_python`); set on the
+        junctions and returned."""
         import fuzzyfeed.slw._kernels as kernels
 
         blocks, juncs = self.blocks, self.juncs
@@ -110,6 +114,7 @@ class SlidingWindow(WindowContent, BlockCheck):
                                 np.array([b.acc_down for b in blocks]))
         for j, vj in zip(juncs, v.tolist()):
             j.v = vj
+        return v
 
     def _plan_python(self, end_feed: float) -> None:
         """The reference of :meth:`_plan` in Python (profile.py's functions; tests compare)."""
@@ -160,6 +165,8 @@ class SlidingWindow(WindowContent, BlockCheck):
             return True
 
         while True:
+            if self.keep is not None and not exhausted:
+                self.keep(self)
             while not exhausted and (not self.blocks or self._ahead_mm() < self.window_mm):
                 pull()
             if not self.blocks:
@@ -183,14 +190,14 @@ class SlidingWindow(WindowContent, BlockCheck):
         """How many leading blocks have the same junction feeds whether or not the window's end is
         a stop: those are final (what the whole path would give) and are released together."""
         stop = [j.v for j in self.juncs]
-        self._plan(math.inf)
-        n = 0
-        for k in range(1, len(self.juncs)):
-            if self.juncs[k].v > stop[k] * (1 + 1e-12) + 1e-12:
-                break
-            n = k
+        go_on = self._plan(math.inf)
+        # n: the junctions 1 … n before the first one faster without the stop
+        faster = np.flatnonzero(go_on[1:] > np.array(stop[1:]) * (1 + 1e-12) + 1e-12)
+        n = int(faster[0]) if faster.size else len(self.juncs) - 1
         for j, v in zip(self.juncs, stop):
             j.v = v
+        # both plans, for _front_holds right after (nothing changes between: the same feeds)
+        self._planned = (go_on.tolist(), stop)
         return n
 
     def _front_holds(self, n_final: int) -> bool:
@@ -198,7 +205,12 @@ class SlidingWindow(WindowContent, BlockCheck):
         goes on (no stop at the window's end): a limit crossing that only shows at those feeds is
         repaired now, while the junction it needs can still be reached. The blocks to release are
         always checked; the look beyond them stops after MAX_REPAIRS failures in a row."""
-        self._plan(math.inf)
+        planned, self._planned = self._planned, None
+        if planned is None:
+            self._plan(math.inf)
+        else:   # _final_blocks' plan without the stop (the same window)
+            for j, v in zip(self.juncs, planned[0]):
+                j.v = v
         # every block a full stop beyond the released ones: a repair there (a junction with zero
         # acceleration) could otherwise need a lower feed than the released one can reach
         reach = self.juncs[n_final].s + 1.05 * self.stop
@@ -209,7 +221,11 @@ class SlidingWindow(WindowContent, BlockCheck):
             self._front_checks += 1
             return False
         self._front_checks = 0
-        self._plan(0.0)
+        if planned is None:
+            self._plan(0.0)
+        else:   # the plan with the stop that _settle left (a passed check repairs nothing)
+            for j, v in zip(self.juncs, planned[1]):
+                j.v = v
         return True
 
     def _release(self) -> ScheduledBlock:

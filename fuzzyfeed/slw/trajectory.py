@@ -28,6 +28,7 @@ from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
 from fuzzyfeed.slw.check import breach, breach_error
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, joins, machine_cap
 from fuzzyfeed.slw.profile import COSINE, TRANSITIONS, segment_state
+from fuzzyfeed.slw.resume import Recorder, resume
 
 
 #: Most servo periods a trajectory may have (≈ 14 h at 1 ms).
@@ -160,6 +161,9 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
 
 #: Schedules again with the feed lowered around a tick over a limit at most this many times.
 TICK_REPAIRS = 4
+#: A repair's pass resumes the last one's look-ahead where the lowered cap starts to matter
+#: (slw/resume.py: the same blocks as a whole pass); False schedules the whole path again.
+RESUME = True
 
 
 def _dip(cap: FeedCap | None, found: tuple[str, int, float], s: np.ndarray, v: np.ndarray,
@@ -270,11 +274,17 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     s_j, _, _, jump = joins(curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
     kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
+    previous = None   # the last pass's blocks and window states (slw/resume.py)
     for attempt in range(TICK_REPAIRS + 1):
         window = SlidingWindow(limits, curve, approach, cap, transition)
-        blocks = []
+        if previous is None or not RESUME:
+            source, blocks = Recorder(iter_blocks(curve, limits, cap=cap)), []
+        else:   # a tick repair: the pass resumed where its window first meets the lowered cap
+            source, blocks = resume(previous[0], previous[1], previous[2], previous[3], cap, window,
+                                    iter_blocks(curve, limits, cap=cap), total)
+        window.keep = source.keep
         try:
-            for block in window.run(iter_blocks(curve, limits, cap=cap)):
+            for block in window.run(source):
                 blocks.append(block)
                 if progress is not None and attempt == 0:
                     progress(block.s1)
@@ -302,6 +312,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
             break
         if attempt == TICK_REPAIRS:
             raise breach_error(found, s, limits)
+        previous = (source, blocks, window.stats.critical_s, cap)
         cap = _dip(cap, found, s, v, limits, total)
     critical = np.array([b.s1 for b in blocks[:-1]])
     for arr in (t, s, u, xyz, v, a, j):  # read-only: shared with the time law and simulations

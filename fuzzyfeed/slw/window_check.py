@@ -19,6 +19,8 @@ from fuzzyfeed.slw.preprocess import Reference, _evaluate, evaluate_reference
 from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration
 from fuzzyfeed.slw.window_blocks import _Junction
 
+_EMPTY = np.empty(0)
+
 #: Relative slack accepted by the profile check (the remaining 0.5 % budget is the measurement's).
 CHECK_RTOL = 1e-6
 #: Blocks shorter than this fraction of one servo period's travel at the command feed are not
@@ -103,8 +105,9 @@ class BlockCheck:
             c = b.checked
             # checked with these feeds already (_sample would say so): skipped without its key
             # (~3·10⁶ calls on a long program, most of them for blocks checked before)
+            # (the key of _sample: v0, v1, acc, acc_down, vmax, length)
             if c is not None and c[0] == juncs[i].v and c[1] == juncs[i + 1].v and c[2] == b.acc \
-                    and c[3] == b.vmax and c[4] == b.length:
+                    and c[3] == b.acc_down and c[4] == b.vmax and c[5] == b.length:
                 continue
             data.append((i, self._sample(i)))
         todo = [d for _, d in data if d is not None and d[9].size]
@@ -113,6 +116,8 @@ class BlockCheck:
             u_all = np.concatenate([np.interp(d[2][d[9]], self.blocks[i].ref.s, self.blocks[i].ref.u)
                                     for i, d in data if d is not None and d[9].size])
             exact = _evaluate(self.curve, self.limits, s_all, self.cap, u_all)
+            # pointwise: one call for every block's samples (the same values as one per block)
+            lifted = self._feed_limit(exact.s, exact.vlim, exact.tangent, exact.kn)
             at = 0
             for i, d in data:
                 if d is None or not d[9].size:
@@ -121,8 +126,7 @@ class BlockCheck:
                 part = slice(at, at + near.size)
                 at += near.size
                 vlim, tan, kn = d[6].copy(), d[7].copy(), d[8].copy()
-                vlim[near] = np.minimum(vlim[near], self._feed_limit(
-                    exact.s[part], exact.vlim[part], exact.tangent[part], exact.kn[part]))
+                vlim[near] = np.minimum(vlim[near], lifted[part])
                 tan[near], kn[near] = exact.tangent[part], exact.kn[part]
                 self.blocks[i].pending = d[:6] + (vlim, tan, kn, near[:0])
         for i, d in data:
@@ -247,6 +251,28 @@ class BlockCheck:
         acceleration (issue 38: nurbs88 slow-Y, 53 mm/s against 38). A junction (zero
         acceleration) keeps the full limit (:meth:`_split` caps at ``vlim``). Unchanged (the
         paper's window) with approach 1."""
+        if not self.carry:
+            return vlim
+        import fuzzyfeed.slw._exact_jit as kernel
+
+        lim = self.limits
+        tan, kn = np.asarray(tan, dtype=float), np.asarray(kn, dtype=float)
+        d = tan.shape[1]
+        if not hasattr(self, "_feed_args"):
+            self._feed_args = (self.axis_acc[:d].astype(float), np.asarray(lim.axis_vel_mm_s, dtype=float)[:d],
+                               float(lim.feed_mm_s), float(lim.chord_tol_mm), 2.0 / lim.ts_s)
+        acc, vel, feed, delta, two_over_ts = self._feed_args
+        if acc.size == d:
+            # compiled: the numpy form below point by point, the same floats (tests/test_slw_exact.py)
+            cap_s, cap_v = (self.cap.s_mm, self.cap.feed_mm_s) if self.cap is not None else (_EMPTY, _EMPTY)
+            out = np.empty(tan.shape[0])
+            kernel.window_feed_limit(np.asarray(s, dtype=float), np.asarray(vlim, dtype=float), tan, kn,
+                                     acc, vel, feed, delta, two_over_ts, cap_s, cap_v, out)
+            return out
+        return self._feed_limit_numpy(s, vlim, tan, kn)
+
+    def _feed_limit_numpy(self, s: np.ndarray, vlim: np.ndarray, tan: np.ndarray, kn: np.ndarray) -> np.ndarray:
+        """The reference of :meth:`_feed_limit` in numpy (the compiled kernel's floats; tests compare)."""
         if not self.carry:
             return vlim
         lim = self.limits
