@@ -122,39 +122,36 @@ def _curve(name):
 # the equal-axis rows unchanged since db78ea5; rows re-recorded at branch sched38j (issue 38: a
 # block's feed held below the centripetal limit by the axis check alone, the path's first critical
 # point merged when unreachable from rest, a cruise-into-fall crossing's junction at its lowest
-# limit): the slow-Y rows and butterfly equal changed (ticks -0.9 % to +0.7 %), the others not;
-# rows re-recorded at branch median6 (issue 38: repair junctions 0.5 % under the limit, a block's
-# top lowered instead of a junction where a limit falls a little under it): the slow-Y rows,
-# butterfly equal and cusp equal changed (ticks 0 to -1.9 %), the others not
+# limit): the slow-Y rows and butterfly equal changed (ticks -0.9 % to +0.7 %), the others not
 RECORDED = [
     ("wm", "equal", "cosine", 1443, 365699.83331926435, 3045171.8029829967),
     ("wm", "equal", "seven-phase", 1383, 401452.77425995073, 3231134.0848481804),
-    ("wm", "slow-y", "cosine", 2320, 311905.86986677756, 1952194.0851381563),
-    ("wm", "slow-y", "seven-phase", 2298, 323589.0770693107, 1940567.3283330891),
+    ("wm", "slow-y", "cosine", 2322, 312288.01525277155, 1951499.6361693626),
+    ("wm", "slow-y", "seven-phase", 2300, 324968.8123835884, 1940513.8644221434),
     ("trident2", "equal", "cosine", 1651, 514893.52979295515, 3038944.4344612337),
     ("trident2", "equal", "seven-phase", 1559, 560775.6780691345, 3294186.7839249587),
-    ("trident2", "slow-y", "cosine", 2508, 382195.63495183655, 2023413.5392974096),
-    ("trident2", "slow-y", "seven-phase", 2362, 399231.5245363079, 2077191.43017293),
-    ("butterfly", "equal", "cosine", 6364, 1494352.6968195103, 28725178.2513257),
-    ("butterfly", "equal", "seven-phase", 6171, 1525100.6663881885, 29336000.518744074),
-    ("butterfly", "slow-y", "cosine", 10128, 1166011.8063857108, 17981288.936174408),
-    ("butterfly", "slow-y", "seven-phase", 9859, 1213506.3459699852, 18561156.30900024),
-    ("cusp", "equal", "cosine", 4147, 736047.9581111777, 31644983.228014845),
-    ("cusp", "equal", "seven-phase", 4074, 736183.9341845452, 31970409.56352929),
-    ("cusp", "slow-y", "cosine", 6565, 654297.8467099819, 20376861.550864678),
-    ("cusp", "slow-y", "seven-phase", 6357, 668748.6669507351, 20655455.689474665),
+    ("trident2", "slow-y", "cosine", 2508, 382276.02438244876, 2023401.1258827047),
+    ("trident2", "slow-y", "seven-phase", 2362, 399433.4817869243, 2077096.7309248347),
+    ("butterfly", "equal", "cosine", 6366, 1495823.2160064566, 28715387.969913438),
+    ("butterfly", "equal", "seven-phase", 6171, 1526320.2335887137, 29331141.858432733),
+    ("butterfly", "slow-y", "cosine", 10146, 1173722.6483755382, 17926469.070346475),
+    ("butterfly", "slow-y", "seven-phase", 9903, 1239905.1299608483, 18461900.954278518),
+    ("cusp", "equal", "cosine", 4148, 740684.3136640326, 31634815.491321318),
+    ("cusp", "equal", "seven-phase", 4074, 737063.2809867469, 31967616.715954777),
+    ("cusp", "slow-y", "cosine", 6570, 663660.9276895829, 20364586.78056967),
+    ("cusp", "slow-y", "seven-phase", 6364, 683600.0317530315, 20653317.343725353),
     ("nurbs3", "equal", "cosine", 1061, 203374.3240740996, 7003943.3380991025),
     ("nurbs3", "equal", "seven-phase", 1037, 205938.54972392507, 7086753.112267673),
-    ("nurbs3", "slow-y", "cosine", 1842, 109986.7951176136, 3754943.9778434914),
-    ("nurbs3", "slow-y", "seven-phase", 1779, 115069.56961790295, 3775349.7281287042),
+    ("nurbs3", "slow-y", "cosine", 1864, 123580.03749931563, 3701024.3580336818),
+    ("nurbs3", "slow-y", "seven-phase", 1801, 130159.46315443517, 3720863.9525094405),
     ("nurbs7", "equal", "cosine", 1501, 269184.64135139785, 11529066.969152506),
     ("nurbs7", "equal", "seven-phase", 1475, 269187.3003530018, 11649463.391693287),
-    ("nurbs7", "slow-y", "cosine", 2298, 263880.7255753223, 7506225.478748021),
-    ("nurbs7", "slow-y", "seven-phase", 2235, 269384.2461387579, 7517797.84201425),
+    ("nurbs7", "slow-y", "cosine", 2313, 272116.0488497728, 7457934.661252607),
+    ("nurbs7", "slow-y", "seven-phase", 2249, 280526.0466371883, 7476096.257725591),
     ("cam1000", "equal", "cosine", 5383, 199998.40553753672, 51042560.38310294),
     ("cam1000", "equal", "seven-phase", 5361, 199997.68238748307, 51131166.16350623),
-    ("cam1000", "slow-y", "cosine", 8940, 497120.71433820244, 31311971.121291116),
-    ("cam1000", "slow-y", "seven-phase", 8825, 504390.79555545695, 31497894.956121758),
+    ("cam1000", "slow-y", "cosine", 9059, 532605.8068210911, 30885944.7475017),
+    ("cam1000", "slow-y", "seven-phase", 8997, 549431.912410354, 30824842.201642662),
 ]
 
 

@@ -28,12 +28,6 @@ SUB_TICK = 1e-3
 #: the next profile has room to rise, so a slowly rising limit is followed in stairs of a few per
 #: cent (a bounded number of splits) instead of a staircase of tiny steps.
 SPLIT_ROOM = 0.97
-#: The same for the window of issue 38 (approach 2; approach 1 keeps the paper's SPLIT_ROOM):
-#: junctions 0.5 % under the limit. Measured on every 7th built-in case of bench_slw, both
-#: transitions (benchmarks/results/bench_slw_issue38_median6.txt): 0.97 → 0.995 made 30 of 70
-#: cycles shorter (up to 1.9 %), 3 longer (≤ 0.9 %), the worst 1.3245 → 1.3052, for 5 % more
-#: compute (more, smaller stairs where a limit rises slowly).
-CARRY_SPLIT_ROOM = 0.995
 #: The profile read at a block's reference points may exceed their limit by this fraction: the
 #: samples hold the limit between them (CHECK_RTOL); the points catch a limit held at one point
 #: (a corner's cap, far below its neighbours), not the 1e-5 by which a sampled profile passes a
@@ -44,6 +38,9 @@ POINT_RTOL = 1e-3
 #: SPLIT_ROOM lower: a profile leaving a minimum brushed the limit by 0.04 % and the minimum's
 #: junctions fell a whole stair (trident2: 3 % at two of its five minima).
 NEAR_ROOM = 0.999
+#: A block's top feed is lowered (instead of a junction) at most this many times; then the crossing
+#: gets its junction (each lowering is strict, so the repairs end).
+TOP_REPAIRS = 3
 #: An axis-acceleration breach whose centripetal part alone uses more than this share of the axis
 #: gets a junction (zero tangential acceleration) at a feed that brings it back within the limit.
 CEN_SPLIT = 0.9
@@ -58,11 +55,6 @@ EXACT_NEAR = 0.99
 
 class BlockCheck:
     """The check and its repairs (mixed into :class:`fuzzyfeed.slw.lookahead.SlidingWindow`)."""
-
-    def _room(self) -> float:
-        """How far under the limit a repair's junction is capped (SPLIT_ROOM; CARRY_SPLIT_ROOM
-        with the window of issue 38)."""
-        return CARRY_SPLIT_ROOM if self.carry else SPLIT_ROOM
 
     def _segments(self, i: int):
         b = self.blocks[i]
@@ -200,7 +192,8 @@ class BlockCheck:
                 b_idx += 1
             low_v = float(vlim[a_idx:b_idx + 1].min())
             top, rest_v = int(np.argmax(v)), float(vlim[a_idx:].min())
-            if self.carry and a_idx <= top <= b_idx and rest_v >= self._room() * float(v[top]) \
+            if self.carry and b.tops < TOP_REPAIRS and a_idx <= top <= b_idx \
+                    and rest_v >= SPLIT_ROOM * float(v[top]) and rest_v < b.vmax * (1.0 - 1e-9) \
                     and rest_v >= max(self.juncs[i].v, self.juncs[i + 1].v):
                 # the block's top over a limit that falls a little under it (a run along a slow
                 # axis, its limit 50.09 falling to 50.00): the block's top feed lowered to the
@@ -208,11 +201,12 @@ class BlockCheck:
                 # limit, began a sawtooth of junctions at zero acceleration: nurbs5 slow-Y, 10
                 # over 11 mm); each such repair lowers the top (never below an end feed)
                 b.vmax = rest_v
+                b.tops += 1
                 self.stats.caps_lowered += 1
                 return False
             # a junction where the profile first crosses the limit, capped at the lowest limit of
             # the crossing: a ramp is then followed in few, large steps
-            cap = self._room() * low_v
+            cap = SPLIT_ROOM * low_v
             at = a_idx
             low = a_idx + int(np.argmin(vlim[a_idx:b_idx + 1]))
             if self.per_direction and (
@@ -237,7 +231,7 @@ class BlockCheck:
         if cen_ratio > CEN_SPLIT or tan_ratio < 0.05:
             # the centripetal part nearly uses the axis up: a junction here (zero tangential
             # acceleration), as much slower than the profile as the excess needs (NEAR_ROOM)
-            room = max(self._room(), NEAR_ROOM / math.sqrt(float(r[k])))  # r[k] > 1 here
+            room = max(SPLIT_ROOM, NEAR_ROOM / math.sqrt(float(r[k])))  # r[k] > 1 here
             self._split(i, s[k], cap=room * float(v[k]))
             self.stats.caps_lowered += 1
             return False
@@ -252,7 +246,7 @@ class BlockCheck:
         if acc < ACC_KEEP * self.acc:
             # the whole block would crawl for one point: a junction there instead (zero
             # tangential acceleration), the rest of the block keeps its acceleration
-            self._split(i, s[k], cap=self._room() * float(v[k]))
+            self._split(i, s[k], cap=SPLIT_ROOM * float(v[k]))
             self.stats.caps_lowered += 1
             return False
         if side != 1:
