@@ -108,7 +108,10 @@ def test_plan_window_equals_the_python_scans(shape):
 # the equal-axis rows unchanged since db78ea5; rows re-recorded at branch sched38j (issue 38: a
 # block's feed held below the centripetal limit by the axis check alone, the path's first critical
 # point merged when unreachable from rest, a cruise-into-fall crossing's junction at its lowest
-# limit): the slow-Y rows and butterfly equal changed (ticks -0.9 % to +0.7 %), the others not
+# limit): the slow-Y rows and butterfly equal changed (ticks -0.9 % to +0.7 %), the others not;
+# rows re-recorded at branch median6 (issue 38: a block's top lowered instead of a junction where
+# a limit falls a little under it): slow-Y butterfly, cusp, nurbs3, nurbs7 and cam1000 changed
+# (ticks 0 to -0.8 %), the others not
 RECORDED = [
     ("wm", "equal", "cosine", 1443, 365699.83331926435, 3045171.8029829967),
     ("wm", "equal", "seven-phase", 1383, 401452.77425995073, 3231134.0848481804),
@@ -120,24 +123,24 @@ RECORDED = [
     ("trident2", "slow-y", "seven-phase", 2362, 399433.4817869243, 2077096.7309248347),
     ("butterfly", "equal", "cosine", 6366, 1495823.2160064566, 28715387.969913438),
     ("butterfly", "equal", "seven-phase", 6171, 1526320.2335887137, 29331141.858432733),
-    ("butterfly", "slow-y", "cosine", 10146, 1173722.6483755382, 17926469.070346475),
-    ("butterfly", "slow-y", "seven-phase", 9903, 1239905.1299608483, 18461900.954278518),
+    ("butterfly", "slow-y", "cosine", 10097, 1187333.430334495, 18039342.656193133),
+    ("butterfly", "slow-y", "seven-phase", 9879, 1247158.356347581, 18517401.91502548),
     ("cusp", "equal", "cosine", 4148, 740684.3136640326, 31634815.491321318),
     ("cusp", "equal", "seven-phase", 4074, 737063.2809867469, 31967616.715954777),
-    ("cusp", "slow-y", "cosine", 6570, 663660.9276895829, 20364586.78056967),
-    ("cusp", "slow-y", "seven-phase", 6364, 683600.0317530315, 20653317.343725353),
+    ("cusp", "slow-y", "cosine", 6531, 674738.7113614874, 20487932.664919708),
+    ("cusp", "slow-y", "seven-phase", 6343, 691523.5529544143, 20728329.598851483),
     ("nurbs3", "equal", "cosine", 1061, 203374.3240740996, 7003943.3380991025),
     ("nurbs3", "equal", "seven-phase", 1037, 205938.54972392507, 7086753.112267673),
-    ("nurbs3", "slow-y", "cosine", 1864, 123580.03749931563, 3701024.3580336818),
-    ("nurbs3", "slow-y", "seven-phase", 1801, 130159.46315443517, 3720863.9525094405),
+    ("nurbs3", "slow-y", "cosine", 1850, 102970.72726885547, 3733430.95398944),
+    ("nurbs3", "slow-y", "seven-phase", 1787, 106945.30241668347, 3753420.0556748905),
     ("nurbs7", "equal", "cosine", 1501, 269184.64135139785, 11529066.969152506),
     ("nurbs7", "equal", "seven-phase", 1475, 269187.3003530018, 11649463.391693287),
-    ("nurbs7", "slow-y", "cosine", 2313, 272116.0488497728, 7457934.661252607),
-    ("nurbs7", "slow-y", "seven-phase", 2249, 280526.0466371883, 7476096.257725591),
+    ("nurbs7", "slow-y", "cosine", 2312, 273483.24598407024, 7459890.522311088),
+    ("nurbs7", "slow-y", "seven-phase", 2249, 281036.7831317026, 7476158.347540541),
     ("cam1000", "equal", "cosine", 5383, 199998.40553753672, 51042560.38310294),
     ("cam1000", "equal", "seven-phase", 5361, 199997.68238748307, 51131166.16350623),
-    ("cam1000", "slow-y", "cosine", 9059, 532605.8068210911, 30885944.7475017),
-    ("cam1000", "slow-y", "seven-phase", 8997, 549431.912410354, 30824842.201642662),
+    ("cam1000", "slow-y", "cosine", 9047, 530582.914940326, 30922485.800755456),
+    ("cam1000", "slow-y", "seven-phase", 8985, 555131.856263082, 30861345.795609668),
 ]
 
 

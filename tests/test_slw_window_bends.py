@@ -74,3 +74,17 @@ def test_random_curves_keep_every_limit_with_the_lifted_feed_limit(seed, transit
     limits = EQUAL if machine == "equal" else SLOW_Y
     curve = slw_cases.general_nurbs(np.random.default_rng(seed))
     assert_keeps_limits(schedule(curve, limits, transition=transition))
+
+
+def test_a_limit_falling_a_little_under_a_blocks_top_adds_no_junctions():
+    """nurbs5 slow-Y: its last 12 mm run along Y at a limit falling from 50.09 to 50.00 mm/s (the
+    axis velocity). A split 3 % under the limit at each crossing made a sawtooth of junctions
+    (10 between s = 87 and 98.5 mm, each a zero acceleration at 48.5 mm/s, 1.949 s in all);
+    lowering the block's top to the limit instead leaves 3 there (before it took over), and every
+    limit."""
+    curve = slw_cases.random_nurbs(5)[0]
+    traj = schedule(curve, SLOW_Y, transition="seven-phase")
+    assert_keeps_limits(traj)
+    inside = traj.critical_s_mm[(traj.critical_s_mm > 87.0) & (traj.critical_s_mm < 98.4)]
+    assert inside.size <= 3, inside
+    assert traj.cycle_time_s < 1.9

@@ -55,6 +55,8 @@ class _WBlock:
     # the centripetal part lifted, the axis check holds it with the tangential part); set on
     # first check
     vfeed: np.ndarray | None = None
+    # how many times the check lowered ``vmax`` instead of adding a junction (window_check)
+    tops: int = 0
     # the ends and length, read ~10⁷ times on a long program: kept, not recomputed (ref is never
     # replaced: a split or merge makes new blocks)
     s0: float = field(init=False)

@@ -40,6 +40,12 @@ POINT_RTOL = 1e-3
 #: SPLIT_ROOM lower: a profile leaving a minimum brushed the limit by 0.04 % and the minimum's
 #: junctions fell a whole stair (trident2: 3 % at two of its five minima).
 NEAR_ROOM = 0.999
+#: A block's top feed is lowered (instead of a junction) at most this many times; then the crossing
+#: gets its junction (each lowering is strict, so the repairs end).
+TOP_REPAIRS = 3
+#: An axis-acceleration breach whose centripetal part alone uses more than this share of the axis
+#: gets a junction (zero tangential acceleration) at a feed that brings it back within the limit.
+CEN_SPLIT = 0.9
 #: A block whose acceleration an axis-acceleration repair would take below this share of the
 #: machine's tangential acceleration gets a junction at the offending point instead (a 28 mm
 #: block crawled at 17 % of it for one point of one axis; random curve 199 of bench_slw).
@@ -188,9 +194,23 @@ class BlockCheck:
             b_idx = k
             while b_idx < bad.size - 1 and bad[b_idx + 1]:
                 b_idx += 1
+            low_v = float(vlim[a_idx:b_idx + 1].min())
+            top, rest_v = int(np.argmax(v)), float(vlim[a_idx:].min())
+            if self.carry and b.tops < TOP_REPAIRS and a_idx <= top <= b_idx \
+                    and rest_v >= SPLIT_ROOM * float(v[top]) and rest_v < b.vmax * (1.0 - 1e-9) \
+                    and rest_v >= max(self.juncs[i].v, self.juncs[i + 1].v):
+                # the block's top over a limit that falls a little under it (a run along a slow
+                # axis, its limit 50.09 falling to 50.00): the block's top feed lowered to the
+                # lowest limit from the crossing on, no junction (a split there, 3 % under the
+                # limit, began a sawtooth of junctions at zero acceleration: nurbs5 slow-Y, 10
+                # over 11 mm); each such repair lowers the top (never below an end feed)
+                b.vmax = rest_v
+                b.tops += 1
+                self.stats.caps_lowered += 1
+                return False
             # a junction where the profile first crosses the limit, capped at the lowest limit of
             # the crossing: a ramp is then followed in few, large steps
-            cap = SPLIT_ROOM * float(vlim[a_idx:b_idx + 1].min())
+            cap = SPLIT_ROOM * low_v
             at = a_idx
             low = a_idx + int(np.argmin(vlim[a_idx:b_idx + 1]))
             if self.per_direction and (
@@ -212,7 +232,7 @@ class BlockCheck:
         cen_ratio = abs(cen[k, j]) / self.axis_acc[j]
         tan_ratio = abs(a[k] * tan[k, j]) / self.axis_acc[j]
         seg = segs[int(seg_id[k])]
-        if cen_ratio > 0.9 or tan_ratio < 0.05:
+        if cen_ratio > CEN_SPLIT or tan_ratio < 0.05:
             # the centripetal part nearly uses the axis up: a junction here (zero tangential
             # acceleration), as much slower than the profile as the excess needs (NEAR_ROOM)
             room = max(SPLIT_ROOM, NEAR_ROOM / math.sqrt(float(r[k])))  # r[k] > 1 here
