@@ -84,11 +84,14 @@ class WindowedProgramResult(AdviceResult):
         if plot or report or gcode_g52 or (csv is None and gcode is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
         self._checks(csv, gcode, gcode_g52, plot, report)
+        fallback = False
         try:
             with warnings.catch_warnings(record=True) as said:
                 warnings.simplefilter("always")
                 lines = self._write_windows(csv, gcode)
         except (Fallback, FuzzyfeedError):
+            fallback = True
+        if fallback:     # outside the except: its traceback would keep the window read alive (~40 MB)
             self._totals = None
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
         for w in said:           # the reader's notices, once (none when the whole read took over)
