@@ -138,6 +138,10 @@ class Plan:
         """Arc length (mm) at each vertex."""
         return np.concatenate([[0.0], np.cumsum(self.length)])
 
+    def coordinate_max(self) -> float:
+        """The largest |coordinate| of the path (mm): the tick search's rounding scale."""
+        return float(np.abs(self.motion.points).max())
+
 
 def junction_radius(unit: np.ndarray, machine: Machine, arc_radius_mm: np.ndarray) -> np.ndarray:
     """Radius (mm) of the circle a junction is taken on, per interior vertex (n − 1,): the
