@@ -188,7 +188,8 @@ def _kernel():
 
 
 def tick_count(plan: Plan, ts_s: float) -> int:
-    """K: the ticks of a plan are t_k = min(k·Ts, T), k = 0 … K (as :meth:`Plan.sample`)."""
+    """K: the ticks of a plan are t_k = min(k·Ts, T), k = 0 … K (as :meth:`Plan.sample`); ``plan``:
+    anything with the plan's ``time_s``."""
     return int(np.ceil(plan.time_s / ts_s - 1e-9))
 
 
@@ -209,10 +210,15 @@ def segment_windows(plan: Plan, machine: Machine, segments: np.ndarray) -> list[
     seg = np.unique(np.asarray(segments, dtype=np.int64))
     if seg.size == 0:
         return []
+    return tick_windows(plan.t_start[seg], plan.t_start[seg + 1], tick_count(plan, machine.ts_s), machine)
+
+
+def tick_windows(t_a: np.ndarray, t_b: np.ndarray, k_end: int, machine: Machine) -> list[tuple[int, int]]:
+    """:func:`segment_windows` from the start and end times of the (sorted) segments and the
+    plan's last tick ``k_end`` (:func:`tick_count`)."""
     ts = machine.ts_s
-    k_end = tick_count(plan, ts)
-    ka = np.clip(np.floor(plan.t_start[seg] / ts).astype(np.int64), 0, k_end)
-    kb = np.clip(np.ceil(plan.t_start[seg + 1] / ts).astype(np.int64), 0, k_end)
+    ka = np.clip(np.floor(np.asarray(t_a) / ts).astype(np.int64), 0, k_end)
+    kb = np.clip(np.ceil(np.asarray(t_b) / ts).astype(np.int64), 0, k_end)
     gap = warmup_ticks(machine)
     out: list[tuple[int, int]] = []
     for a, b in zip(ka.tolist(), kb.tolist()):

@@ -1,0 +1,91 @@
+"""A chain's windowed tick pass made part by part from the plan's windows (machine/plan_parts.py)
+against the same pass on the whole plan (stream_plan with segment_windows): every summary bit for
+bit — the largest error per segment, the histogram, the maxima and where, the events, the fast
+path's counts — on a 3D raster, library programs (linuxcnc-mill's blends and arcs too), with plan
+windows from a few segments up, fast path and tick pass."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fuzzyfeed.machine.description import load_machine
+from fuzzyfeed.machine.plan_parts import stream_parts, sweep
+from fuzzyfeed.machine.planner import Motion, plan_motion
+from fuzzyfeed.machine.stream import segment_windows, stream_plan
+from fuzzyfeed.program.read import parse_program
+from fuzzyfeed.program.run import program_path
+from tick_cases import library_path
+
+SCALAR = ("max_mm", "max_time_s", "max_segment", "air_max_mm", "air_time_s", "air_segment", "air_nearest",
+          "part_ticks", "skipped_ticks", "leapt_ticks", "skip_mm", "skip_max_mm", "rerun")
+ARRAYS = ("hist_bins", "hist_counts", "max_xyz", "air_xyz", "tick_time_s", "contour_mm", "speed_mm_s",
+          "nearest_xyz", "tick_segment", "nearest_segment", "lookback_segment")
+
+
+def _raster_program(rows: int = 12, step: float = 0.1) -> str:
+    rng = np.random.default_rng(3)
+    lines = ["G21 G90 G94", "G0 X0 Y0 Z5", "G1 Z0 F300", "G1 X0.1 F2000"]
+    x = 0.1
+    for r in range(rows):
+        xs = np.arange(0.0, 20.0 + 1e-9, step)[1:]
+        if r % 2:
+            xs = 20.0 - xs
+        for xv in xs:
+            z = 0.3 * np.sin(xv) * np.cos(0.5 * r) + 0.02 * rng.standard_normal()
+            lines.append(f"G1 X{xv:.4f} Y{0.1 * r:.4f} Z{z:.4f}")
+        lines.append(f"G1 Y{0.1 * (r + 1):.4f}")
+    lines += ["G0 Z5", "M2"]
+    return "\n".join(lines) + "\n"
+
+
+def assert_same_run(motion: Motion, measured: np.ndarray, machine, hot: np.ndarray, size: int, scale: float,
+                    fast: bool, keep_mm: float | None, small_parts: bool = False) -> None:
+    plan = plan_motion(Motion(motion.points, motion.feed_mm_s * scale, motion.rapid, motion.arc_radius_mm)
+                       if scale != 1.0 else motion, machine)
+    windows = segment_windows(plan, machine, hot)
+    whole = stream_plan(plan, machine, measured, keep_mm=keep_mm, windows=windows, fast=fast)
+    sw = sweep(motion, machine, np.unique(hot), size, feed_scale=scale)
+    assert sw.time_s == plan.time_s
+    assert sw.windows(machine) == windows
+    parts = stream_parts(motion, machine, measured, sw, windows, keep_mm=keep_mm, fast=fast, size=size,
+                         feed_scale=scale)
+    got = parts.stream
+    assert parts.seg_max_mm(motion.n_segments).tobytes() == whole.seg_max_mm.tobytes()
+    for name in SCALAR:
+        a, b = getattr(got, name), getattr(whole, name)
+        assert a == b or (a != a and b != b), name
+    for name in ARRAYS:
+        assert np.asarray(getattr(got, name)).tobytes() == np.asarray(getattr(whole, name)).tobytes(), name
+    # no part holds the whole chain when the windows are small and the hot spots few
+    if small_parts:
+        assert max(m.size for _, m in parts.parts) < motion.n_segments
+
+
+@pytest.mark.parametrize("size", [4, 50, 3000])
+@pytest.mark.parametrize("fast", [True, False])
+def test_parts_are_the_whole_plans_windowed_run_on_a_raster(size, fast):
+    machine = load_machine("reference")
+    path = program_path(parse_program(_raster_program()), machine.chord_tol_mm)
+    chain = max(path.chains, key=lambda c: c.motion.n_segments)
+    n = chain.motion.n_segments
+    rng = np.random.default_rng(size)
+    for scale, hot in ((1.0, np.array([5, 6, n // 2, n - 3])), (0.4, rng.choice(n, 9, replace=False)),
+                       (2.5, np.arange(0, n, 97))):
+        assert_same_run(chain.motion, chain.seg_measured, machine, np.sort(hot), size, scale, fast, None,
+                        small_parts=size <= 50 and hot.size <= 4)
+    # events kept (a tight threshold): their segments are the chain's
+    assert_same_run(chain.motion, chain.seg_measured, machine, np.array([40, n - 40]), size, 1.0, fast, 1e-4)
+
+
+@pytest.mark.parametrize("rel, machine_name", [("programs/linuxcnc/arcspiral.ngc", "linuxcnc-mill"),
+                                                ("programs/camotics/engrave.ngc", "reference")])
+def test_parts_are_the_whole_plans_windowed_run_on_library_programs(rel, machine_name):
+    machine = load_machine(machine_name)
+    path = library_path(rel, machine)
+    rng = np.random.default_rng(7)
+    for chain in path.chains[:4]:
+        n = chain.motion.n_segments
+        hot = np.unique(rng.choice(n, min(n, 6), replace=False))
+        for size in (3, 200):
+            assert_same_run(chain.motion, chain.seg_measured, machine, hot, size, 0.7, True, 1e-3)
