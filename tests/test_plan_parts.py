@@ -89,3 +89,35 @@ def test_parts_are_the_whole_plans_windowed_run_on_library_programs(rel, machine
         hot = np.unique(rng.choice(n, min(n, 6), replace=False))
         for size in (3, 200):
             assert_same_run(chain.motion, chain.seg_measured, machine, hot, size, 0.7, True, 1e-3)
+
+
+@pytest.mark.parametrize("size", [3, 40, 5000])
+def test_changed_sweep_marks_what_the_whole_plans_comparison_marks(size):
+    # the limit reference's pass: feeds lowered on a few pieces; the segments to redo (changed
+    # profile, then the servo's memory after each) as program/reference.py's _changed on whole plans
+    from fuzzyfeed.machine.plan_parts import changed_sweep
+    from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS
+    from fuzzyfeed.program.reference import _changed, _Profile
+
+    machine = load_machine("reference")
+    path = program_path(parse_program(_raster_program(rows=6)), machine.chord_tol_mm)
+    chain = max(path.chains, key=lambda c: c.motion.n_segments)
+    m = chain.motion
+    old = plan_motion(m, machine)
+    rng = np.random.default_rng(size)
+    feed = m.feed_mm_s.copy()
+    for i in rng.choice(m.n_segments, 5, replace=False):
+        feed[i:i + 3] *= 0.3
+    new_motion = Motion(m.points, feed, m.rapid, m.arc_radius_mm)
+    new = plan_motion(new_motion, machine)
+    horizon = WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s
+    want = np.flatnonzero(_changed(_Profile.of(old), new, machine))
+    profile = tuple(a.copy() for a in (old.v_entry, old.v_peak, old.v_exit, old.acc))
+    sw, seg = changed_sweep(new_motion, machine, profile, horizon, size)
+    assert 0 < want.size < m.n_segments
+    assert np.array_equal(seg, want)
+    assert sw.t_a.tobytes() == new.t_start[want].tobytes() and sw.t_b.tobytes() == new.t_start[want + 1].tobytes()
+    assert sw.windows(machine) == segment_windows(new, machine, want)
+    # the profile kept is now the new plan's
+    for kept, arr in zip(profile, (new.v_entry, new.v_peak, new.v_exit, new.acc)):
+        assert kept.tobytes() == arr.tobytes()

@@ -197,3 +197,41 @@ def stream_parts(motion: Motion, machine: Machine, measured: np.ndarray, sw: Swe
         again = once(0.0)
         return PartsRun(replace(again.stream, rerun=True), again.parts)
     return run
+
+
+def changed_sweep(motion: Motion, machine: Machine, profile: tuple[np.ndarray, ...], horizon_s: float,
+                  size: int = WINDOW_SEGMENTS) -> tuple[Sweep, np.ndarray]:
+    """The first sweep of ``motion``'s plan against ``profile`` — (v_entry, v_peak, v_exit, acc) of
+    the chain's last plan, per segment — for the segments whose run may differ: those whose speed
+    profile changed and, after each, those starting within ``horizon_s`` of its end (the servo's
+    memory), as the limit reference's whole-plan comparison marks them. ``profile`` is overwritten
+    window by window with the new plan's (it is the only copy kept). Returns the sweep (with the
+    times of those segments) and their indices."""
+    v_entry, v_peak, v_exit, acc = profile
+    first, t0, s0, redo_parts, ta_parts, tb_parts = [], [], [], [], [], []
+    carry = -np.inf
+    for pw in plan_windows(motion, machine, size):
+        sl = slice(pw.first, pw.stop)
+        diff = ((v_entry[sl] != pw.v_entry) | (v_peak[sl] != pw.v_peak) | (v_exit[sl] != pw.v_exit)
+                | (acc[sl] != pw.acc))
+        # a changed segment j marks those after it starting at most t_start[j + 1] + horizon
+        # (times increase: the last changed segment before a segment decides)
+        cand = np.where(diff, pw.t_start[1:] + horizon_s, -np.inf)
+        reach = np.maximum.accumulate(np.concatenate([[carry], cand]))
+        redo = diff | (pw.t_start[:-1] <= reach[:-1])
+        carry = float(reach[-1])
+        local = np.flatnonzero(redo)
+        redo_parts.append(pw.first + local)
+        ta_parts.append(pw.t_start[local])
+        tb_parts.append(pw.t_start[local + 1])
+        v_entry[sl], v_peak[sl], v_exit[sl], acc[sl] = pw.v_entry, pw.v_peak, pw.v_exit, pw.acc
+        first.append(pw.first)
+        t0.append(float(pw.t_start[0]))
+        s0.append(float(pw.s_start[0]))
+        end = pw
+    first.append(end.stop)
+    t0.append(float(end.t_start[-1]))
+    s0.append(float(end.s_start[-1]))
+    sw = Sweep(np.array(first, np.int64), np.array(t0), np.array(s0), np.concatenate(ta_parts),
+               np.concatenate(tb_parts))
+    return sw, np.concatenate(redo_parts)
