@@ -121,3 +121,52 @@ def test_changed_sweep_marks_what_the_whole_plans_comparison_marks(size):
     # the profile kept is now the new plan's
     for kept, arr in zip(profile, (new.v_entry, new.v_peak, new.v_exit, new.acc)):
         assert kept.tobytes() == arr.tobytes()
+
+
+def _hot_trial_with_plans(st, scale, hot):
+    """The uniform search's hot trial as main 2a1349a made it: a whole plan per chain, its windows run."""
+    from fuzzyfeed.machine.stream import warmup_ticks
+    from fuzzyfeed.program.apart import masked
+    from fuzzyfeed.program.reference import HOT_MAX_TICKS
+    from fuzzyfeed.program.run import run_chain
+
+    plans, windows = [], []
+    for chain, h in zip(st.path.chains, hot):
+        plan = plan_motion(Motion(chain.motion.points, chain.motion.feed_mm_s * scale, chain.motion.rapid,
+                                  chain.motion.arc_radius_mm), st.machine) if h.size else None
+        plans.append(plan)
+        windows.append(segment_windows(plan, st.machine, h) if h.size else [])
+    if sum(b - a + warmup_ticks(st.machine) for w in windows for a, b in w) > min(st.max_ticks, HOT_MAX_TICKS):
+        return None
+    worst, out = 0.0, []
+    for chain, h, plan, w, a in zip(st.path.chains, hot, plans, windows, st.apart):
+        if h.size == 0:
+            out.append(h)
+            continue
+        r = run_chain(chain, st.machine, plan=plan, windows=w, keep_mm=np.inf)
+        seg_max = masked(r.stream.seg_max_mm, a)
+        worst = max(worst, float(seg_max.max()) * 1e3)
+        out.append(np.flatnonzero(seg_max > st.tol_mm))
+    return worst, out
+
+
+@pytest.mark.parametrize("program", ["raster", "programs/camotics/engrave.ngc"])
+def test_hot_trials_are_the_whole_plans(program):
+    from fuzzyfeed.program.reference import _Search
+    from fuzzyfeed.program.run import run_program
+
+    machine = load_machine("reference")
+    path = program_path(parse_program(_raster_program(rows=8, step=0.05)), machine.chord_tol_mm) \
+        if program == "raster" else library_path(program, machine)
+    first = run_program(path, machine, feed_scale=3.0)      # fast enough to break the tolerance
+    st = _Search(path, machine, machine.contour_tol_um, 2e8, first)
+    hot = [np.flatnonzero(r.stream.seg_max_mm > 0.3 * st.tol_mm) for r in first.runs]
+    assert sum(h.size for h in hot) > 0
+    st.apart = [h[::5].copy() for h in hot]                 # some places set apart: masked in both
+    over = 0
+    for scale in (3.0, 1.7, 0.9):
+        got, want = st.hot_trial(scale, hot), _hot_trial_with_plans(st, scale, hot)
+        assert got[0] == want[0]
+        assert len(got[1]) == len(want[1]) and all(np.array_equal(a, b) for a, b in zip(got[1], want[1]))
+        over += sum(h.size for h in got[1])
+    assert over > 0
