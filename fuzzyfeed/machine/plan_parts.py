@@ -22,7 +22,7 @@ import numpy as np
 
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.plan_windows import WINDOW_SEGMENTS, PlanWindow, plan_windows
-from fuzzyfeed.machine.planner import Motion, Plan
+from fuzzyfeed.machine.planner import Motion
 from fuzzyfeed.machine.stream import BOX_BLOCK, StreamRun, TickPass, skip_threshold, tick_count, tick_windows, \
     warmup_ticks
 
@@ -32,27 +32,18 @@ RANGE_MARGIN_MM = 1.0
 
 
 @dataclass(frozen=True, eq=False)
-class PlanRange(Plan):
+class PlanRange(PlanWindow):
     """Segments ``first`` … ``first + n − 1`` of a chain's plan, for the tick pass: its arrays the
     whole plan's slices (``motion`` the chain's polyline there), ``t_start``/``s_start`` from the
     chain's start; :attr:`time_s` and :meth:`coordinate_max` the chain's (what the tick pass reads
     of the whole plan). Not for :meth:`Plan.sample` (its ticks start at the chain's)."""
 
-    first: int = 0
-    s_start: np.ndarray | None = None
     chain_time_s: float = 0.0
     chain_coordinate_max: float = 0.0
 
     @property
     def time_s(self) -> float:
         return self.chain_time_s
-
-    @property
-    def stop(self) -> int:
-        return self.first + self.length.size
-
-    def segment_arc_start(self) -> np.ndarray:
-        return self.s_start
 
     def coordinate_max(self) -> float:
         return self.chain_coordinate_max

@@ -34,7 +34,7 @@ from typing import Iterator
 import numpy as np
 
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.planner import Motion, local_limits, segment_profiles
+from fuzzyfeed.machine.planner import Motion, Plan, local_limits, segment_profiles
 
 #: Segments per window (at least; a window ends at a move boundary).
 WINDOW_SEGMENTS = 1 << 16
@@ -43,23 +43,14 @@ _SCAN = 4096
 
 
 @dataclass(frozen=True, eq=False)
-class PlanWindow:
-    """Segments ``first`` … ``first + n − 1`` of a chain's plan: the same arrays as
-    :class:`~fuzzyfeed.machine.planner.Plan`'s slice (``t_start`` and ``s_start``, n + 1 entries:
-    the time and arc length at its vertices from the chain's start)."""
+class PlanWindow(Plan):
+    """Segments ``first`` … ``first + n − 1`` of a chain's plan: the :class:`~fuzzyfeed.machine.planner.Plan`
+    arrays' slices (``motion`` None: the chain's is the caller's; ``t_start`` and ``s_start``,
+    n + 1 entries, the time and arc length at its vertices from the chain's start, so
+    :attr:`time_s` is the time at its end)."""
 
-    first: int
-    length: np.ndarray
-    unit: np.ndarray
-    acc: np.ndarray
-    v_entry: np.ndarray
-    v_peak: np.ndarray
-    v_exit: np.ndarray
-    t_acc: np.ndarray
-    t_cruise: np.ndarray
-    t_dec: np.ndarray
-    t_start: np.ndarray
-    s_start: np.ndarray
+    first: int = 0
+    s_start: np.ndarray | None = None
 
     @property
     def n_segments(self) -> int:
@@ -68,6 +59,9 @@ class PlanWindow:
     @property
     def stop(self) -> int:
         return self.first + self.length.size
+
+    def segment_arc_start(self) -> np.ndarray:
+        return self.s_start
 
 
 def _boundary(radius: np.ndarray, k: int, n: int) -> bool:
@@ -179,7 +173,7 @@ def plan_windows(motion: Motion, machine: Machine, size: int = WINDOW_SEGMENTS,
         s_start = np.cumsum(np.concatenate([[s_a], length]))
         before = min(before, fwd[w])
         t_a, s_a = float(t_start[-1]), float(s_start[-1])
-        yield PlanWindow(first=a, length=length, unit=unit, acc=acc, v_entry=v0, v_peak=vp, v_exit=v1,
+        yield PlanWindow(motion=None, first=a, length=length, unit=unit, acc=acc, v_entry=v0, v_peak=vp, v_exit=v1,
                          t_acc=t_acc, t_cruise=t_cruise, t_dec=t_dec, t_start=t_start, s_start=s_start)
 
 
