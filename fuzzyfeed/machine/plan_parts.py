@@ -8,9 +8,10 @@ nearest-segment search looks :data:`~fuzzyfeed.machine.trace.WINDOW_MARGIN_MM` b
 lookback's position and after the tick's. :class:`PlanRange` holds the plan's windows that cover
 that with :data:`RANGE_MARGIN_MM` to spare on both sides (and a whole window more), so the tick pass
 on it (:class:`~fuzzyfeed.machine.stream.TickPass`) is the whole plan's bit for bit. Tick windows
-whose ranges share a plan window are one part. Two sweeps of the plan's windows: the first finds
-the times of the segments asked for (:func:`sweep`), the second hands the parts over one by one
-(:func:`plan_parts`), each dropped before the next is made.
+whose ranges share a plan window are one part. The plan's windows are swept once whole (its two
+passes: :func:`sweep`) for the times of the segments asked for; then only the windows the parts
+need are planned again (from the carries the sweep kept), part by part (:func:`plan_parts`), each
+dropped before the next is made.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from typing import Iterator
 import numpy as np
 
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.plan_windows import WINDOW_SEGMENTS, PlanWindow, plan_windows
+from fuzzyfeed.machine.plan_windows import WINDOW_SEGMENTS, Carries, PlanWindow, first_sweep, plan_windows
 from fuzzyfeed.machine.planner import Motion
 from fuzzyfeed.machine.stream import BOX_BLOCK, StreamRun, TickPass, skip_threshold, tick_count, tick_windows, \
     warmup_ticks
@@ -52,14 +53,16 @@ class PlanRange(PlanWindow):
 @dataclass(frozen=True)
 class Sweep:
     """What the first sweep keeps (O(windows + segments asked for)): per plan window its first
-    segment, start time and start arc length (one more entry: the chain's end), and the start and
-    end time of each segment asked for."""
+    segment, start time and start arc length (one more entry: the chain's end), the start and end
+    time of each segment asked for, and the plan's carries (:class:`~fuzzyfeed.machine.plan_windows.Carries`:
+    the second sweep plans only the windows it needs)."""
 
     first: np.ndarray
     t0: np.ndarray
     s0: np.ndarray
     t_a: np.ndarray
     t_b: np.ndarray
+    carries: Carries
 
     @property
     def time_s(self) -> float:
@@ -78,7 +81,8 @@ def sweep(motion: Motion, machine: Machine, segments: np.ndarray, size: int = WI
     seg = np.asarray(segments, dtype=np.int64)
     first, t0, s0 = [], [], []
     t_a, t_b = np.empty(seg.size), np.empty(seg.size)
-    for pw in plan_windows(motion, machine, size, feed_scale):
+    carries = first_sweep(motion, machine, size, feed_scale)
+    for pw in plan_windows(motion, machine, size, feed_scale, carries=carries):
         first.append(pw.first)
         t0.append(float(pw.t_start[0]))
         s0.append(float(pw.s_start[0]))
@@ -90,7 +94,7 @@ def sweep(motion: Motion, machine: Machine, segments: np.ndarray, size: int = WI
     first.append(end.stop)
     t0.append(float(end.t_start[-1]))
     s0.append(float(end.s_start[-1]))
-    return Sweep(np.array(first, np.int64), np.array(t0), np.array(s0), t_a, t_b)
+    return Sweep(np.array(first, np.int64), np.array(t0), np.array(s0), t_a, t_b, carries)
 
 
 def _groups(sw: Sweep, machine: Machine, spans: list[tuple[int, int]]) -> list[tuple[int, int, list]]:
@@ -125,19 +129,10 @@ def plan_parts(motion: Motion, machine: Machine, sw: Sweep, spans: list[tuple[in
     if not groups:
         return
     coord_max = float(np.abs(motion.points).max())
-    g, held = 0, []
-    for w, pw in enumerate(plan_windows(motion, machine, size, feed_scale)):
-        w0, w1, sp = groups[g]
-        if w < w0:
-            continue
-        held.append(pw)
-        if w + 1 < w1:
-            continue
+    for w0, w1, sp in groups:
+        held = list(plan_windows(motion, machine, size, feed_scale, carries=sw.carries, only=range(w0, w1),
+                                 starts=(sw.t0, sw.s0)))
         yield _range(motion, held, sw.time_s, coord_max), sp
-        held = []
-        g += 1
-        if g == len(groups):
-            return
 
 
 def _range(motion: Motion, held: list[PlanWindow], time_s: float, coord_max: float) -> PlanRange:
@@ -201,7 +196,8 @@ def changed_sweep(motion: Motion, machine: Machine, profile: tuple[np.ndarray, .
     v_entry, v_peak, v_exit, acc = profile
     first, t0, s0, redo_parts, ta_parts, tb_parts = [], [], [], [], [], []
     carry = -np.inf
-    for pw in plan_windows(motion, machine, size):
+    carries = first_sweep(motion, machine, size)
+    for pw in plan_windows(motion, machine, size, carries=carries):
         sl = slice(pw.first, pw.stop)
         diff = ((v_entry[sl] != pw.v_entry) | (v_peak[sl] != pw.v_peak) | (v_exit[sl] != pw.v_exit)
                 | (acc[sl] != pw.acc))
@@ -224,5 +220,5 @@ def changed_sweep(motion: Motion, machine: Machine, profile: tuple[np.ndarray, .
     t0.append(float(end.t_start[-1]))
     s0.append(float(end.s_start[-1]))
     sw = Sweep(np.array(first, np.int64), np.array(t0), np.array(s0), np.concatenate(ta_parts),
-               np.concatenate(tb_parts))
+               np.concatenate(tb_parts), carries)
     return sw, np.concatenate(redo_parts)

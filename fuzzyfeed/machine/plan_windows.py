@@ -143,11 +143,21 @@ class _Chain:
         return (length[i:j], unit[i:j], acc[i:j], nominal[i:j], reach[i:j]), cap, d[:b - a + 1]
 
 
-def plan_windows(motion: Motion, machine: Machine, size: int = WINDOW_SEGMENTS,
-                 feed_scale: float = 1.0) -> Iterator[PlanWindow]:
-    """The plan of ``motion`` (every F times ``feed_scale``) on ``machine`` window by window
-    (:func:`window_bounds`): bit for bit :func:`~fuzzyfeed.machine.planner.plan_motion`'s slices
-    (module docstring). Two sweeps: the first is made before the first window is yielded."""
+@dataclass(frozen=True)
+class Carries:
+    """What the first sweep keeps (5 floats a window): per window its segments [a, b)
+    (``bounds`` (W, 2)), the cumulative reach D at its start, the minimum of c − D over the
+    windows before it (``before``) and of c + D over those from it on (``after``, W + 1: inf past
+    the last)."""
+
+    bounds: np.ndarray
+    d_start: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+
+
+def first_sweep(motion: Motion, machine: Machine, size: int = WINDOW_SEGMENTS, feed_scale: float = 1.0) -> Carries:
+    """The first sweep of :func:`plan_windows` (module docstring)."""
     bounds = window_bounds(motion, size)
     ch = _Chain(motion, machine, feed_scale)
     last = len(bounds) - 1
@@ -160,18 +170,38 @@ def plan_windows(motion: Motion, machine: Machine, size: int = WINDOW_SEGMENTS,
         fwd.append(float(np.min(cap[own] - d[own])))
         bwd.append(float(np.min(cap[own] + d[own])))
         d_a = float(d[-1])
+    before = np.minimum.accumulate(np.array([np.inf] + fwd[:-1]))             # min over windows < w
     after = np.minimum.accumulate(np.array([np.inf] + bwd[::-1]))[::-1]   # min over windows ≥ w (inf past the last)
-    before = np.inf
+    return Carries(np.array(bounds, np.int64).reshape(-1, 2), np.array(d_start), before, after)
+
+
+def plan_windows(motion: Motion, machine: Machine, size: int = WINDOW_SEGMENTS, feed_scale: float = 1.0,
+                 carries: Carries | None = None, only: list[int] | None = None,
+                 starts: tuple[np.ndarray, np.ndarray] | None = None) -> Iterator[PlanWindow]:
+    """The plan of ``motion`` (every F times ``feed_scale``) on ``machine`` window by window
+    (:func:`window_bounds`): bit for bit :func:`~fuzzyfeed.machine.planner.plan_motion`'s slices
+    (module docstring). Two sweeps: the first (:func:`first_sweep`, or ``carries`` from it, with the
+    same ``size`` and ``feed_scale``) is made before the first window is yielded. ``only``: just
+    those windows (indices, increasing), given ``starts``: the time and arc length at every
+    window's start (W + 1 entries, from a whole second sweep)."""
+    c = first_sweep(motion, machine, size, feed_scale) if carries is None else carries
+    ch = _Chain(motion, machine, feed_scale)
+    if only is None:
+        only = range(len(c.bounds))
+    elif starts is None:
+        raise ValueError("plan_windows(only=...) needs the windows' start times and arc lengths")
     t_a, s_a = 0.0, 0.0
-    for w, (a, b) in enumerate(bounds):
-        (length, unit, acc, nominal, reach), cap, d = ch.local(a, b, d_start[w])
-        forward = d + np.minimum.accumulate(np.concatenate([[before], cap - d]))[1:]
-        backward = np.minimum(np.minimum.accumulate((cap + d)[::-1])[::-1], after[w + 1]) - d
+    for w in only:
+        a, b = int(c.bounds[w, 0]), int(c.bounds[w, 1])
+        if starts is not None:
+            t_a, s_a = float(starts[0][w]), float(starts[1][w])
+        (length, unit, acc, nominal, reach), cap, d = ch.local(a, b, float(c.d_start[w]))
+        forward = d + np.minimum.accumulate(np.concatenate([[c.before[w]], cap - d]))[1:]
+        backward = np.minimum(np.minimum.accumulate((cap + d)[::-1])[::-1], c.after[w + 1]) - d
         wq = np.maximum(np.minimum(forward, backward), 0.0)
         v0, vp, v1, t_acc, t_cruise, t_dec = segment_profiles(length, acc, nominal, reach, wq)
         t_start = np.cumsum(np.concatenate([[t_a], t_acc + t_cruise + t_dec]))
         s_start = np.cumsum(np.concatenate([[s_a], length]))
-        before = min(before, fwd[w])
         t_a, s_a = float(t_start[-1]), float(s_start[-1])
         yield PlanWindow(motion=None, first=a, length=length, unit=unit, acc=acc, v_entry=v0, v_peak=vp, v_exit=v1,
                          t_acc=t_acc, t_cruise=t_cruise, t_dec=t_dec, t_start=t_start, s_start=s_start)
