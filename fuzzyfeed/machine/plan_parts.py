@@ -7,8 +7,9 @@ warm-up earlier; its ticks are commanded on the segments between those instants,
 nearest-segment search looks :data:`~fuzzyfeed.machine.trace.WINDOW_MARGIN_MM` before the
 lookback's position and after the tick's. :class:`PlanRange` holds the plan's windows that cover
 that with :data:`RANGE_MARGIN_MM` to spare on both sides (and a whole window more), so the tick pass
-on it (:class:`~fuzzyfeed.machine.stream.TickPass`) is the whole plan's bit for bit. Tick windows
-whose ranges share a plan window are one part. The plan's windows are swept once whole (its two
+on it (:class:`~fuzzyfeed.machine.stream.TickPass`) is the whole plan's bit for bit. A tick window
+whose range lies within the last part's is run on that part; parts may overlap (a segment's largest
+error is then the larger of its parts'). The plan's windows are swept once whole (its two
 passes: :func:`sweep`) for the times of the segments asked for; then only the windows the parts
 need are planned again (from the carries the sweep kept), part by part (:func:`plan_parts`), each
 dropped before the next is made.
@@ -22,11 +23,14 @@ from typing import Iterator
 import numpy as np
 
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.plan_windows import WINDOW_SEGMENTS, Carries, PlanWindow, first_sweep, plan_windows
+from fuzzyfeed.machine.plan_windows import Carries, PlanWindow, first_sweep, plan_windows
 from fuzzyfeed.machine.planner import Motion
 from fuzzyfeed.machine.stream import BOX_BLOCK, StreamRun, TickPass, skip_threshold, tick_count, tick_windows, \
     warmup_ticks
 
+#: Segments per plan window of the sweeps (at least; they end at move boundaries): a part holds
+#: its tick windows' stretch and a window or more on each side.
+WINDOW_SEGMENTS = 4096
 #: Arc length (mm) a part's plan reaches beyond the ticks' own search windows (those reach
 #: WINDOW_MARGIN_MM = 0.2 mm; the fast path's leap checks that far past a segment's end).
 RANGE_MARGIN_MM = 1.0
@@ -113,8 +117,8 @@ def _groups(sw: Sweep, machine: Machine, spans: list[tuple[int, int]]) -> list[t
         w0 = max(min(w0, wa - 1), 0)
         w1 = int(np.searchsorted(sw.s0[:-1], sw.s0[wb + 1] + RANGE_MARGIN_MM, side="right"))
         w1 = min(max(w1, wb + 2), n_win)
-        if out and w0 < out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], w1), out[-1][2] + [(ka, kb)])
+        if out and out[-1][0] <= w0 and w1 <= out[-1][1]:    # within the last part's plan: one part
+            out[-1][2].append((ka, kb))
         else:
             out.append((w0, w1, [(ka, kb)]))
     return out
@@ -129,10 +133,13 @@ def plan_parts(motion: Motion, machine: Machine, sw: Sweep, spans: list[tuple[in
     if not groups:
         return
     coord_max = float(np.abs(motion.points).max())
+    kept: dict[int, PlanWindow] = {}          # the last part's windows the next one shares
     for w0, w1, sp in groups:
-        held = list(plan_windows(motion, machine, size, feed_scale, carries=sw.carries, only=range(w0, w1),
-                                 starts=(sw.t0, sw.s0)))
-        yield _range(motion, held, sw.time_s, coord_max), sp
+        kept = {w: pw for w, pw in kept.items() if w0 <= w < w1}
+        todo = [w for w in range(w0, w1) if w not in kept]
+        kept.update(zip(todo, plan_windows(motion, machine, size, feed_scale, carries=sw.carries, only=todo,
+                                           starts=(sw.t0, sw.s0))))
+        yield _range(motion, [kept[w] for w in range(w0, w1)], sw.time_s, coord_max), sp
 
 
 def _range(motion: Motion, held: list[PlanWindow], time_s: float, coord_max: float) -> PlanRange:
