@@ -432,7 +432,8 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     plan's speed profile (:class:`_Profile`, 32 B a segment); a pass plans the chain window by
     window against that profile (:func:`~fuzzyfeed.machine.plan_parts.changed_sweep`, overwriting
     it) and runs the stretches to redo part by part (:func:`~fuzzyfeed.machine.plan_parts.stream_parts`):
-    no plan of a whole chain, only ~2 B a segment more while it runs (which segments to redo). The
+    no plan of a whole chain: 1 B a segment (which to redo) and, while splicing, the new largest
+    error per segment (8 B), besides the feeds' own temporaries (:func:`_lowered`). The
     first and last runs are whole runs (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`)."""
     tol = (machine.contour_tol_um if tol_um is None else tol_um) * 1e-3
     chains = tuple(refine_chain(c, piece_mm) for c in path.chains)
