@@ -205,7 +205,11 @@ class Machine:
     def _along(per_axis: np.ndarray, unit: np.ndarray, cap: float | None) -> np.ndarray:
         u = np.abs(np.asarray(unit, dtype=float))
         with np.errstate(divide="ignore"):
-            out = np.min(np.where(u > 1e-12, per_axis[None, :] / u, np.inf), axis=1)
+            each = np.where(u > 1e-12, per_axis[None, :] / u, np.inf)
+        # the least of the columns (np.min over a 3-wide axis is ~5x slower; min is exact: the same floats)
+        out = each[:, 0].copy() if each.shape[1] else np.full(each.shape[0], np.inf)
+        for j in range(1, each.shape[1]):
+            np.minimum(out, each[:, j], out=out)
         out = np.where(np.isfinite(out), out, per_axis.min())
         return out if cap is None else np.minimum(out, cap)
 

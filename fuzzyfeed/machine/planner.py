@@ -138,6 +138,10 @@ class Plan:
         """Arc length (mm) at each vertex."""
         return np.concatenate([[0.0], np.cumsum(self.length)])
 
+    def coordinate_max(self) -> float:
+        """The largest |coordinate| of the path (mm): the tick search's rounding scale."""
+        return float(np.abs(self.motion.points).max())
+
 
 def junction_radius(unit: np.ndarray, machine: Machine, arc_radius_mm: np.ndarray) -> np.ndarray:
     """Radius (mm) of the circle a junction is taken on, per interior vertex (n − 1,): the
@@ -158,30 +162,53 @@ def junction_radius(unit: np.ndarray, machine: Machine, arc_radius_mm: np.ndarra
 
 def plan_motion(motion: Motion, machine: Machine) -> Plan:
     """The plan of ``motion`` on ``machine`` (see the module docstring)."""
-    pts = motion.points
+    length, unit, acc, nominal, reach, cap = local_limits(motion.points, motion.feed_mm_s, motion.rapid,
+                                                          motion.arc_radius_mm, machine)
+    n = length.size
+    if machine.lookahead_moves:
+        csum = np.concatenate([[0.0], np.cumsum(reach)])
+        end = np.minimum(np.arange(n + 1) + machine.lookahead_moves - 1, n)
+        cap = np.minimum(cap, csum[end] - csum[np.arange(n + 1)])
+    w = reachable_squared_speed(cap, reach)
+    v0, vp, v1, t_acc, t_cruise, t_dec = segment_profiles(length, acc, nominal, reach, w)
+    t_seg = t_acc + t_cruise + t_dec
+    t_start = np.concatenate([[0.0], np.cumsum(t_seg)])
+    return Plan(motion=motion, length=length, unit=unit, acc=acc, v_entry=v0, v_peak=vp, v_exit=v1,
+                t_acc=t_acc, t_cruise=t_cruise, t_dec=t_dec, t_start=t_start)
+
+
+def local_limits(pts: np.ndarray, feed_mm_s: np.ndarray, rapid: np.ndarray, arc_radius_mm: np.ndarray,
+                 machine: Machine, first: int = 0):
+    """What the plan takes from the geometry alone, on a polyline (``pts`` (n+1, 3), per segment
+    its feed and rapid flag, per vertex the arc radius): per segment its length, unit direction,
+    acceleration, nominal speed and reach 2·a·L (Δ(v²) it allows, less LinuxCNC's blend trims), per
+    vertex the squared-speed cap before the look-ahead (0 at both ends). Each value depends on its
+    segment's or vertex's neighbours and their program moves only, so a stretch of a chain run with
+    two whole moves of context on each side gives its inner values bit for bit
+    (:mod:`fuzzyfeed.machine.plan_windows`). ``first``: the index of segment 0 in the chain (errors)."""
     delta = np.diff(pts, axis=0)
     length = np.linalg.norm(delta, axis=1)
     if not (length > 0).all():
         i = int(np.argmax(~(length > 0)))
-        raise InputError(f"motion segment {i} has length 0; drop repeated points first")
+        raise InputError(f"motion segment {first + i} has length 0; drop repeated points first")
     unit = delta / length[:, None]
     vmax = machine.move_velocity(unit)
     lcnc = machine.corner == "path-tolerance"
     if lcnc:
-        requested = np.where(motion.rapid, vmax, np.minimum(motion.feed_mm_s, vmax))
-        acc, arc_cap, w_lcnc, trim = linuxcnc_limits(unit, length, motion.arc_radius_mm, requested, machine)
+        requested = np.where(rapid, vmax, np.minimum(feed_mm_s, vmax))
+        acc, arc_cap, w_lcnc, trim = linuxcnc_limits(unit, length, arc_radius_mm, requested, machine)
         vmax = np.minimum(vmax, arc_cap)
     else:
         acc = machine.move_acceleration(unit)
-    nominal = np.where(motion.rapid, vmax, np.minimum(motion.feed_mm_s, vmax))
+    nominal = np.where(rapid, vmax, np.minimum(feed_mm_s, vmax))
     n = length.size
     cap = np.empty(n + 1)
     cap[0] = cap[-1] = 0.0
     if n > 1 and lcnc:
         cap[1:-1] = np.minimum(w_lcnc, np.minimum(nominal[:-1], nominal[1:]) ** 2)
-        cap[1:-1] = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, cap[1:-1])
+        cap[1:-1] = np.where(rapid[:-1] != rapid[1:], 0.0, cap[1:-1])
     elif n > 1:
-        r = junction_radius(unit, machine, motion.arc_radius_mm)
+        r = junction_radius(unit, machine, arc_radius_mm)
         j_dir = unit[1:] - unit[:-1]
         j_norm = np.linalg.norm(j_dir, axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -191,14 +218,15 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
         cap[1:-1] = np.minimum(w_corner, np.minimum(nominal[:-1], nominal[1:]) ** 2)
     reach = 2.0 * acc * length                       # Δ(v²) a segment allows
     if lcnc and n > 1:                               # less what LinuxCNC's blend arcs take
-        trim = np.where(motion.rapid[:-1] != motion.rapid[1:], 0.0, trim)   # a stop: no blend
+        trim = np.where(rapid[:-1] != rapid[1:], 0.0, trim)   # a stop: no blend
         free = length - np.concatenate([[0.0], trim]) - np.concatenate([trim, [0.0]])
         reach = 2.0 * acc * np.maximum(free, 0.0)
-    if machine.lookahead_moves:
-        csum = np.concatenate([[0.0], np.cumsum(reach)])
-        end = np.minimum(np.arange(n + 1) + machine.lookahead_moves - 1, n)
-        cap = np.minimum(cap, csum[end] - csum[np.arange(n + 1)])
-    w = reachable_squared_speed(cap, reach)
+    return length, unit, acc, nominal, reach, cap
+
+
+def segment_profiles(length, acc, nominal, reach, w):
+    """Per segment the trapezoid (or triangle) between the squared speeds ``w`` (n + 1,) at its
+    ends: entry, peak and exit speed and the durations of its three phases (closed forms)."""
     w0, w1 = w[:-1], w[1:]
     wp = np.minimum(nominal ** 2, 0.5 * (reach + w0 + w1))
     wp = np.maximum(wp, np.maximum(w0, w1))
@@ -210,10 +238,7 @@ def plan_motion(motion: Motion, machine: Machine) -> Plan:
     d_cruise = np.maximum(length - d_acc - d_dec, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         t_cruise = np.where(vp > 0, d_cruise / vp, 0.0)
-    t_seg = t_acc + t_cruise + t_dec
-    t_start = np.concatenate([[0.0], np.cumsum(t_seg)])
-    return Plan(motion=motion, length=length, unit=unit, acc=acc, v_entry=v0, v_peak=vp, v_exit=v1,
-                t_acc=t_acc, t_cruise=t_cruise, t_dec=t_dec, t_start=t_start)
+    return v0, vp, v1, t_acc, t_cruise, t_dec
 
 
 def reachable_squared_speed(cap: np.ndarray, reach: np.ndarray) -> np.ndarray:

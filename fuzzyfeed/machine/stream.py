@@ -188,7 +188,8 @@ def _kernel():
 
 
 def tick_count(plan: Plan, ts_s: float) -> int:
-    """K: the ticks of a plan are t_k = min(k·Ts, T), k = 0 … K (as :meth:`Plan.sample`)."""
+    """K: the ticks of a plan are t_k = min(k·Ts, T), k = 0 … K (as :meth:`Plan.sample`); ``plan``:
+    anything with the plan's ``time_s``."""
     return int(np.ceil(plan.time_s / ts_s - 1e-9))
 
 
@@ -209,10 +210,15 @@ def segment_windows(plan: Plan, machine: Machine, segments: np.ndarray) -> list[
     seg = np.unique(np.asarray(segments, dtype=np.int64))
     if seg.size == 0:
         return []
+    return tick_windows(plan.t_start[seg], plan.t_start[seg + 1], tick_count(plan, machine.ts_s), machine)
+
+
+def tick_windows(t_a: np.ndarray, t_b: np.ndarray, k_end: int, machine: Machine) -> list[tuple[int, int]]:
+    """:func:`segment_windows` from the start and end times of the (sorted) segments and the
+    plan's last tick ``k_end`` (:func:`tick_count`)."""
     ts = machine.ts_s
-    k_end = tick_count(plan, ts)
-    ka = np.clip(np.floor(plan.t_start[seg] / ts).astype(np.int64), 0, k_end)
-    kb = np.clip(np.ceil(plan.t_start[seg + 1] / ts).astype(np.int64), 0, k_end)
+    ka = np.clip(np.floor(np.asarray(t_a) / ts).astype(np.int64), 0, k_end)
+    kb = np.clip(np.ceil(np.asarray(t_b) / ts).astype(np.int64), 0, k_end)
     gap = warmup_ticks(machine)
     out: list[tuple[int, int]] = []
     for a, b in zip(ka.tolist(), kb.tolist()):
@@ -266,77 +272,111 @@ def stream_plan(plan: Plan, machine: Machine, measured: np.ndarray | None = None
 
 
 def _stream(plan, machine, measured, keep_mm, windows, block, boxes, skip_mm, bound_scale) -> StreamRun:
-    motion = plan.motion
-    n = plan.length.size
-    meas = np.ones(n, bool) if measured is None else np.ascontiguousarray(measured, dtype=bool)
-    keep = machine.contour_tol_um * 1e-3 if keep_mm is None else float(keep_mm)
-    from fuzzyfeed.machine.trace import WINDOW_MARGIN_MM
+    ticks = TickPass(machine, keep_mm, windows is not None, block, skip_mm, bound_scale)
+    spans = [(0, tick_count(plan, machine.ts_s))] if windows is None else windows
+    seg_max = ticks.part(plan, 0, measured, spans, boxes)
+    return ticks.result(plan, seg_max)
 
-    ts = machine.ts_s
-    k_end = tick_count(plan, ts)
-    lookback = lookback_ticks(machine)
-    fb, fa = servo_coefficients(machine)
-    # writable C float64 arrays (one compilation): the plan's own where they are (the kernel only reads
-    # them; a copy of a 10⁶-segment plan is ~80 MB), copies of the others (the motion's read-only points)
-    f64 = lambda a: np.require(a, dtype=np.float64, requirements=["C", "W"])  # noqa: E731
-    arrays = (f64(motion.points), f64(plan.unit), f64(plan.length), f64(plan.segment_arc_start()),
-              f64(plan.t_start), f64(plan.v_entry), f64(plan.v_peak), f64(plan.acc), f64(plan.t_acc),
-              f64(plan.t_cruise), np.array(meas, dtype=np.bool_), fb, fa)
-    if block > 0:
-        box_lo, box_hi = segment_boxes(motion.points, block) if boxes is None else boxes
-    else:
-        box_lo = box_hi = np.zeros((1, 3))
-    slack = BOX_SLACK_PER_MM * (1.0 + float(np.abs(motion.points).max()))
-    box_args = (f64(box_lo), f64(box_hi), int(block), slack)
-    seg_max = np.zeros(n)
-    from fuzzyfeed.machine._ticks_jit import HIST_BINS, I_EV_N, I_K0, I_LEAP, I_LEFT, I_NEAR, I_RIGHT, I_SEG, ISTATE_SIZE
 
-    hist = np.zeros(HIST_BINS, dtype=np.int64)
-    from fuzzyfeed.machine._ticks_jit import FSTATE_SIZE, S_N_LEAP, S_N_PART, S_N_SKIP, S_SKIP_MAX
+class TickPass:
+    """One run's tick pass over *parts*: plans of stretches of one chain (the whole chain's plan, or
+    :class:`~fuzzyfeed.machine.plan_windows.PlanRange` s: the same floats at the same segments), each
+    with its tick windows, in the order of the ticks. The histogram, the maxima and counts, the
+    fast path's last error and the events (segment indices of the chain) are shared as when one
+    plan's windows are run one after the other: the parts of a chain give its run over those windows
+    bit for bit."""
 
-    unmeasured_cum = np.concatenate([[0], np.cumsum(~meas)]).astype(np.int64)
-    leap = leap_decay(fb, fa, ts) if skip_mm > 0.0 else 0.0
-    fstate = np.zeros(FSTATE_SIZE)
-    fstate[[0, 5]] = -1.0
-    istate = np.full(ISTATE_SIZE, -1, dtype=np.int64)
-    ev_f = np.zeros((EVENT_CHUNK, 6))
-    ev_i = np.zeros((EVENT_CHUNK, 3), dtype=np.int64)
-    parts_f, parts_i = [], []
-    run = _kernel()
-    spans = [(0, k_end)] if windows is None else windows
-    warm = warmup_ticks(machine)
-    for ka, kb in spans:
-        k_from = max(ka - warm, 0) if windows is not None else 0
-        y_hist, x_hist, prev = np.zeros((3, 2)), np.zeros((3, 2)), np.zeros(3)
-        s_ring = np.zeros(lookback + 1)
-        seg_ring = np.zeros(lookback + 1, dtype=np.int64)
-        istate[I_K0] = -1
-        istate[I_EV_N] = 0
-        istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = istate[I_LEAP] = -1
-        istate[I_SEG] = min(max(int(np.searchsorted(plan.t_start, min(k_from * ts, plan.time_s),
-                                                     side="right")) - 1, 0), n - 1)
-        k = k_from
-        while k <= kb:
-            k = run(*arrays, ts, plan.time_s, k, ka, kb, lookback, WINDOW_MARGIN_MM, keep,
-                    y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
-                    *box_args, unmeasured_cum, float(skip_mm), float(bound_scale), leap)
-            m = int(istate[I_EV_N])
-            if m:
-                parts_f.append(ev_f[:m].copy())
-                parts_i.append(ev_i[:m].copy())
-                istate[I_EV_N] = 0
-    ef = np.concatenate(parts_f) if parts_f else np.zeros((0, 6))
-    ei = np.concatenate(parts_i) if parts_i else np.zeros((0, 3), dtype=np.int64)
-    bins = np.flatnonzero(hist)
-    has_max, has_air = fstate[0] >= 0, fstate[5] >= 0
-    return StreamRun(plan=plan, seg_max_mm=seg_max, hist_bins=bins, hist_counts=hist[bins],
-                     max_mm=float(max(fstate[0], 0.0)), max_time_s=float(fstate[1]) if has_max else np.nan,
-                     max_segment=int(istate[0]) if has_max else -1, max_xyz=fstate[2:5].copy(),
-                     air_max_mm=float(max(fstate[5], 0.0)), air_time_s=float(fstate[6]) if has_air else np.nan,
-                     air_segment=int(istate[1]) if has_air else -1, air_nearest=int(istate[2]) if has_air else -1,
-                     air_xyz=fstate[7:10].copy(),
-                     tick_time_s=ef[:, 0], contour_mm=ef[:, 1], speed_mm_s=ef[:, 2], nearest_xyz=ef[:, 3:6],
-                     tick_segment=ei[:, 0], nearest_segment=ei[:, 1], lookback_segment=ei[:, 2],
-                     part_ticks=int(fstate[S_N_PART]), skipped_ticks=int(fstate[S_N_SKIP]),
-                     leapt_ticks=int(fstate[S_N_LEAP]), skip_mm=float(skip_mm),
-                     skip_max_mm=float(fstate[S_SKIP_MAX]))
+    def __init__(self, machine: Machine, keep_mm, windowed: bool, block: int, skip_mm: float, bound_scale: float):
+        from fuzzyfeed.machine._ticks_jit import FSTATE_SIZE, HIST_BINS, ISTATE_SIZE
+
+        self.machine, self.windowed, self.block = machine, windowed, int(block)
+        self.skip_mm, self.bound_scale = float(skip_mm), float(bound_scale)
+        self.keep = machine.contour_tol_um * 1e-3 if keep_mm is None else float(keep_mm)
+        self.fb, self.fa = servo_coefficients(machine)
+        self.hist = np.zeros(HIST_BINS, dtype=np.int64)
+        self.leap = leap_decay(self.fb, self.fa, machine.ts_s) if skip_mm > 0.0 else 0.0
+        self.fstate = np.zeros(FSTATE_SIZE)
+        self.fstate[[0, 5]] = -1.0
+        self.istate = np.full(ISTATE_SIZE, -1, dtype=np.int64)
+        self.ev_f = np.zeros((EVENT_CHUNK, 6))
+        self.ev_i = np.zeros((EVENT_CHUNK, 3), dtype=np.int64)
+        self.parts_f, self.parts_i = [], []
+        self.max_segment = self.air_segment = self.air_nearest = -1
+
+    def part(self, plan, first: int, measured, spans, boxes=None) -> np.ndarray:
+        """Run ``spans`` (tick windows of the chain) of ``plan`` (its segment 0 the chain's ``first``;
+        ``measured`` per segment of it, default all); returns its largest error per segment."""
+        from fuzzyfeed.machine._ticks_jit import I_EV_N, I_K0, I_LEAP, I_LEFT, I_NEAR, I_RIGHT, I_SEG
+        from fuzzyfeed.machine.trace import WINDOW_MARGIN_MM
+
+        machine, block, fstate, istate = self.machine, self.block, self.fstate, self.istate
+        motion = plan.motion
+        n = plan.length.size
+        meas = np.ones(n, bool) if measured is None else np.ascontiguousarray(measured, dtype=bool)
+        ts = machine.ts_s
+        lookback = lookback_ticks(machine)
+        # writable C float64 arrays (one compilation): the plan's own where they are (the kernel only reads
+        # them; a copy of a 10⁶-segment plan is ~80 MB), copies of the others (the motion's read-only points)
+        f64 = lambda a: np.require(a, dtype=np.float64, requirements=["C", "W"])  # noqa: E731
+        arrays = (f64(motion.points), f64(plan.unit), f64(plan.length), f64(plan.segment_arc_start()),
+                  f64(plan.t_start), f64(plan.v_entry), f64(plan.v_peak), f64(plan.acc), f64(plan.t_acc),
+                  f64(plan.t_cruise), np.array(meas, dtype=np.bool_), self.fb, self.fa)
+        if block > 0:
+            box_lo, box_hi = segment_boxes(motion.points, block) if boxes is None else boxes
+        else:
+            box_lo = box_hi = np.zeros((1, 3))
+        slack = BOX_SLACK_PER_MM * (1.0 + plan.coordinate_max())
+        box_args = (f64(box_lo), f64(box_hi), block, slack)
+        seg_max = np.zeros(n)
+        unmeasured_cum = np.concatenate([[0], np.cumsum(~meas)]).astype(np.int64)
+        run = _kernel()
+        warm = warmup_ticks(machine)
+        max_before, air_before = fstate[0], fstate[5]
+        for ka, kb in spans:
+            k_from = max(ka - warm, 0) if self.windowed else 0
+            y_hist, x_hist, prev = np.zeros((3, 2)), np.zeros((3, 2)), np.zeros(3)
+            s_ring = np.zeros(lookback + 1)
+            seg_ring = np.zeros(lookback + 1, dtype=np.int64)
+            istate[I_K0] = -1
+            istate[I_EV_N] = 0
+            istate[I_NEAR] = istate[I_RIGHT] = istate[I_LEFT] = istate[I_LEAP] = -1
+            istate[I_SEG] = min(max(int(np.searchsorted(plan.t_start, min(k_from * ts, plan.time_s),
+                                                         side="right")) - 1, 0), n - 1)
+            k = k_from
+            while k <= kb:
+                k = run(*arrays, ts, plan.time_s, k, ka, kb, lookback, WINDOW_MARGIN_MM, self.keep,
+                        y_hist, x_hist, prev, s_ring, seg_ring, seg_max, self.hist, fstate, istate,
+                        self.ev_f, self.ev_i, *box_args, unmeasured_cum, self.skip_mm, self.bound_scale,
+                        self.leap)
+                m = int(istate[I_EV_N])
+                if m:
+                    self.parts_f.append(self.ev_f[:m].copy())
+                    self.parts_i.append(self.ev_i[:m] + first)
+                    istate[I_EV_N] = 0
+        if fstate[0] > max_before:                  # a new largest error in this part: where
+            self.max_segment = first + int(istate[0])
+        if fstate[5] > air_before:
+            self.air_segment, self.air_nearest = first + int(istate[1]), first + int(istate[2])
+        return seg_max
+
+    def result(self, plan, seg_max) -> StreamRun:
+        """The run's summaries (``seg_max``: the chain's, or its parts' as the caller keeps them)."""
+        from fuzzyfeed.machine._ticks_jit import S_N_LEAP, S_N_PART, S_N_SKIP, S_SKIP_MAX
+
+        fstate, hist = self.fstate, self.hist
+        ef = np.concatenate(self.parts_f) if self.parts_f else np.zeros((0, 6))
+        ei = np.concatenate(self.parts_i) if self.parts_i else np.zeros((0, 3), dtype=np.int64)
+        bins = np.flatnonzero(hist)
+        has_max, has_air = fstate[0] >= 0, fstate[5] >= 0
+        return StreamRun(plan=plan, seg_max_mm=seg_max, hist_bins=bins, hist_counts=hist[bins],
+                         max_mm=float(max(fstate[0], 0.0)), max_time_s=float(fstate[1]) if has_max else np.nan,
+                         max_segment=self.max_segment if has_max else -1, max_xyz=fstate[2:5].copy(),
+                         air_max_mm=float(max(fstate[5], 0.0)), air_time_s=float(fstate[6]) if has_air else np.nan,
+                         air_segment=self.air_segment if has_air else -1,
+                         air_nearest=self.air_nearest if has_air else -1,
+                         air_xyz=fstate[7:10].copy(),
+                         tick_time_s=ef[:, 0], contour_mm=ef[:, 1], speed_mm_s=ef[:, 2], nearest_xyz=ef[:, 3:6],
+                         tick_segment=ei[:, 0], nearest_segment=ei[:, 1], lookback_segment=ei[:, 2],
+                         part_ticks=int(fstate[S_N_PART]), skipped_ticks=int(fstate[S_N_SKIP]),
+                         leapt_ticks=int(fstate[S_N_LEAP]), skip_mm=self.skip_mm,
+                         skip_max_mm=float(fstate[S_SKIP_MAX]))

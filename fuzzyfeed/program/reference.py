@@ -22,8 +22,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fuzzyfeed.machine.description import Machine
-from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
-from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS, segment_windows, warmup_ticks
+from fuzzyfeed.machine.plan_parts import PartsRun, changed_sweep, stream_parts, sweep
+from fuzzyfeed.machine.plan_windows import planned_time
+from fuzzyfeed.machine.planner import Motion, Plan
+from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS, warmup_ticks
 from fuzzyfeed.program.apart import Apart, describe, masked, no_places, run_max_um, set_apart
 from fuzzyfeed.program.run import (Chain, ChainRun, ProgramPath, ProgramRun, run_chain, run_program, settle_p99,
                                   without_plan)
@@ -73,15 +75,11 @@ class Uniform:
     apart: tuple[Apart, ...] = ()
 
 
-def _scaled_plans(path: ProgramPath, machine: Machine, scale: float):
-    """The chains' plans at ``scale``, one at a time (an iterator: never all of them held)."""
-    return (plan_motion(Motion(c.motion.points, c.motion.feed_mm_s * scale, c.motion.rapid,
-                               c.motion.arc_radius_mm), machine) for c in path.chains)
-
-
 def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
-    """The run's time at ``scale`` without the servo (the planner alone, closed form)."""
-    return float(sum(p.time_s for p in _scaled_plans(path, machine, scale)))
+    """The run's time at ``scale`` without the servo (the planner alone, closed form), each chain
+    planned window by window (:func:`~fuzzyfeed.machine.plan_windows.planned_time`: bit for bit the
+    whole plan's time, no chain's plan held)."""
+    return float(sum(planned_time(c.motion, machine, feed_scale=scale) for c in path.chains))
 
 
 def _hot(run: ProgramRun, tol_mm: float) -> list[np.ndarray]:
@@ -110,29 +108,34 @@ class _Search:
     def hot_trial(self, scale: float, hot: list[np.ndarray]) -> tuple[float, list[np.ndarray]] | None:
         """Largest error (µm) of the stretches around the ``hot`` segments (per chain) with every F ×
         ``scale``, the places apart left out, and the segments over the tolerance there; None when
-        the stretches pass the tick budget."""
+        the stretches pass the tick budget. No chain's plan is held: its windows are swept for the
+        hot segments' times, then the stretches are planned and run part by part
+        (:mod:`fuzzyfeed.machine.plan_parts`, bit for bit the whole plan's windowed run)."""
         path, machine = self.path, self.machine
-        plans, windows = [], []
+        sweeps, windows = [], []
         for chain, h in zip(path.chains, hot):
             if h.size == 0:
-                plans.append(None)
+                sweeps.append(None)
                 windows.append([])
                 continue
-            plan = plan_motion(Motion(chain.motion.points, chain.motion.feed_mm_s * scale, chain.motion.rapid,
-                                      chain.motion.arc_radius_mm), machine)
-            plans.append(plan)
-            windows.append(segment_windows(plan, machine, h))
+            sw = sweep(chain.motion, machine, np.unique(h), feed_scale=scale)
+            sweeps.append(sw)
+            windows.append(sw.windows(machine))
         if sum(b - a + warmup_ticks(machine) for w in windows for a, b in w) > min(self.max_ticks, HOT_MAX_TICKS):
             return None
         worst, out = 0.0, []
-        for chain, h, plan, w, a in zip(path.chains, hot, plans, windows, self.apart):
+        for chain, h, sw, w, a in zip(path.chains, hot, sweeps, windows, self.apart):
             if h.size == 0:
                 out.append(h)
                 continue
-            r = run_chain(chain, machine, plan=plan, windows=w, keep_mm=np.inf)
-            seg_max = masked(r.stream.seg_max_mm, a)
-            worst = max(worst, float(seg_max.max()) * 1e3)
-            out.append(np.flatnonzero(seg_max > self.tol_mm))
+            r = stream_parts(chain.motion, machine, chain.seg_measured, sw, w, keep_mm=np.inf, feed_scale=scale)
+            over = []
+            for first, seg_max in r.parts:
+                local = a[(a >= first) & (a < first + seg_max.size)] - first
+                seg_max = masked(seg_max, local)
+                worst = max(worst, float(seg_max.max(initial=0.0)) * 1e3)
+                over.append(first + np.flatnonzero(seg_max > self.tol_mm))
+            out.append(np.unique(np.concatenate(over)) if over else np.zeros(0, np.int64))
         return worst, out
 
     def copy(self) -> _Search:
@@ -344,8 +347,10 @@ class Reference:
 
 @dataclass(frozen=True, eq=False)
 class _Profile:
-    """What :func:`_changed` compares of a chain's plan (~32 bytes a segment of its ~104): per
-    segment the entry, peak and exit speed and the acceleration (the plan's own arrays, no copy)."""
+    """What a pass compares of a chain's plan (~32 bytes a segment of its ~104): per segment the
+    entry, peak and exit speed and the acceleration (the first plan's own arrays, no copy; each
+    pass overwrites them with its plan's, window by window:
+    :func:`~fuzzyfeed.machine.plan_parts.changed_sweep`)."""
 
     v_entry: np.ndarray
     v_peak: np.ndarray
@@ -377,14 +382,15 @@ class _Measured:
         return cls(_Profile.of(plan), s.seg_max_mm, s.contour_mm, s.speed_mm_s, s.tick_segment,
                    s.nearest_segment, s.lookback_segment)
 
-    def splice(self, r: ChainRun, plan: Plan, redone: np.ndarray) -> _Measured:
-        """This run with the segments ``redone`` (bool per segment) taken from ``r``, a run of
-        ``plan``'s stretches that hold them."""
+    def splice_parts(self, r: PartsRun, redone: np.ndarray) -> _Measured:
+        """This run with the segments ``redone`` (bool per segment) taken from ``r``, a run of their
+        stretches made part by part; the profile is already the new plan's
+        (:func:`~fuzzyfeed.machine.plan_parts.changed_sweep` overwrote it)."""
         s = r.stream
         old = ~redone[self.tick_segment]
         new = redone[s.tick_segment]
         cat = lambda a, b: np.concatenate([a[old], b[new]])  # noqa: E731
-        return _Measured(_Profile.of(plan), np.where(redone, s.seg_max_mm, self.seg_max_mm),
+        return _Measured(self.profile, np.where(redone, r.seg_max_mm(redone.size), self.seg_max_mm),
                          cat(self.contour_mm, s.contour_mm), cat(self.speed_mm_s, s.speed_mm_s),
                          cat(self.tick_segment, s.tick_segment), cat(self.nearest_segment, s.nearest_segment),
                          cat(self.lookback_segment, s.lookback_segment))
@@ -394,7 +400,8 @@ def _changed(old: Plan | _Profile, new: Plan, machine: Machine) -> np.ndarray:
     """Segments whose run may differ between two plans of the same path (bool per segment): those
     whose speed profile changed, and after each the ones commanded within a warm-up of the servo
     (its memory; :data:`~fuzzyfeed.machine.stream.WARMUP_TIME_CONSTANTS`). ``old``: a plan or its
-    :class:`_Profile`."""
+    :class:`_Profile`. On whole plans: the reference :func:`~fuzzyfeed.machine.plan_parts.changed_sweep`
+    (what the passes use, window by window) is held to (tests/test_plan_parts.py)."""
     diff = ((old.v_entry != new.v_entry) | (old.v_peak != new.v_peak) | (old.v_exit != new.v_exit)
             | (old.acc != new.acc))
     out = diff.copy()
@@ -421,9 +428,13 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     memory after them); the result is one whole run on the final feeds, its p99 settled as
     :func:`~fuzzyfeed.program.run.run_program`'s (:func:`~fuzzyfeed.program.run.settle_p99`).
 
-    Memory: per chain its rows (the largest error per segment, the events) and its plan's speed
-    profile (:class:`_Profile`); a pass holds one new plan at a time, dropped once its stretches
-    are run (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`)."""
+    Memory: per chain its rows (the largest error per segment, the events), its feeds and its
+    plan's speed profile (:class:`_Profile`, 32 B a segment); a pass plans the chain window by
+    window against that profile (:func:`~fuzzyfeed.machine.plan_parts.changed_sweep`, overwriting
+    it) and runs the stretches to redo part by part (:func:`~fuzzyfeed.machine.plan_parts.stream_parts`):
+    no plan of a whole chain: 1 B a segment (which to redo) and, while splicing, the new largest
+    error per segment (8 B), besides the feeds' own temporaries (:func:`_lowered`). The
+    first and last runs are whole runs (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`)."""
     tol = (machine.contour_tol_um if tol_um is None else tol_um) * 1e-3
     chains = tuple(refine_chain(c, piece_mm) for c in path.chains)
     refined = ProgramPath(program=path.program, chains=chains, chord_tol_mm=path.chord_tol_mm)
@@ -437,6 +448,7 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
         runs.append(without_plan(r))
         del r
     touched = [False] * len(chains)
+    horizon = WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s
     passes = 1
     while passes < REFERENCE_PASSES:
         changed = False
@@ -447,13 +459,16 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             new = _lowered(feeds[i], chain.motion.rapid, m, over, tol, reachable[i])
             if not np.array_equal(new, feeds[i]):
                 feeds[i] = new
-                plan = plan_motion(Motion(chain.motion.points, new, chain.motion.rapid,
-                                          chain.motion.arc_radius_mm), machine)
-                redo = _changed(m.profile, plan, machine)
-                r = run_chain(chain, machine, plan=plan, keep_mm=tol, keep_plan=False,
-                              windows=segment_windows(plan, machine, np.flatnonzero(redo)))
-                state[i] = m.splice(r, plan, redo)
-                del plan, r, m
+                motion = Motion(chain.motion.points, new, chain.motion.rapid, chain.motion.arc_radius_mm)
+                # the new plan window by window against the kept profile (overwritten with it):
+                # the segments to run again (_changed's), then their stretches part by part
+                p = m.profile
+                sw, seg = changed_sweep(motion, machine, (p.v_entry, p.v_peak, p.v_exit, p.acc), horizon)
+                r = stream_parts(motion, machine, chain.seg_measured, sw, sw.windows(machine), keep_mm=tol)
+                redo = np.zeros(motion.n_segments, bool)
+                redo[seg] = True
+                state[i] = m.splice_parts(r, redo)
+                del r, m, sw, seg, redo
                 touched[i] = changed = True
         passes += 1
         if progress is not None:
