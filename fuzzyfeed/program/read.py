@@ -102,21 +102,8 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | 
         lines = [ln.rstrip("\r") for ln in lines]
     clean = clean_lines(lines, text, path)
     del text                  # the caller's copy only, from here (a 10⁶-line program: 24 MB)
-    body = "\n".join(clean).upper().replace(" ", "").replace("\t", "")
+    body, end_line, n = program_body(clean, len(lines))
     del clean
-    if "/" in body:
-        body = re.sub(r"(?m)^/", "", body)
-    # the program ends at the first M2/M30: nothing after it is read
-    end = re.search(r"(?m)M0*(?:2|30)(?![0-9.])", body)
-    n_all = len(lines)
-    if end is not None:
-        end_line = body.count("\n", 0, end.start())
-        cut_at = body.find("\n", end.start())
-        body = body if cut_at < 0 else body[:cut_at]
-        n = end_line + 1
-    else:
-        end_line = n_all
-        n = n_all
     if needs_execution(body):
         return _parse_executed(path, lines, newline, tools)
     if n == 0 or not body.strip():
@@ -125,6 +112,25 @@ def parse_program(text: str, path: str | os.PathLike = "<gcode>", tools: dict | 
     tokens = list(tokenise(body, path, lines))
     del body
     return _interpret(path, lines, newline, end_line, n, tokens, tools=tools)
+
+
+#: The program's end: the first M2/M30 (nothing after its line is read).
+PROGRAM_END = re.compile(r"(?m)M0*(?:2|30)(?![0-9.])")
+
+
+def program_body(clean: list[str], n_all: int) -> tuple[str, int, int]:
+    """The words of the cleaned lines as one upper-case text without blanks or block-delete marks,
+    up to the line of the first M2/M30: (body, the end's line, the lines read); (body, ``n_all``,
+    ``n_all``) for a program without an end."""
+    body = "\n".join(clean).upper().replace(" ", "").replace("\t", "")
+    if "/" in body:
+        body = re.sub(r"(?m)^/", "", body)
+    end = PROGRAM_END.search(body)
+    if end is None:
+        return body, n_all, n_all
+    end_line = body.count("\n", 0, end.start())
+    cut_at = body.find("\n", end.start())
+    return (body if cut_at < 0 else body[:cut_at]), end_line, end_line + 1
 
 
 def _parse_executed(path: Path, lines: list[str], newline: str, tools: dict | None) -> Program:

@@ -25,7 +25,6 @@ error (the whole read then names it as it always did). Nothing is guessed.
 from __future__ import annotations
 
 import codecs
-import re
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -51,7 +50,6 @@ _PER_LINE = ("inch", "absolute", "ij_absolute", "plane", "feed_mode", "feed_valu
              "length_offset", "has_f", "feed_reset")
 _PER_MOVE = ("move_line", "kind", "start", "end", "feed_mm_min", "cut", "centre", "turns", "arc_plane",
              "no_split", "rotary", "known", "stops", "comp_unknown")
-_END = re.compile(r"(?m)M0*(?:2|30)(?![0-9.])")
 
 
 class Fallback(Exception):
@@ -261,21 +259,12 @@ def _read_window(path: Path, lines: list[str], newline: str, state: ReadState, t
     program ends in it (M2/M30), as :func:`fuzzyfeed.program.read.parse_program` reads a text."""
     from fuzzyfeed.program.flow import needs_execution
     from fuzzyfeed.program.lexer import clean_lines, tokenise
-    from fuzzyfeed.program.read import _interpret
+    from fuzzyfeed.program.read import _interpret, program_body
 
     clean = clean_lines(lines, "\n".join(lines), path)
-    body = "\n".join(clean).upper().replace(" ", "").replace("\t", "")
+    body, end_line, n = program_body(clean, len(lines))
+    ended = end_line < len(lines)      # an M2/M30 in the window
     del clean
-    if "/" in body:
-        body = re.sub(r"(?m)^/", "", body)
-    end = _END.search(body)
-    if end is not None:
-        end_line = body.count("\n", 0, end.start())
-        cut_at = body.find("\n", end.start())
-        body = body if cut_at < 0 else body[:cut_at]
-        n = end_line + 1
-    else:
-        end_line = n = len(lines)
     if needs_execution(body):
         raise Fallback("parameters, expressions or O-words: executed whole")
     if not body.replace("\n", ""):
@@ -287,7 +276,7 @@ def _read_window(path: Path, lines: list[str], newline: str, state: ReadState, t
     if capture.get("increments") or capture.get("sequential") or (capture["comp_side"] != 0).any():
         raise Fallback("G91 increments, frames followed line by line, polar words, cycles, splines or "
                        "cutter compensation")
-    return prog, capture, end is not None
+    return prog, capture, ended
 
 
 def _restart(capture: dict, n: int) -> int:
