@@ -97,18 +97,21 @@ def arc_kernel():
 
 @cache
 def chord_kernels():
-    """Compiled (speeds, chunk_terms) of geometry/_chord_jit.py: the chord-exact interpolator's
-    per-tick terms."""
+    """Compiled (pass_terms, pass_error, retarget) of geometry/_chord_jit.py: one pass of the
+    chord-exact interpolator over every tick, its error and its retargeting."""
     import numba
 
-    from fuzzyfeed.geometry._chord_jit import chunk_terms, speeds
+    from fuzzyfeed.geometry._chord_jit import pass_error, pass_terms, retarget
 
     ro = lambda ndim: numba.types.Array(numba.float64, ndim, "C", readonly=True)  # noqa: E731
-    f8 = numba.float64[::1]
-    compile_once(speeds, numba.void(ro(2), f8), "the interpolator's kernels", 2)
-    sig = numba.void(ro(2), ro(2), ro(2), ro(1), ro(1), ro(1), ro(1), ro(1), numba.int64, f8, f8,
-                     numba.boolean[::1], f8, f8)
-    return speeds, compile_once(chunk_terms, sig, "the interpolator's kernels", 3)
+    rb = numba.types.Array(numba.boolean, 1, "C", readonly=True)
+    f8, w8, wb = numba.float64, numba.float64[::1], numba.boolean[::1]
+    terms = compile_once(pass_terms, numba.int64(ro(1), ro(3), f8, f8, ro(1), ro(1), ro(1), w8, w8, wb, w8, w8),
+                         "the interpolator's kernels", 3)
+    error = compile_once(pass_error, f8(ro(1), ro(1), rb, f8), "the interpolator's kernels", 1)
+    step = compile_once(retarget, numba.int64(ro(1), ro(1), f8, f8, w8, w8, ro(1), ro(1), ro(1), rb, f8, f8,
+                                              numba.boolean, wb), "the interpolator's kernels", 2)
+    return terms, error, step
 
 
 def evaluate_power_basis_numpy(spans: np.ndarray, coeffs: np.ndarray, u: np.ndarray, order: int,

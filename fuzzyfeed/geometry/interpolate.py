@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.geometry._kernels import chord_kernels, nurbs_compiled
+from fuzzyfeed.geometry._kernels import nurbs_compiled
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.polyline_chords import pad3
 
@@ -106,21 +106,14 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
     # a tangent can break only at a knot of multiplicity ≥ p (every knot of a polyline): the
     # ticks whose parameter interval holds one are the only ones whose deficit is capped below
     hard = _c0_knots(curve)
-    # the per-tick terms compiled (geometry/_chord_jit.py) where the NURBS kernel is
-    kernels = chord_kernels() if nurbs_compiled(n) else None
+    if nurbs_compiled(n):   # every pass one compiled loop over the ticks (geometry/_chord_jit.py)
+        return _chord_exact_compiled(curve, s, u, hard, iterations)
     u = np.ascontiguousarray(u)
     first = True
     for _ in range(iterations):
         for c0 in range(0, n - 1, CHUNK_TICKS):
             c1 = min(c0 + CHUNK_TICKS, n - 1)      # chords c0 … c1 − 1 need points c0 … c1
             pts, d1, d2 = curve.evaluate(u[c0:c1 + 1], order=2)
-            if kernels is not None:   # the lines below in one compiled pass, the same floats
-                speeds, terms = kernels
-                d1n = np.empty(c1 + 1 - c0)
-                speeds(d1, d1n)
-                dl = np.diff(target[c0:c1 + 1])
-                terms(pts, d1, d2, d1n ** 3, dl, dl ** 3, hard, u, c0, chords, deficit, at_knot, sp2, d1d2)
-                continue
             ch = np.linalg.norm(np.diff(pts, axis=0), axis=1)
             chords[c0:c1] = ch
             dl = np.diff(target[c0:c1 + 1])
@@ -180,8 +173,74 @@ def _chord_exact(curve: Nurbs, s: np.ndarray, iterations: int = 40) -> np.ndarra
     return _beside_corners(curve, u, steps, hard)
 
 
+def _cap_corners(curve: Nurbs, u: np.ndarray, target: np.ndarray, at_knot: np.ndarray,
+                 deficit: np.ndarray) -> None:
+    """The corner chords' deficits capped in place at dl³·max(κ)²/12 + 1e-3 of it (the lines of
+    :func:`_chord_exact`, on the corner chords alone: numpy's powers, the points evaluated anew)."""
+    corners = np.flatnonzero(at_knot)
+    if corners.size == 0:
+        return
+    kap = []
+    for at in (corners, corners + 1):
+        _, d1, d2 = curve.evaluate(u[at], order=2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = np.linalg.norm(np.cross(pad3(d1), pad3(d2)), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+        kap.append(np.nan_to_num(k, nan=0.0, posinf=0.0))
+    dl = target[corners + 1] - target[corners]
+    part = deficit[corners]
+    deficit[corners] = np.minimum(part, dl ** 3 * np.maximum(kap[0], kap[1]) ** 2 / 12.0 + 1e-3 * part)
+
+
+def _chord_exact_compiled(curve: Nurbs, s: np.ndarray, u: np.ndarray, hard: np.ndarray,
+                          iterations: int) -> np.ndarray:
+    """:func:`_chord_exact` with each pass one compiled loop over the ticks (the curve evaluated
+    tick by tick, the span and the corner knot carried from the last tick; the retargeting and the
+    Taylor step in one more loop): the same operations in the same order, no array per term."""
+    from fuzzyfeed.geometry._kernels import chord_kernels
+
+    terms, pass_error, retarget = chord_kernels()
+    total = s[-1]
+    steps = np.diff(s)
+    top = float(steps.max(initial=0.0))
+    n = s.size
+    lo, hi = curve.domain
+    spans, coeffs = curve._spans, curve._coeffs
+    u = np.ascontiguousarray(u, dtype=float)
+    target = s.copy()
+    chords = np.empty(n - 1)
+    deficit = np.empty(n - 1)
+    at_knot = np.zeros(n - 1, dtype=bool)
+    sp2 = np.empty(n)     # |C′|²
+    d1d2 = np.empty(n)    # C′·C″
+    redo = np.zeros(n, dtype=bool)
+    previous = np.inf
+    first = True
+    settled = False       # the last pass evaluated the final u (its corner flags are u's)
+    for _ in range(iterations):
+        bad = terms(spans, coeffs, lo, hi, u, target, hard, chords, deficit, at_knot, sp2, d1d2)
+        if bad >= 0:
+            curve.evaluate(u[bad:bad + 1], order=0)     # the curve's own error for the point
+        _cap_corners(curve, u, target, at_knot, deficit)
+        mu = (total - deficit.sum()) / total if total > 0 else 1.0
+        worst = pass_error(chords, steps, at_knot, mu)
+        if worst <= 1e-13 * top or worst > 0.9 * previous:
+            settled = True
+            break
+        previous = worst
+        if first:   # see _chord_exact: u(s) anew by Newton after the first shift
+            retarget(steps, deficit, mu, total, target, u, sp2, d1d2, chords, at_knot, lo, hi, False, redo)
+            u = np.ascontiguousarray(curve.param_at_length(target), dtype=float)
+            first = False
+            previous = np.inf
+            continue
+        if retarget(steps, deficit, mu, total, target, u, sp2, d1d2, chords, at_knot, lo, hi, True, redo):
+            idx = np.flatnonzero(redo)
+            u[idx] = np.asarray(curve.param_at_length(target[idx]), dtype=float)
+    return _beside_corners(curve, u, steps, hard, knot=at_knot if settled else None)
+
+
 def _beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.ndarray,
-                    rounds: int = 60) -> np.ndarray:
+                    rounds: int = 60, knot: np.ndarray | None = None) -> np.ndarray:
     """``u`` with the chords beside a corner's chord in the ratio to their ``steps`` of the smooth
     chord beyond them: where the
     fixed point stalls with a tick that crossed the corner between passes, the smooth chord next
@@ -189,10 +248,12 @@ def _beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.nda
     the corner's chord is moved, on its own side of the corner knot, until the chord from its
     other end has the wanted length (bisection: the distance from a point grows along a smooth
     piece shorter than a servo step); the corner's chord, which cuts the corner anyway, takes the
-    difference."""
+    difference. ``knot``: the chords' corner flags (:func:`_holds_knot` of ``u``) if known.
+    Only the points next to corners are evaluated."""
     if hard.size == 0 or u.size < 3:
         return u
-    knot = _holds_knot(hard, u)
+    if knot is None:
+        knot = _holds_knot(hard, u)
     n = knot.size
     before = np.flatnonzero(~knot[:-1] & knot[1:])     # chord k, then the corner's chord k + 1
     after = np.flatnonzero(~knot[1:] & knot[:-1]) + 1  # the corner's chord k - 1, then chord k
@@ -201,33 +262,44 @@ def _beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.nda
     # the ratio chord / step the fixed point reached on the smooth chord beyond (μ up to its own
     # last digits) is the wanted one of the chord beside the corner's; points near corners only
     near = np.unique(np.concatenate([before - 1, before, before + 1, after, after + 1, after + 2]))
-    pts = np.full((u.size, 3), np.nan)
+    pts = np.full((near.size, 3), np.nan)   # a 2-D curve's third coordinate stays NaN (as on main)
     if near.size:
-        pts[near, :curve.dim] = curve.evaluate(u[near], order=0)[0]
-    chord = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(steps > 0, chord / steps, 1.0)
-    want = np.zeros(n)
-    want[before] = steps[before] * ratio[before - 1]
-    want[after] = steps[after] * ratio[after + 1]
-    off = np.abs(chord - want) > 1e-12 * np.maximum(steps, 1.0)
-    before, after = before[off[before]], after[off[after]]
-    after = after[~np.isin(after - 1, before + 1)]      # a tick moved once
+        pts[:, :curve.dim] = curve.evaluate(u[near], order=0)[0]
+
+    def point(k):
+        return pts[np.searchsorted(near, k)]
+
+    def chord(c):       # |P(c + 1) − P(c)| of chords c whose two points are near
+        return np.linalg.norm(point(c + 1) - point(c), axis=1)
+
+    def ratio(c):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(steps[c] > 0, chord(c) / steps[c], 1.0)
+
+    want_before = steps[before] * ratio(before - 1)
+    want_after = steps[after] * ratio(after + 1)
+    off_before = np.abs(chord(before) - want_before) > 1e-12 * np.maximum(steps[before], 1.0)
+    off_after = np.abs(chord(after) - want_after) > 1e-12 * np.maximum(steps[after], 1.0)
+    before, want_before = before[off_before], want_before[off_before]
+    after, want_after = after[off_after], want_after[off_after]
+    once = ~np.isin(after - 1, before + 1)              # a tick moved once
+    after, want_after = after[once], want_after[once]
     u = u.copy()
-    for chords, moving, anchor, sign in ((before, before + 1, before, 1.0), (after, after, after + 1, -1.0)):
+    for chords, want, moving, anchor, sign in ((before, want_before, before + 1, before, 1.0),
+                                               (after, want_after, after, after + 1, -1.0)):
         if chords.size == 0:
             continue
         # the bracket: from the anchor's side to the corner knot (exclusive)
         k_at = np.searchsorted(hard, u[moving], side="left" if sign > 0 else "right") - (sign < 0)
         end = hard[np.clip(k_at, 0, hard.size - 1)]
         a, b = u[anchor], end - sign * 1e-12 * (curve.domain[1] - curve.domain[0])
-        p0 = pts[anchor, :curve.dim]
+        p0 = point(anchor)[:, :curve.dim]
         length = lambda x: np.linalg.norm(curve.evaluate(x, order=0)[0] - p0, axis=1)  # noqa: E731
-        ok = (length(b) >= want[chords]) & (sign * (b - a) > 0)
-        a, b, chords, moving, p0 = a[ok], b[ok], chords[ok], moving[ok], p0[ok]
+        ok = (length(b) >= want) & (sign * (b - a) > 0)
+        a, b, want, moving, p0 = a[ok], b[ok], want[ok], moving[ok], p0[ok]
         for _ in range(rounds):
             mid = 0.5 * (a + b)
-            short = length(mid) < want[chords]
+            short = length(mid) < want
             a, b = np.where(short, mid, a), np.where(short, b, mid)
         u[moving] = 0.5 * (a + b)
     return u

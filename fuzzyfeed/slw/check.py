@@ -18,9 +18,12 @@ and the ratio, never a schedule with a limit above 100 %.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 from fuzzyfeed.errors import InputError
+from fuzzyfeed.geometry._kernels import use_compiled
 from fuzzyfeed.machine.limits import AXES, MachineLimits
 
 #: A tick may pass a limit by this fraction (the finite differences' rounding); the summary prints
@@ -82,11 +85,57 @@ def worst(ratios: dict[str, np.ndarray]) -> tuple[str, int, float]:
     return name, k, r
 
 
+@cache
+def _worst_kernel():
+    """slw/_check_jit.worst_ticks compiled (or loaded from numba's disk cache) once."""
+    import numba
+
+    from fuzzyfeed.geometry._kernels import compile_once
+    from fuzzyfeed.slw._check_jit import worst_ticks
+
+    ro = lambda ndim: numba.types.Array(numba.float64, ndim, "C", readonly=True)  # noqa: E731
+    f8 = numba.float64
+    sig = numba.void(ro(2), ro(1), f8, f8, ro(1), ro(1), f8, f8, numba.types.Array(numba.boolean, 1, "C", readonly=True),
+                     numba.float64[::1], numba.int64[::1])
+    return compile_once(worst_ticks, sig, "the tick check", 2)
+
+
+def _worst_compiled(xyz: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
+                    corners: np.ndarray, scale: float) -> tuple[str, int, float, float]:
+    """:func:`worst` of :func:`tick_ratios` with the path jerk divided by ``scale``, in one compiled
+    pass (slw/_check_jit.py): the limit, tick, judged ratio and the ratio itself."""
+    from fuzzyfeed.slw._check_jit import N_RATIOS
+
+    xyz = np.ascontiguousarray(xyz, dtype=float)
+    skip = np.zeros(max(xyz.shape[0] - 1, 0), dtype=bool)
+    if corners.size and skip.size:
+        skip[np.clip((corners[:, None] + np.arange(-1, 2)[None, :]).ravel(), 0, skip.size - 1)] = True
+    best, where = np.empty(N_RATIOS + 1), np.empty(N_RATIOS, dtype=np.int64)
+    _worst_kernel()(xyz, np.ascontiguousarray(jerk_mm_s3, dtype=float), float(limits.ts_s),
+                    float(limits.feed_mm_s), np.asarray(limits.axis_vel_mm_s, dtype=float),
+                    np.asarray(limits.axis_acc_mm_s2, dtype=float), float(limits.jerk_mm_s3), scale, skip,
+                    best, where)
+    # worst(): the first of the largest, over the ratios in tick_ratios' order
+    order = (("feed", 0), ("velocity x", 1), ("acceleration x", 4), ("velocity y", 2), ("acceleration y", 5),
+             ("velocity z", 3), ("acceleration z", 6), ("jerk", 7), ("path jerk", 8))
+    name, k, r, raw = "feed", 0, 0.0, 0.0
+    for key, i in order:
+        if where[i] >= 0 and best[i] > r:
+            name, k, r = key, int(where[i]), float(best[i])
+            raw = float(best[9]) if i == 8 else r
+    return name, k, r, raw
+
+
 def breach(xyz: np.ndarray, u: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
            corner_u: np.ndarray) -> tuple[str, int, float] | None:
     """The limit, tick and ratio of the worst tick over a limit by more than TICK_RTOL (the path
-    jerk by PATH_JERK_RTOL too), or None."""
-    ratios = tick_ratios(xyz, jerk_mm_s3, limits, corner_ticks(u, corner_u))
+    jerk by PATH_JERK_RTOL too), or None. Compiled over a long schedule (no array per ratio), the
+    same ratios and tick as the numpy lines."""
+    corners = corner_ticks(u, corner_u)
+    if use_compiled(xyz.shape[0]) and xyz.ndim == 2 and xyz.shape[1] == 3:
+        name, k, r, raw = _worst_compiled(xyz, jerk_mm_s3, limits, corners, 1.0 + PATH_JERK_RTOL)
+        return (name, k, raw) if r > 1.0 + TICK_RTOL else None
+    ratios = tick_ratios(xyz, jerk_mm_s3, limits, corners)
     judged = dict(ratios, **{"path jerk": ratios["path jerk"] / (1.0 + PATH_JERK_RTOL)})
     name, k, r = worst(judged)
     return (name, k, float(ratios[name][k])) if r > 1.0 + TICK_RTOL else None

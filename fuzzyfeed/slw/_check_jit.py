@@ -1,0 +1,101 @@
+"""The tick check's ratios (slw/check.py, :func:`~fuzzyfeed.slw.check.tick_ratios` then
+:func:`~fuzzyfeed.slw.check.worst`) in one compiled pass: no array per ratio over the ticks.
+
+The same floating-point operations in the same order as the numpy lines (the chord's squares added in
+order, as np.linalg.norm adds three; a difference then a division by Ts, then by the limit), and the
+same choice of tick: the first of the largest (np.nanargmax), NaN (a corner's path jerk) skipped.
+Checked bit for bit in tests/test_slw_check_jit.py. Module-level, no closure: numba's disk cache
+serves every process.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+#: The ratios: 0 feed, 1-3 velocity x y z, 4-6 acceleration x y z, 7 jerk, 8 path jerk.
+N_RATIOS = 9
+
+
+@numba.njit(cache=True, nogil=True)
+def worst_ticks(xyz, jerk, ts, feed, axis_vel, axis_acc, jerk_limit, path_scale, skip, best, where):
+    """For each ratio of tick_ratios: the largest value into ``best`` and its first tick into
+    ``where`` (−1 when every value is NaN). ``skip`` (K flags, one a path jerk) marks the path jerks that are
+    NaN (a corner's); the path jerk is compared divided by ``path_scale`` (1 + PATH_JERK_RTOL) as
+    breach judges it: ``best[8]`` is the value so divided, ``best[9]`` the ratio itself."""
+    n = xyz.shape[0]            # K + 1 ticks, K chords
+    for i in range(N_RATIOS + 1):
+        best[i] = -1.0
+    for i in range(N_RATIOS):
+        where[i] = -1
+    vx0 = 0.0                   # the velocities of the chord before (rest before the first)
+    vy0 = 0.0
+    vz0 = 0.0
+    f_prev = 0.0                # the feed of the chord before (rest before the first)
+    acc_prev = 0.0              # the tangential acceleration at the tick before
+    for k in range(n):
+        if k < n - 1:
+            dx = xyz[k + 1, 0] - xyz[k, 0]
+            dy = xyz[k + 1, 1] - xyz[k, 1]
+            dz = xyz[k + 1, 2] - xyz[k, 2]
+            vx = dx / ts
+            vy = dy / ts
+            vz = dz / ts
+            f = math.sqrt((dx * dx + dy * dy) + dz * dz) / ts
+            r = f / feed
+            if r > best[0]:   # NaN never wins; the first of equal values stays
+                best[0] = r
+                where[0] = k
+            r = abs(vx) / axis_vel[0]
+            if r > best[1]:   # NaN never wins; the first of equal values stays
+                best[1] = r
+                where[1] = k
+            r = abs(vy) / axis_vel[1]
+            if r > best[2]:   # NaN never wins; the first of equal values stays
+                best[2] = r
+                where[2] = k
+            r = abs(vz) / axis_vel[2]
+            if r > best[3]:   # NaN never wins; the first of equal values stays
+                best[3] = r
+                where[3] = k
+            r = abs(jerk[k]) / jerk_limit
+            if r > best[7]:   # NaN never wins; the first of equal values stays
+                best[7] = r
+                where[7] = k
+        else:                   # to rest after the last tick
+            vx = 0.0
+            vy = 0.0
+            vz = 0.0
+            f = 0.0
+            r = abs(jerk[k]) / jerk_limit
+            if r > best[7]:   # NaN never wins; the first of equal values stays
+                best[7] = r
+                where[7] = k
+        # the axis accelerations at tick k: (v_k − v_k−1) / Ts
+        r = abs((vx - vx0) / ts) / axis_acc[0]
+        if r > best[4]:   # NaN never wins; the first of equal values stays
+            best[4] = r
+            where[4] = k
+        r = abs((vy - vy0) / ts) / axis_acc[1]
+        if r > best[5]:   # NaN never wins; the first of equal values stays
+            best[5] = r
+            where[5] = k
+        r = abs((vz - vz0) / ts) / axis_acc[2]
+        if r > best[6]:   # NaN never wins; the first of equal values stays
+            best[6] = r
+            where[6] = k
+        # the tangential acceleration at tick k, the path jerk between ticks k − 1 and k
+        acc = (f - f_prev) / ts
+        if k >= 1 and not skip[k - 1]:
+            raw = abs(acc - acc_prev) / ts / jerk_limit
+            r = raw / path_scale
+            if r > best[8]:   # NaN never wins; the first of equal values stays
+                best[8] = r
+                where[8] = k - 1
+                best[9] = raw
+        vx0 = vx
+        vy0 = vy
+        vz0 = vz
+        f_prev = f
+        acc_prev = acc
