@@ -49,6 +49,25 @@ def test_compiled_param_at_bit_for_bit(index):
     assert np.abs(got - want).max() <= 1e-13 * span, np.flatnonzero(got != want)[:5]
 
 
+@pytest.mark.parametrize("index", [0, 5, 16, 17, 18])
+def test_small_calls_compiled_once_loaded(index):
+    """Once the u(s) kernel is loaded, a call of a few points runs it too (the look-ahead's samples):
+    the numpy iteration's floats, point by point."""
+    from fuzzyfeed.geometry._kernels import arc_kernel
+
+    curve = list(_curves())[index]
+    arc_kernel()
+    rng = np.random.default_rng(index)
+    total = curve.length
+    span = curve.domain[1] - curve.domain[0]
+    for size in (1, 2, 7, 28):
+        s = np.sort(rng.uniform(0.0, total, size))
+        got = np.atleast_1d(curve.param_at_length(s))
+        assert np.abs(got - _numpy_param_at(curve, s)).max() <= 1e-13 * span
+    assert curve.param_at_length(0.37 * total) == pytest.approx(_numpy_param_at(curve, np.array([0.37 * total]))[0],
+                                                                rel=0, abs=1e-13 * span)
+
+
 def test_compiled_param_at_closed_forms():
     nurbs_kernel()
     # a straight cubic with uneven control points: s(u) from the polynomial's own closed form;

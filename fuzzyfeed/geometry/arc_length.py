@@ -121,7 +121,9 @@ class ArcLengthTable:
         # block by block (each point's iteration is independent): temporaries stay a few MB;
         # each Newton step evaluates C' at GAUSS_ORDER nodes and the point itself
         compiled = nurbs_compiled(flat.size * (GAUSS_ORDER + 1))
-        if compiled:
+        # once loaded, the compiled u(s) serves calls of any size (the look-ahead's ~10⁴ calls of a
+        # few points each spent ~1 ms apiece in the numpy iteration's temporaries); the same floats
+        if compiled or (flat.size and arc_kernel.cache_info().currsize > 0):
             # the same iteration point by point, compiled (geometry/_arc_jit.py): the same floats
             span = self.breaks[-1] - self.breaks[0]
             arc_kernel()(curve._spans, curve._coeffs, self.breaks, self.cumulative, self.end_speeds,

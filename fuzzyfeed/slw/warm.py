@@ -5,7 +5,7 @@ has none, and the first schedule that needs one compiles it inside its own time 
 bench_slw's first polyline against 1.45 s warm; 21.6 s of compilation inside camotics bear.nc#1).
 :func:`warm_kernels` compiles or loads them once, outside the timed region: the NURBS kernel, u(s)
 (geometry/_arc_jit.py: the interpolator's arc-length inversions), the interpolator's per-tick
-terms (geometry/_chord_jit.py), the polyline run search of the blend fit, and the look-ahead's
+passes (geometry/_chord_jit.py), the tick check (slw/_check_jit.py), the polyline run search of the blend fit, and the look-ahead's
 kernels (slw/_kernels.py, typed on first call: a short blended polyline and a curve scheduled
 with both transitions).
 """
@@ -24,6 +24,7 @@ def warm_kernels() -> float:
     from fuzzyfeed.geometry.nurbs import Nurbs
     from fuzzyfeed.geometry.polyline_runs import run_search_kernel as _runs_kernel
     from fuzzyfeed.machine.limits import MachineLimits
+    from fuzzyfeed.slw.check import _worst_kernel
     from fuzzyfeed.slw.trajectory import schedule
 
     t0 = time.process_time()
@@ -31,6 +32,7 @@ def warm_kernels() -> float:
     arc_kernel()
     chord_kernels()
     _runs_kernel()
+    _worst_kernel()
     # a zig-zag of short moves (blended, corners and kinks) and a cubic (no polyline fit)
     t = np.linspace(0.0, 6.0, 241)
     pts = np.column_stack([10.0 * np.cos(t), 10.0 * np.sin(t) + 0.2 * (np.arange(t.size) % 2), 0.1 * t])
