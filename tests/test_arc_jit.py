@@ -17,7 +17,9 @@ from fuzzyfeed.geometry import power_basis as PB
 from fuzzyfeed.geometry._kernels import nurbs_kernel
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.polyline_fit import fit_polyline
+from fuzzyfeed.geometry import interpolate as I
 from fuzzyfeed.io.shapes import load_shape
+from fuzzyfeed.slw import schedule
 
 
 def _curves():
@@ -153,3 +155,100 @@ def test_chord_exact_terms_compiled_bit_for_bit(name, machine, monkeypatch):
     span = curve.domain[1] - curve.domain[0]
     assert np.abs(got - want).max() <= 1e-13 * span, np.flatnonzero(got != want)[:5]
     assert np.abs(got - tr.u).max() <= 1e-13 * span
+
+
+# the corner adjustment as main had it (whole-path arrays), the reference of the one that evaluates only the
+# points near corners
+def _old_beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.ndarray,
+                    rounds: int = 60) -> np.ndarray:
+    """``u`` with the chords beside a corner's chord in the ratio to their ``steps`` of the smooth
+    chord beyond them: where the
+    fixed point stalls with a tick that crossed the corner between passes, the smooth chord next
+    to the corner's keeps the corner's cut as its retarget (up to 6e-3 mm). The tick shared with
+    the corner's chord is moved, on its own side of the corner knot, until the chord from its
+    other end has the wanted length (bisection: the distance from a point grows along a smooth
+    piece shorter than a servo step); the corner's chord, which cuts the corner anyway, takes the
+    difference."""
+    if hard.size == 0 or u.size < 3:
+        return u
+    knot = I._holds_knot(hard, u)
+    n = knot.size
+    before = np.flatnonzero(~knot[:-1] & knot[1:])     # chord k, then the corner's chord k + 1
+    after = np.flatnonzero(~knot[1:] & knot[:-1]) + 1  # the corner's chord k - 1, then chord k
+    before = before[(before >= 1) & ~knot[np.maximum(before - 1, 0)]]
+    after = after[(after <= n - 2) & ~knot[np.minimum(after + 1, n - 1)]]
+    # the ratio chord / step the fixed point reached on the smooth chord beyond (μ up to its own
+    # last digits) is the wanted one of the chord beside the corner's; points near corners only
+    near = np.unique(np.concatenate([before - 1, before, before + 1, after, after + 1, after + 2]))
+    pts = np.full((u.size, 3), np.nan)
+    if near.size:
+        pts[near, :curve.dim] = curve.evaluate(u[near], order=0)[0]
+    chord = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(steps > 0, chord / steps, 1.0)
+    want = np.zeros(n)
+    want[before] = steps[before] * ratio[before - 1]
+    want[after] = steps[after] * ratio[after + 1]
+    off = np.abs(chord - want) > 1e-12 * np.maximum(steps, 1.0)
+    before, after = before[off[before]], after[off[after]]
+    after = after[~np.isin(after - 1, before + 1)]      # a tick moved once
+    u = u.copy()
+    for chords, moving, anchor, sign in ((before, before + 1, before, 1.0), (after, after, after + 1, -1.0)):
+        if chords.size == 0:
+            continue
+        # the bracket: from the anchor's side to the corner knot (exclusive)
+        k_at = np.searchsorted(hard, u[moving], side="left" if sign > 0 else "right") - (sign < 0)
+        end = hard[np.clip(k_at, 0, hard.size - 1)]
+        a, b = u[anchor], end - sign * 1e-12 * (curve.domain[1] - curve.domain[0])
+        p0 = pts[anchor, :curve.dim]
+        length = lambda x: np.linalg.norm(curve.evaluate(x, order=0)[0] - p0, axis=1)  # noqa: E731
+        ok = (length(b) >= want[chords]) & (sign * (b - a) > 0)
+        a, b, chords, moving, p0 = a[ok], b[ok], chords[ok], moving[ok], p0[ok]
+        for _ in range(rounds):
+            mid = 0.5 * (a + b)
+            short = length(mid) < want[chords]
+            a, b = np.where(short, mid, a), np.where(short, b, mid)
+        u[moving] = 0.5 * (a + b)
+    return u
+
+
+def _corner_schedules():
+    for curve in (slw_cases.rectangle(), slw_cases.cam_polyline(300)):      # 2-D and 3-D, every vertex a corner
+        for machine in ("equal", "slow-y"):
+            yield schedule(curve, slw_cases.RECORDED_MACHINES[machine], blend=False)
+
+
+@pytest.mark.parametrize("case", range(4))
+def test_chord_exact_passes_compiled_at_corners(case, monkeypatch):
+    """The compiled passes (corner chords capped in numpy) against the numpy lines on paths whose
+    every vertex is a corner: the same parameters."""
+    nurbs_kernel()
+    tr = list(_corner_schedules())[case]
+    s = np.array(tr.s_mm)
+    got = I.interpolate_u(tr.curve, s, "best")
+    monkeypatch.setattr(I, "nurbs_compiled", lambda n: False)
+    want = I.interpolate_u(tr.curve, s, "best")
+    span = tr.curve.domain[1] - tr.curve.domain[0]
+    assert np.abs(got - want).max() <= 1e-13 * span
+    assert np.array_equal(got, tr.u)
+
+
+@pytest.mark.parametrize("case", range(4))
+def test_beside_corners_as_main(case):
+    """The chords beside corners set as main's whole-array form sets them, from ticks moved off the
+    fixed point next to corners (a stalled pass), with the corner flags given or found."""
+    tr = list(_corner_schedules())[case]
+    curve, u0 = tr.curve, np.array(tr.u)
+    steps = np.diff(np.array(tr.s_mm))
+    hard = I._c0_knots(curve)
+    knot = I._holds_knot(hard, u0)
+    rng = np.random.default_rng(case)
+    beside = np.flatnonzero(knot[1:] & ~knot[:-1])          # the tick before each corner's chord
+    u = u0.copy()
+    u[beside] -= rng.uniform(0.0, 0.3, beside.size) * (u0[beside] - u0[beside - 1])
+    knot = I._holds_knot(hard, u)
+    want = _old_beside_corners(curve, u, steps, hard)
+    moved = int((want != u).sum())
+    assert moved > 0 or curve.dim == 2         # a 2-D curve's points kept a NaN z on main: none moved
+    assert np.array_equal(I._beside_corners(curve, u, steps, hard), want)
+    assert np.array_equal(I._beside_corners(curve, u, steps, hard, knot=knot), want)
