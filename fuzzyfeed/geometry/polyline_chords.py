@@ -101,34 +101,52 @@ class Chords:
         closed = m > 3 and np.linalg.norm(reduced[-1] - reduced[0]) <= 2.0 * tol
         return Chords(reduced, bool(closed), float(length[0]), float(length[1]), unit[0], unit[1])
 
+    def vertices(self, a: int, b: int) -> np.ndarray:
+        """Reduced vertices a..b-1."""
+        return self.reduced[a:b]
+
+    def at(self, idx: np.ndarray) -> np.ndarray:
+        """Reduced vertices at the indices ``idx``."""
+        return self.reduced[idx]
+
+    def s_at(self, idx: np.ndarray) -> np.ndarray:
+        """s at the (sorted) vertices ``idx`` (:func:`arc_length_at`)."""
+        return arc_length_at(self, idx)
+
     def window(self, lo: int, hi: int) -> Window:
-        m = self.m
-        c0, c1 = max(lo - 1, 0), min(hi, m - 1)            # chords c0..c1-1 touch vertices lo..hi-1
-        vec = np.diff(self.reduced[c0:c1 + 1], axis=0)
-        chord = np.linalg.norm(vec, axis=1)
-        unit = vec / chord[:, None]
-        w = hi - lo
-        turn = np.zeros(w)
-        a = np.empty(w)
-        b = np.empty(w)
-        v0, v1 = max(lo, 1), min(hi, m - 1)                 # inner vertices: chords v-1 and v
-        turn[v0 - lo:v1 - lo] = angle_between(unit[v0 - 1 - c0:v1 - 1 - c0], unit[v0 - c0:v1 - c0])
-        a[v0 - lo:] = chord[v0 - 1 - c0:hi - 1 - c0]
-        b[:v1 - lo] = chord[lo - c0:v1 - c0]
-        if lo == 0:
-            a[0] = self.last_chord
-        if hi == m:
-            b[-1] = self.first_chord
-        if self.closed and (lo == 0 or hi == m):
-            seam = angle_between(self.last_unit, self.first_unit)
-            if lo == 0:
-                turn[0] = seam
-            if hi == m:
-                turn[-1] = seam
-        return Window(c0, unit, chord, turn, a, b)
+        return chord_window(self, lo, hi)
 
     def turn(self, lo: int, hi: int) -> np.ndarray:
         return self.window(lo, hi).turn
+
+
+def chord_window(geo, lo: int, hi: int) -> Window:
+    """The :class:`Window` of vertices lo..hi-1 of ``geo`` (a :class:`Chords`, or any object with
+    its ends, ``m``, ``closed`` and ``vertices(a, b)``), row by row as over the whole path."""
+    m = geo.m
+    c0, c1 = max(lo - 1, 0), min(hi, m - 1)            # chords c0..c1-1 touch vertices lo..hi-1
+    vec = np.diff(geo.vertices(c0, c1 + 1), axis=0)
+    chord = np.linalg.norm(vec, axis=1)
+    unit = vec / chord[:, None]
+    w = hi - lo
+    turn = np.zeros(w)
+    a = np.empty(w)
+    b = np.empty(w)
+    v0, v1 = max(lo, 1), min(hi, m - 1)                 # inner vertices: chords v-1 and v
+    turn[v0 - lo:v1 - lo] = angle_between(unit[v0 - 1 - c0:v1 - 1 - c0], unit[v0 - c0:v1 - c0])
+    a[v0 - lo:] = chord[v0 - 1 - c0:hi - 1 - c0]
+    b[:v1 - lo] = chord[lo - c0:v1 - c0]
+    if lo == 0:
+        a[0] = geo.last_chord
+    if hi == m:
+        b[-1] = geo.first_chord
+    if geo.closed and (lo == 0 or hi == m):
+        seam = angle_between(geo.last_unit, geo.first_unit)
+        if lo == 0:
+            turn[0] = seam
+        if hi == m:
+            turn[-1] = seam
+    return Window(c0, unit, chord, turn, a, b)
 
 
 def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
