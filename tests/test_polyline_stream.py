@@ -181,3 +181,39 @@ def test_streamed_fit_of_random_polylines_is_the_whole_fit(pts, window, sizes):
         return
     fit, out, _ = _streamed(pts, sizes, window)
     assert _equal(fit, out, whole)
+
+
+def _cluster_loop(pts, merge_mm):
+    """The tiny moves' clusters as the per-point loop makes them (the reference)."""
+    ids = np.zeros(len(pts), dtype=int)
+    current, first = 0, pts[0]
+    for i in range(1, len(pts)):
+        if np.linalg.norm(pts[i] - first) >= merge_mm:
+            current += 1
+            first = pts[i]
+        ids[i] = current
+    return ids
+
+
+def test_clusters_skip_the_loop_only_where_it_starts_a_cluster():
+    """cluster_ids (whole, and in chunks from a carried state) gives the per-point loop's ids on
+    paths whose steps sit on, just under and just over the merge distance."""
+    from fuzzyfeed.geometry.polyline_chords import cluster_ids
+
+    rng = np.random.default_rng(0)
+    merge = 0.001
+    for trial in range(200):
+        n = int(rng.integers(2, 300))
+        u = rng.normal(size=(n, 3))
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        mag = rng.choice([0.0, 0.0004, merge, merge * (1 - 1e-12), merge * (1 + 1e-12), 0.0015, 0.05], size=n)
+        pts = np.cumsum(u * mag[:, None], axis=0)
+        want = _cluster_loop(pts, merge)
+        assert np.array_equal(cluster_ids(pts, merge)[0], want), trial
+        parts, cur, first, i = [], 0, None, 0
+        while i < n:
+            k = int(rng.integers(1, 40))
+            ids, cur, first = cluster_ids(pts[i:i + k], merge, cur, first)
+            parts.append(ids)
+            i += k
+        assert np.array_equal(np.concatenate(parts), want), trial

@@ -32,17 +32,45 @@ def _clusters(pts: np.ndarray, merge_mm: float) -> np.ndarray:
     """Cluster id per point: a point joins the current cluster while it lies within ``merge_mm``
     of the cluster's first point."""
     step = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    ids = np.zeros(len(pts), dtype=int)
     if np.all(step >= merge_mm):
-        ids[:] = np.arange(len(pts))
-        return ids
-    current, first = 0, pts[0]
-    for i in range(1, len(pts)):
-        if np.linalg.norm(pts[i] - first) >= merge_mm:
+        return np.arange(len(pts))
+    return cluster_ids(pts, merge_mm)[0]
+
+
+#: A step this much (relative) over the merge distance surely starts a cluster after a point that
+#: started its own (the loop's distance, a 1-D norm, differs from the rows' norm by a few ulps).
+_SURE = 1e-6
+
+
+def cluster_ids(pts: np.ndarray, merge_mm: float, current: int = 0,
+                first: np.ndarray | None = None) -> tuple[np.ndarray, int, np.ndarray]:
+    """The clusters of :func:`_clusters` from a carried state (``current`` cluster and its ``first``
+    point; None: ``pts`` starts the path): each point's id, and the state after the last point.
+    The loop ``|p − first| ≥ merge_mm`` runs at the points after a step under (1 + 1e-6)·merge_mm
+    or after a point that joined a cluster; every other point starts its own cluster (the same
+    ids as the loop over every point)."""
+    n = len(pts)
+    ids = np.empty(n, dtype=np.int64)
+    near = np.flatnonzero(np.linalg.norm(np.diff(pts, axis=0), axis=1) < merge_mm * (1 + _SURE)) + 1
+    i, started = 0, False
+    if first is None and n:
+        ids[0], first, i, started = current, pts[0], 1, True
+    while i < n:
+        if started:
+            k = int(np.searchsorted(near, i))
+            j = int(near[k]) if k < near.size else n
+            if j > i:            # points i..j-1: each starts a cluster
+                ids[i:j] = current + 1 + np.arange(j - i)
+                current += j - i
+                first, i = pts[j - 1], j
+                continue
+        started = bool(np.linalg.norm(pts[i] - first) >= merge_mm)
+        if started:
             current += 1
             first = pts[i]
         ids[i] = current
-    return ids
+        i += 1
+    return ids, current, first
 
 
 def merge_tiny_moves(pts3: np.ndarray, merge_mm: float) -> tuple[np.ndarray | None, np.ndarray]:

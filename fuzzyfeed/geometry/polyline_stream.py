@@ -42,7 +42,8 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.geometry.polyline import (DEFAULT_PATH_TOLERANCE_MM, QUANTUM_CANDIDATES, TOLERANCES, _RunContext,
                                          _tangents, _vertex_pass, polyline_curvature, quantum_counts,
                                          quantum_of_counts)
-from fuzzyfeed.geometry.polyline_chords import WINDOW_VERTICES, Chords, arc_lengths, chord_window, pad3
+from fuzzyfeed.geometry.polyline_chords import (WINDOW_VERTICES, Chords, arc_lengths, chord_window, cluster_ids,
+                                                pad3)
 from fuzzyfeed.geometry.polyline_runs import FIT_SLACK, Runs, runs_of_block, windowed_run_blocks
 
 Chunks = Callable[[], Iterable[np.ndarray]]
@@ -159,15 +160,8 @@ def _vertex_blocks(chunks: Chunks, merges: bool, merge_mm: float) -> Iterator[tu
         if not len(chunk):
             continue
         pts = pad3(np.asarray(chunk, dtype=float))
-        ids = np.empty(len(pts), dtype=np.int64)
         open_id = current
-        for i in range(len(pts)):
-            if first is None:
-                first = pts[0]
-            elif np.linalg.norm(pts[i] - first) >= merge_mm:
-                current += 1
-                first = pts[i]
-            ids[i] = current
+        ids, current, first = cluster_ids(pts, merge_mm, current, first)
         local = np.concatenate([[0], ids - open_id])
         counts = np.bincount(local, weights=np.concatenate([[pcount], np.ones(len(pts))]))
         sums = np.column_stack([np.bincount(local, weights=np.concatenate([[psum[c]], pts[:, c]]))
