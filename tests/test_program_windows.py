@@ -157,6 +157,7 @@ def test_advise_in_windows_is_the_whole_advice(tmp_path, monkeypatch, capsys, in
 
 def test_a_cut_longer_than_a_window_grows_it(tmp_path, monkeypatch, capsys):
     prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
+    monkeypatch.setattr(windows, "SPLIT_CUTS", False)
     with pytest.raises(Fallback):           # by default a window does not grow: read whole
         list(read_windows(prog, window_lines=80))
     monkeypatch.setattr(windows, "MAX_GROWTH", 4)
@@ -166,6 +167,25 @@ def test_a_cut_longer_than_a_window_grows_it(tmp_path, monkeypatch, capsys):
     assert [w.program.n_cuts for w in wins] == [0, 1, 1]         # the header, then one cut a window
     assert min(len(w.program.lines) for w in wins[1:]) > 12 * 24     # each grown to hold its cut
     _compare(tmp_path, prog, monkeypatch, capsys, 80, "--feed-mm-min", "1200")
+
+
+def test_a_cut_longer_than_a_window_is_split_inside_it(tmp_path):
+    """Without a line where a cut starts or ends, a window ends inside its last cut and the next
+    goes on with it: the windows stitched are the whole read (one cut numbered once); read again
+    from a window's start, the same windows."""
+    prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
+    assert _same_as_whole(prog, 80) > 6
+    wins = list(read_windows(prog, window_lines=80))
+    assert sum(w.continues for w in wins) > 4
+    assert [w.continued for w in wins[1:]] == [w.continues for w in wins[:-1]]
+    again = list(read_windows(prog, window_lines=80, start=wins[3]))
+    assert len(again) == len(wins) - 3
+    for w, v in zip(wins[3:], again):
+        assert (w.line0, w.cut0, w.continues, w.continued) == (v.line0, v.cut0, v.continues, v.continued)
+        assert list(w.program.lines) == list(v.program.lines)
+        for name in _PER_MOVE:
+            x, y = getattr(w.program, name), getattr(v.program, name)
+            assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), name
 
 
 @pytest.mark.parametrize("change, why", [

@@ -73,6 +73,8 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
     newline = None
     try:
         for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
+            if win.continues:
+                raise Fallback("a cut longer than a window")
             wp = win.program
             newline = wp.newline
             totals.windows += 1
