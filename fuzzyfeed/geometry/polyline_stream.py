@@ -69,14 +69,16 @@ class StreamedFit:
     _merges: bool
     _ends: np.ndarray
 
-    def pieces(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """(κ, tangent (k, 3), corner) of consecutive points, in order, all n of them."""
+    def pieces(self, chunks: Chunks | None = None) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """(κ, tangent (k, 3), corner) of consecutive points, in order, all n of them; ``chunks``: the
+        same points from another source (a read that serves the caller too)."""
+        chunks = self._chunks if chunks is None else chunks
         if not self.bounded:
-            pts = np.concatenate([np.asarray(c, dtype=float) for c in self._chunks() if len(c)])
+            pts = np.concatenate([np.asarray(c, dtype=float) for c in chunks() if len(c)])
             fit = polyline_curvature(pts, *self._given, window=self._window)
             yield fit.curvature, fit.tangent, fit.corner
             return
-        yield from _fit_pieces(self)
+        yield from _fit_pieces(self, chunks)
 
 
 def fit_chunks(chunks: Chunks, tolerance_mm: float | None = None, path_tolerance_mm: float | None = None,
@@ -250,13 +252,13 @@ class _StreamChords:
         return self.window(lo, hi).turn
 
 
-def _fit_pieces(fit: StreamedFit) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+def _fit_pieces(fit: StreamedFit, chunks: Chunks) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Pass 3 (module docstring)."""
     merge_mm = 0.1 * fit.path_tolerance_mm
     point_ids: deque = deque()
 
     def vertices():
-        for ids, v in _vertex_blocks(fit._chunks, fit._merges, merge_mm):
+        for ids, v in _vertex_blocks(chunks, fit._merges, merge_mm):
             if ids is not None and ids.size:
                 point_ids.append(ids)
             yield v
