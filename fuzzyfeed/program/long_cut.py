@@ -36,12 +36,16 @@ from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.features import features, normalise
 from fuzzyfeed.fuzzy.filters import curvature_peaks, filter_terms
 from fuzzyfeed.fuzzy.windows import forward_bounds, range_max
+from fuzzyfeed.geometry.polyline_chords import WINDOW_VERTICES
 from fuzzyfeed.geometry.sampling import MAX_POINTS, segment_pieces
 from fuzzyfeed.program.cuts import RunGeometry, cut_moves, path_length, sample_moves
 from fuzzyfeed.program.feeds import move_pieces
 from fuzzyfeed.program.model import LINE
 from fuzzyfeed.program.stream import MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, margin_mm
 from fuzzyfeed.program.windows import Fallback, Window, read_windows
+
+#: Vertices a window of the cut's G1-run fit holds (:func:`~fuzzyfeed.geometry.polyline_stream.fit_chunks`).
+FIT_WINDOW = WINDOW_VERTICES
 
 
 def cut_windows(path, first: Window, k: int, tools, window_lines: int) -> Iterator[tuple[Window, np.ndarray]]:
@@ -205,7 +209,7 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
                 yield np.vstack([blk["start"][:1], blk["end"]]) if first_block else blk["end"]
                 first_block = False
 
-    fit = fit_chunks(chunks)
+    fit = fit_chunks(chunks, window=FIT_WINDOW)
     n = fit.n - 1                                   # moves: the vertices less one
     margin = margin_mm(seq)
     pp = min(int(piece_points), MAX_POINTS)
