@@ -151,6 +151,14 @@ class _Pass:
             self.n_moves += added
         return True
 
+    def close(self) -> None:
+        """Stop the pass's reads and drop its buffer (the fit's generator refers back to the pass)."""
+        self._pieces.close()
+        self._blocks.close()
+        self._moves.clear()
+        self.f = {name: None for name in _MOVE_FIELDS}
+        self.vk = self.vc = self.cum_cnt = self.cum_len = self.sv = None
+
     @property
     def b1(self) -> int:
         return self.b0 + self.n_moves
@@ -267,7 +275,7 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
             break
         ps.release(min(a, lo))
         a, b = b, nb
-    del ps
+    ps.close()
     span = (0.0, length)
     total = length if length > 0 else 1.0
     clip = seq.dk_clip_1_mm
@@ -275,14 +283,18 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
 
     def pieces_of_pass():
         ps = _Pass(blocks(), fit)
-        for p, (a, b, lo, hi, anchor, g_lo) in enumerate(plan):
-            ps.until(lambda: ps.b1 >= hi)
-            prog, ms = sample(ps, lo, hi)
-            va = lo + 1 if lo > 0 else 0
-            s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), anchor)
-            yield p, a, b, lo, hi, g_lo, prog, ms, s, ps.b0
-            nxt_lo = plan[p + 1][2] if p + 1 < len(plan) else hi
-            ps.release(min(nxt_lo, a))
+        try:
+            for p, (a, b, lo, hi, anchor, g_lo) in enumerate(plan):
+                ps.until(lambda: ps.b1 >= hi)
+                prog, ms = sample(ps, lo, hi)
+                va = lo + 1 if lo > 0 else 0
+                s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), anchor)
+                yield p, a, b, lo, hi, g_lo, prog, ms, s, ps.b0
+                del prog, ms, s
+                nxt_lo = plan[p + 1][2] if p + 1 < len(plan) else hi
+                ps.release(min(nxt_lo, a))
+        finally:
+            ps.close()
 
     # pass 1: the range of the clipped Dκ (and κ, Dκ at the curvature peaks)
     dk_lo, dk_hi = np.inf, -np.inf
