@@ -46,7 +46,9 @@ quantities are cheap first passes (the rounding quantum counted in chunks, the m
 extent); the run search resumes window after window with the last run carried
 (:func:`~fuzzyfeed.geometry.polyline_runs.line_arc_runs_windowed`); the per-vertex pass needs of
 other windows only the runs (their meets' tangent breaks, the smooth chains and their middles' arc
-length, one cumulative sum carried). The full-precision branch (no quantum) is not windowed.
+length, one cumulative sum carried). The full-precision branch (no quantum) is not windowed. Points
+given in chunks (a cut read from its file) are fitted so by
+:func:`fuzzyfeed.geometry.polyline_stream.fit_chunks`, without the whole array.
 """
 
 from __future__ import annotations

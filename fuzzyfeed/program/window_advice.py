@@ -2,7 +2,9 @@
 window, advise its cuts in pieces (:func:`fuzzyfeed.program.stream.stream_program_advice`), hand
 their CSV rows on, write its lines back (:func:`fuzzyfeed.program.rewrite.rewrite_chunks`, the F in
 force carried from window to window), drop it. Every cut lies in one window, so its advice is the
-whole read's, bit for bit; the rows get the file's line and cut numbers. What the summary needs
+whole read's, bit for bit; the rows get the file's line and cut numbers. A cut split between
+windows is advised from the file in pieces (:func:`~fuzzyfeed.program.long_cut.advise_long_cut`,
+bit for bit the stream's) and each window takes the pieces of its own moves (:class:`_LongCut`). What the summary needs
 is kept as sums (no per-sample or per-move array of the program): the advised fraction's min, max,
 sum and count, the times at the programmed and advised F, the split points and the coverage.
 """

@@ -10,9 +10,12 @@ numbers and epochs. A window is kept up to the line of its last move where a fre
 whole read's chain (a move that starts a cut, or one that ends the cut before it: a rapid, a kept
 move); the lines from there are read again with the next window, so that every cut lies in one
 window, each window's cuts are complete and the stop of every move is decided by the move after it
-(:attr:`Program.stops`). A window that holds no such line is read again twice as long, up to
-:data:`MAX_GROWTH` times: a cut longer than that is not split (the program is read whole, as
-before: memory then grows with the program).
+(:attr:`Program.stops`). A window that holds no such line (a cut longer than a window) ends at its
+last line whose moves all go on that cut (:data:`SPLIT_CUTS`): the next window goes on with the
+cut as its cut 0 (:attr:`Window.continues`, :attr:`Window.continued`; checked to be one cut there),
+and the cut is advised from the file in pieces (:mod:`fuzzyfeed.program.long_cut`), each window read
+again from its start state (:attr:`Window.start`). Without :data:`SPLIT_CUTS` such a window is read
+again twice as long, up to :data:`MAX_GROWTH` times, else the program is read whole.
 
 Where a join would not be exact the read gives up (:class:`Fallback`) and the caller reads the
 program whole, as before: parameters, expressions or O-words (executed rows), G91 axis
