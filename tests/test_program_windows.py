@@ -234,6 +234,7 @@ def test_a_fallback_keeps_no_window_alive_during_the_whole_read(tmp_path, monkey
     prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
     monkeypatch.setattr(windows, "MIN_LINES", 1)
     monkeypatch.setattr(windows, "WINDOW_LINES", 80)
+    monkeypatch.setattr(windows, "SPLIT_CUTS", False)       # a cut longer than a window: read whole
     alive = []
     real = read.read_program
 
