@@ -44,25 +44,44 @@ from fuzzyfeed.program.model import LINE
 from fuzzyfeed.program.stream import MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, margin_mm
 from fuzzyfeed.program.windows import Fallback, Window, read_windows
 
+#: The passes read the cut in windows of this fraction of the windows' lines.
+PASS_SPLIT = 4
 #: Vertices a window of the cut's G1-run fit holds (:func:`~fuzzyfeed.geometry.polyline_stream.fit_chunks`).
 FIT_WINDOW = WINDOW_VERTICES
 
 
 def cut_windows(path, first: Window, k: int, tools, window_lines: int) -> Iterator[tuple[Window, np.ndarray]]:
     """The windows of the cut that starts as cut ``k`` (the last) of window ``first`` and goes on
-    in the windows after it, read again from ``first``'s start, with its sampled moves in each
-    (:func:`~fuzzyfeed.program.cuts.cut_moves`)."""
-    for i, win in enumerate(read_windows(path, tools=tools, window_lines=window_lines, start=first)):
-        kk = k if i == 0 else 0
-        every = win.program.cut_moves(kk)
-        if not np.all(win.program.feed_mm_min[every] > 0):
+    in the windows after it, read again from ``first``'s start in windows of
+    ``window_lines // PASS_SPLIT`` lines (the reader's working memory is a window's), with its
+    sampled moves in each (:func:`~fuzzyfeed.program.cuts.cut_moves`). The cut is found by the line
+    of its first move; the windows give the whole read's moves however they are cut."""
+    at = int(first.program.move_line[first.program.cut_moves(k)[0]]) + first.line0
+    lines = max(2, int(window_lines) // PASS_SPLIT)
+    j = None
+    for win in read_windows(path, tools=tools, window_lines=lines, start=first):
+        p = win.program
+        if j is None:
+            starts = [c for c in range(p.n_cuts) if int(p.move_line[p.cut_moves(c)[0]]) + win.line0 == at]
+            if not starts:
+                continue
+            j = starts[0]
+            goes_on = j == p.n_cuts - 1 and win.continues
+        else:
+            if not win.continued:
+                raise Fallback("a cut split between windows read again differently")
+            j = 0
+            goes_on = win.continues and p.n_cuts == 1
+        every = p.cut_moves(j)
+        if not np.all(p.feed_mm_min[every] > 0):
             raise Fallback("a move without F: the whole read names it")
-        moves, kinds, _ = cut_moves(win.program, kk)
+        moves, kinds, _ = cut_moves(p, j)
         if np.any(kinds != LINE):
             raise Fallback("a cut longer than a window with arcs or G5.2 blocks")
         yield win, moves
-        if i > 0 and not (win.continues and win.program.n_cuts == 1):
+        if not goes_on:
             return
+    raise Fallback("a cut split between windows not found again")
 
 
 def _blocks(path, first, k, tools, window_lines, step_mm):
