@@ -157,6 +157,7 @@ def test_advise_in_windows_is_the_whole_advice(tmp_path, monkeypatch, capsys, in
 
 def test_a_cut_longer_than_a_window_grows_it(tmp_path, monkeypatch, capsys):
     prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
+    monkeypatch.setattr(windows, "SPLIT_CUTS", False)
     with pytest.raises(Fallback):           # by default a window does not grow: read whole
         list(read_windows(prog, window_lines=80))
     monkeypatch.setattr(windows, "MAX_GROWTH", 4)
@@ -166,6 +167,25 @@ def test_a_cut_longer_than_a_window_grows_it(tmp_path, monkeypatch, capsys):
     assert [w.program.n_cuts for w in wins] == [0, 1, 1]         # the header, then one cut a window
     assert min(len(w.program.lines) for w in wins[1:]) > 12 * 24     # each grown to hold its cut
     _compare(tmp_path, prog, monkeypatch, capsys, 80, "--feed-mm-min", "1200")
+
+
+def test_a_cut_longer_than_a_window_is_split_inside_it(tmp_path):
+    """Without a line where a cut starts or ends, a window ends inside its last cut and the next
+    goes on with it: the windows stitched are the whole read (one cut numbered once); read again
+    from a window's start, the same windows."""
+    prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
+    assert _same_as_whole(prog, 80) > 6
+    wins = list(read_windows(prog, window_lines=80))
+    assert sum(w.continues for w in wins) > 4
+    assert [w.continued for w in wins[1:]] == [w.continues for w in wins[:-1]]
+    again = list(read_windows(prog, window_lines=80, start=wins[3]))
+    assert len(again) == len(wins) - 3
+    for w, v in zip(wins[3:], again):
+        assert (w.line0, w.cut0, w.continues, w.continued) == (v.line0, v.cut0, v.continues, v.continued)
+        assert list(w.program.lines) == list(v.program.lines)
+        for name in _PER_MOVE:
+            x, y = getattr(w.program, name), getattr(v.program, name)
+            assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), name
 
 
 @pytest.mark.parametrize("change, why", [
@@ -214,6 +234,7 @@ def test_a_fallback_keeps_no_window_alive_during_the_whole_read(tmp_path, monkey
     prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
     monkeypatch.setattr(windows, "MIN_LINES", 1)
     monkeypatch.setattr(windows, "WINDOW_LINES", 80)
+    monkeypatch.setattr(windows, "SPLIT_CUTS", False)       # a cut longer than a window: read whole
     alive = []
     real = read.read_program
 
@@ -226,3 +247,96 @@ def test_a_fallback_keeps_no_window_alive_during_the_whole_read(tmp_path, monkey
     monkeypatch.chdir(tmp_path)
     assert main(["advise", str(prog), "-o", "x.csv", "--gcode", "y.ngc"]) == 0
     assert alive == [0]
+
+
+def _spiral(path: Path, n: int = 1500, tiny: bool = False, arcs: bool = False, inch: bool = False) -> Path:
+    """One long cut: an Archimedean spiral of G1 moves to 4 decimals (``tiny``: repeated points and
+    0.1 µm jogs, merged by the fit; ``arcs``: a few G2 moves inside the cut)."""
+    u = 1 / 25.4 if inch else 1.0
+    rng = np.random.default_rng(11)
+    t = np.linspace(0, 12 * np.pi, n)
+    r = 2 + 1.5 * t
+    xs, ys = r * np.cos(t), r * np.sin(t)
+    out = ["%", "G20 G90 G94 G17" if inch else "G21 G90 G94 G17", "T1 M6", "S9000 M3",
+           f"G0 X{xs[0] * u:.4f} Y{ys[0] * u:.4f} Z{5 * u:.4f}", f"G1 Z{-1 * u:.4f} F{200 * u:.3f}"]
+    for i in range(1, n):
+        word = f" F{1800 * u:.3f}" if i == 1 else ""
+        if arcs and i % 400 == 0:
+            out.append(f"G1 X{xs[i] * u:.4f} Y{ys[i] * u:.4f}")
+            out.append(f"G2 X{xs[i] * u + 1:.4f} Y{ys[i] * u:.4f} I0.5 J0")
+            out.append(f"G1 X{xs[i] * u:.4f} Y{ys[i] * u:.4f}")
+            continue
+        out.append(f"G1 X{xs[i] * u:.4f} Y{ys[i] * u:.4f}{word}")
+        if tiny and rng.random() < 0.1:
+            out.append(f"G1 X{xs[i] * u:.4f} Y{ys[i] * u:.4f}")                         # a repeated point
+        if tiny and rng.random() < 0.05:
+            out.append(f"G1 X{(xs[i] * u + 0.0001):.4f} Y{ys[i] * u:.4f}")              # a 0.1 µm jog
+    out += [f"G0 Z{5 * u:.4f}", "M5", "M30", "%"]
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+@pytest.fixture
+def long_cuts(monkeypatch):
+    """Count the long cuts advised in pieces and their pieces; small pieces, a small fit window
+    (the fit in chunks), the compiled run search on both sides."""
+    import fuzzyfeed.geometry.polyline_runs as runs
+    import fuzzyfeed.program.long_cut as long_cut
+    import fuzzyfeed.program.stream as stream
+
+    monkeypatch.setattr(runs, "COMPILED_MIN_VERTICES", 0)
+    monkeypatch.setattr(stream, "DEFAULT_PIECE_POINTS", 300)
+    monkeypatch.setattr(long_cut, "FIT_WINDOW", 150)
+    seen = {"cuts": 0, "pieces": 0, "ended": 0}
+    real = long_cut.advise_long_cut
+
+    def spy(*a, **k):
+        seen["cuts"] += 1
+        for p in real(*a, **k):
+            seen["pieces"] += 1
+            yield p
+        seen["ended"] += 1
+
+    monkeypatch.setattr(long_cut, "advise_long_cut", spy)
+    return seen
+
+
+@pytest.mark.parametrize("inch", [False, True])
+@pytest.mark.parametrize("window_lines", [60, 130])
+def test_a_cut_longer_than_a_window_is_advised_in_pieces(tmp_path, monkeypatch, capsys, long_cuts, inch,
+                                                        window_lines):
+    """A cut over many windows, advised from the file in pieces (the fit in chunks, the plan and s
+    carried, the Dκ range and the peaks from their passes, the filter's sums handed on): CSV,
+    sidecar, program and summary byte for byte the whole read's, in mm and in inches."""
+    prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12, inch=inch)
+    _compare(tmp_path, prog, monkeypatch, capsys, window_lines)
+    assert long_cuts["cuts"] == 2 and long_cuts["ended"] == 2 and long_cuts["pieces"] > 4
+
+
+@pytest.mark.parametrize("case", ["spiral", "tiny moves", "inch spiral", "capped"])
+def test_one_long_cut_is_the_whole_advice(tmp_path, monkeypatch, capsys, long_cuts, case):
+    prog = _spiral(tmp_path / "s.ngc", tiny=case == "tiny moves", inch=case == "inch spiral")
+    extra = ("--feed-mm-min", "900") if case == "capped" else ()
+    _compare(tmp_path, prog, monkeypatch, capsys, 200, *extra)
+    assert long_cuts["cuts"] == 1 and long_cuts["ended"] == 1 and long_cuts["pieces"] > 4
+
+
+def test_a_long_cut_with_arcs_falls_back_to_the_whole_read(tmp_path, monkeypatch, capsys, long_cuts):
+    """Arcs in a cut longer than a window: not advised in pieces from the file (the whole read
+    gives the same outputs)."""
+    prog = _spiral(tmp_path / "a.ngc", arcs=True)
+    _compare(tmp_path, prog, monkeypatch, capsys, 200)
+    assert long_cuts["cuts"] == 1 and long_cuts["pieces"] == 0
+
+
+def test_the_pieces_need_their_carried_state(tmp_path, monkeypatch, capsys, long_cuts):
+    """The check can fail: pieces whose arc length is not carried from the piece before (each
+    summed from 0) give another CSV."""
+    import fuzzyfeed.program.long_cut as long_cut
+
+    prog = _spiral(tmp_path / "s.ngc")
+    real = long_cut.path_length
+    monkeypatch.setattr(long_cut, "path_length", lambda pts, anchor, s0: real(pts, anchor, 0.0))
+    with pytest.raises(AssertionError):
+        _compare(tmp_path, prog, monkeypatch, capsys, 200)
+    assert long_cuts["pieces"] > 4

@@ -46,7 +46,9 @@ quantities are cheap first passes (the rounding quantum counted in chunks, the m
 extent); the run search resumes window after window with the last run carried
 (:func:`~fuzzyfeed.geometry.polyline_runs.line_arc_runs_windowed`); the per-vertex pass needs of
 other windows only the runs (their meets' tangent breaks, the smooth chains and their middles' arc
-length, one cumulative sum carried). The full-precision branch (no quantum) is not windowed.
+length, one cumulative sum carried). The full-precision branch (no quantum) is not windowed. Points
+given in chunks (a cut read from its file) are fitted so by
+:func:`fuzzyfeed.geometry.polyline_stream.fit_chunks`, without the whole array.
 """
 
 from __future__ import annotations
@@ -58,7 +60,7 @@ from typing import NamedTuple
 import numpy as np
 
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.geometry.polyline_chords import (WINDOW_VERTICES, Chords, Window, angle_between, arc_length_at,
+from fuzzyfeed.geometry.polyline_chords import (WINDOW_VERTICES, Chords, Window, angle_between,
                                                 arc_lengths, merge_tiny_moves, pad3)
 from fuzzyfeed.geometry.polyline_runs import (FIT_SLACK, MIN_RUN, Runs, line_arc_runs, line_arc_runs_windowed,
                                               tangent_of)
@@ -87,32 +89,52 @@ class PolylineCurvature:
     quantum_mm: float | None
 
 
+#: The roundings :func:`rounding_quantum` tries, coarsest first (mm).
+QUANTUM_CANDIDATES = tuple(sorted({10.0 ** -d for d in range(2, 10)} | {25.4 * 10.0 ** -d for d in range(4, 11)},
+                                  reverse=True))
+
+
+def quantum_counts(values: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """Of a chunk of coordinates: the finite values, and per candidate of :data:`QUANTUM_CANDIDATES`
+    how many are its multiples (to 1e-6 q) and whether any is over 10¹² of it (exact integers:
+    chunks' counts add up to the whole's)."""
+    v = np.asarray(values, dtype=float).ravel()
+    v = v[np.isfinite(v)]
+    count = np.zeros(len(QUANTUM_CANDIDATES), dtype=np.int64)
+    big = np.zeros(len(QUANTUM_CANDIDATES), dtype=bool)
+    for k, q in enumerate(QUANTUM_CANDIDATES):
+        r = v / q
+        if r.size and np.abs(r).max() > 1e12:
+            big[k] = True
+            break               # coarser candidates decide first; finer ones are over 10¹² too
+        count[k] = np.count_nonzero(np.abs(r - np.round(r)) <= 1e-6)
+    return v.size, count, big
+
+
+def quantum_of_counts(size: int, count: np.ndarray, big: np.ndarray) -> float | None:
+    """The coarsest candidate whose multiples are ≥ :data:`QUANTUM_SHARE` of ``size`` values, None at
+    the first candidate over 10¹² (full-precision values) or none."""
+    if size == 0:
+        return None
+    for q, c, b in zip(QUANTUM_CANDIDATES, count.tolist(), big.tolist()):
+        if b:
+            return None
+        if c / size >= QUANTUM_SHARE:
+            return q
+    return None
+
+
 def rounding_quantum(points: np.ndarray) -> float | None:
     """The coarsest q in {10⁻ᵈ : d = 2…9} ∪ {25.4·10⁻ᵈ : d = 4…10} mm that ≥ :data:`QUANTUM_SHARE` of the
     coordinates are integer multiples of (to 1e-6 q), or None (full-precision values). The counts
     are summed over chunks of :data:`WINDOW_VERTICES` points (exact integers: the same share)."""
     pts = np.asarray(points, dtype=float)
     pts = pts.reshape(len(pts), -1) if pts.ndim > 1 else pts.reshape(-1, 1)
-    size = int(sum(int(np.isfinite(pts[c:c + WINDOW_VERTICES]).sum())
-                   for c in range(0, len(pts), WINDOW_VERTICES)))
-    if size == 0:
-        return None
-    candidates = sorted({10.0 ** -d for d in range(2, 10)} | {25.4 * 10.0 ** -d for d in range(4, 11)},
-                        reverse=True)
-    for q in candidates:
-        count, big = 0, False
-        for c in range(0, len(pts), WINDOW_VERTICES):
-            v = pts[c:c + WINDOW_VERTICES].ravel()
-            r = v[np.isfinite(v)] / q
-            if r.size and np.abs(r).max() > 1e12:
-                big = True
-                break
-            count += int(np.count_nonzero(np.abs(r - np.round(r)) <= 1e-6))
-        if big:
-            return None
-        if count / size >= QUANTUM_SHARE:
-            return q
-    return None
+    size, count, big = 0, np.zeros(len(QUANTUM_CANDIDATES), dtype=np.int64), np.zeros(len(QUANTUM_CANDIDATES), bool)
+    for c in range(0, len(pts), WINDOW_VERTICES):
+        n, k, b = quantum_counts(pts[c:c + WINDOW_VERTICES])
+        size, count, big = size + n, count + k, big | b
+    return quantum_of_counts(size, count, big)
 
 
 def blend_curvature(theta: np.ndarray, a: np.ndarray, b: np.ndarray, path_tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -254,20 +276,21 @@ class _RunContext(NamedTuple):
         if count:
             meet = np.flatnonzero(last[:-1] == first[1:])
             v = first[meet + 1]
-            vec_in = geo.reduced[v] - geo.reduced[v - 1]
-            vec_out = geo.reduced[v + 1] - geo.reduced[v]
+            pv = geo.at(v)
+            vec_in = pv - geo.at(v - 1)
+            vec_out = geo.at(v + 1) - pv
             len_in, len_out = np.linalg.norm(vec_in, axis=1), np.linalg.norm(vec_out, axis=1)
             u_in, u_out = vec_in / len_in[:, None], vec_out / len_out[:, None]
             axis, center = runs.axis, runs.center
-            t_in = tangent_of(axis[meet], center[meet], geo.reduced[v], u_in)
-            t_out = tangent_of(axis[meet + 1], center[meet + 1], geo.reduced[v], u_out)
+            t_in = tangent_of(axis[meet], center[meet], pv, u_in)
+            t_out = tangent_of(axis[meet + 1], center[meet + 1], pv, u_out)
             theta = angle_between(t_in, t_out)
             noise = tol * FIT_SLACK * (1.0 / len_in + 1.0 / len_out)
             meet_theta[meet] = np.where(theta > noise, theta, 0.0)
             m = geo.m
             if geo.closed and first[0] == 0 and last[-1] == m - 1:   # the seam joins two runs
-                t_in = tangent_of(axis[-1:], center[-1:], geo.reduced[-1:], geo.last_unit[None, :])
-                t_out = tangent_of(axis[:1], center[:1], geo.reduced[:1], geo.first_unit[None, :])
+                t_in = tangent_of(axis[-1:], center[-1:], geo.at(np.array([m - 1])), geo.last_unit[None, :])
+                t_out = tangent_of(axis[:1], center[:1], geo.at(np.array([0])), geo.first_unit[None, :])
                 seam = float(angle_between(t_in, t_out)[0])
         chains = np.zeros((0, 2), dtype=int)
         mids = np.zeros(count)
@@ -280,7 +303,7 @@ class _RunContext(NamedTuple):
             ends = np.concatenate([ends, [count]])
             chains = np.column_stack([starts, ends])[ends - starts > 1]
             if chains.size:
-                s_first, s_last = arc_length_at(geo, first), arc_length_at(geo, last)
+                s_first, s_last = geo.s_at(first), geo.s_at(last)
                 mids = (s_first + s_last) / 2
         return _RunContext(runs, meet_theta, seam, chains, mids)
 

@@ -32,17 +32,45 @@ def _clusters(pts: np.ndarray, merge_mm: float) -> np.ndarray:
     """Cluster id per point: a point joins the current cluster while it lies within ``merge_mm``
     of the cluster's first point."""
     step = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    ids = np.zeros(len(pts), dtype=int)
     if np.all(step >= merge_mm):
-        ids[:] = np.arange(len(pts))
-        return ids
-    current, first = 0, pts[0]
-    for i in range(1, len(pts)):
-        if np.linalg.norm(pts[i] - first) >= merge_mm:
+        return np.arange(len(pts))
+    return cluster_ids(pts, merge_mm)[0]
+
+
+#: A step this much (relative) over the merge distance surely starts a cluster after a point that
+#: started its own (the loop's distance, a 1-D norm, differs from the rows' norm by a few ulps).
+_SURE = 1e-6
+
+
+def cluster_ids(pts: np.ndarray, merge_mm: float, current: int = 0,
+                first: np.ndarray | None = None) -> tuple[np.ndarray, int, np.ndarray]:
+    """The clusters of :func:`_clusters` from a carried state (``current`` cluster and its ``first``
+    point; None: ``pts`` starts the path): each point's id, and the state after the last point.
+    The loop ``|p − first| ≥ merge_mm`` runs at the points after a step under (1 + 1e-6)·merge_mm
+    or after a point that joined a cluster; every other point starts its own cluster (the same
+    ids as the loop over every point)."""
+    n = len(pts)
+    ids = np.empty(n, dtype=np.int64)
+    near = np.flatnonzero(np.linalg.norm(np.diff(pts, axis=0), axis=1) < merge_mm * (1 + _SURE)) + 1
+    i, started = 0, False
+    if first is None and n:
+        ids[0], first, i, started = current, pts[0], 1, True
+    while i < n:
+        if started:
+            k = int(np.searchsorted(near, i))
+            j = int(near[k]) if k < near.size else n
+            if j > i:            # points i..j-1: each starts a cluster
+                ids[i:j] = current + 1 + np.arange(j - i)
+                current += j - i
+                first, i = pts[j - 1], j
+                continue
+        started = bool(np.linalg.norm(pts[i] - first) >= merge_mm)
+        if started:
             current += 1
             first = pts[i]
         ids[i] = current
-    return ids
+        i += 1
+    return ids, current, first
 
 
 def merge_tiny_moves(pts3: np.ndarray, merge_mm: float) -> tuple[np.ndarray | None, np.ndarray]:
@@ -101,34 +129,52 @@ class Chords:
         closed = m > 3 and np.linalg.norm(reduced[-1] - reduced[0]) <= 2.0 * tol
         return Chords(reduced, bool(closed), float(length[0]), float(length[1]), unit[0], unit[1])
 
+    def vertices(self, a: int, b: int) -> np.ndarray:
+        """Reduced vertices a..b-1."""
+        return self.reduced[a:b]
+
+    def at(self, idx: np.ndarray) -> np.ndarray:
+        """Reduced vertices at the indices ``idx``."""
+        return self.reduced[idx]
+
+    def s_at(self, idx: np.ndarray) -> np.ndarray:
+        """s at the (sorted) vertices ``idx`` (:func:`arc_length_at`)."""
+        return arc_length_at(self, idx)
+
     def window(self, lo: int, hi: int) -> Window:
-        m = self.m
-        c0, c1 = max(lo - 1, 0), min(hi, m - 1)            # chords c0..c1-1 touch vertices lo..hi-1
-        vec = np.diff(self.reduced[c0:c1 + 1], axis=0)
-        chord = np.linalg.norm(vec, axis=1)
-        unit = vec / chord[:, None]
-        w = hi - lo
-        turn = np.zeros(w)
-        a = np.empty(w)
-        b = np.empty(w)
-        v0, v1 = max(lo, 1), min(hi, m - 1)                 # inner vertices: chords v-1 and v
-        turn[v0 - lo:v1 - lo] = angle_between(unit[v0 - 1 - c0:v1 - 1 - c0], unit[v0 - c0:v1 - c0])
-        a[v0 - lo:] = chord[v0 - 1 - c0:hi - 1 - c0]
-        b[:v1 - lo] = chord[lo - c0:v1 - c0]
-        if lo == 0:
-            a[0] = self.last_chord
-        if hi == m:
-            b[-1] = self.first_chord
-        if self.closed and (lo == 0 or hi == m):
-            seam = angle_between(self.last_unit, self.first_unit)
-            if lo == 0:
-                turn[0] = seam
-            if hi == m:
-                turn[-1] = seam
-        return Window(c0, unit, chord, turn, a, b)
+        return chord_window(self, lo, hi)
 
     def turn(self, lo: int, hi: int) -> np.ndarray:
         return self.window(lo, hi).turn
+
+
+def chord_window(geo, lo: int, hi: int) -> Window:
+    """The :class:`Window` of vertices lo..hi-1 of ``geo`` (a :class:`Chords`, or any object with
+    its ends, ``m``, ``closed`` and ``vertices(a, b)``), row by row as over the whole path."""
+    m = geo.m
+    c0, c1 = max(lo - 1, 0), min(hi, m - 1)            # chords c0..c1-1 touch vertices lo..hi-1
+    vec = np.diff(geo.vertices(c0, c1 + 1), axis=0)
+    chord = np.linalg.norm(vec, axis=1)
+    unit = vec / chord[:, None]
+    w = hi - lo
+    turn = np.zeros(w)
+    a = np.empty(w)
+    b = np.empty(w)
+    v0, v1 = max(lo, 1), min(hi, m - 1)                 # inner vertices: chords v-1 and v
+    turn[v0 - lo:v1 - lo] = angle_between(unit[v0 - 1 - c0:v1 - 1 - c0], unit[v0 - c0:v1 - c0])
+    a[v0 - lo:] = chord[v0 - 1 - c0:hi - 1 - c0]
+    b[:v1 - lo] = chord[lo - c0:v1 - c0]
+    if lo == 0:
+        a[0] = geo.last_chord
+    if hi == m:
+        b[-1] = geo.first_chord
+    if geo.closed and (lo == 0 or hi == m):
+        seam = angle_between(geo.last_unit, geo.first_unit)
+        if lo == 0:
+            turn[0] = seam
+        if hi == m:
+            turn[-1] = seam
+    return Window(c0, unit, chord, turn, a, b)
 
 
 def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:

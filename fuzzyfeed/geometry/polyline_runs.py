@@ -224,17 +224,33 @@ def line_arc_runs_windowed(geo: Chords, tol: float, path_tol: float, window: int
     the kernel stops before a trial reaching the window's last vertex, so every trial is the one the
     search over the whole sequence makes, and the runs are its runs, bit for bit (a window without
     progress, inside one long run, is doubled)."""
+    done = [(ij, kind, fit) for ij, kind, fit, _ in windowed_run_blocks(geo, tol, path_tol, window)]
+    return _runs_from(np.concatenate([d[0] for d in done]), np.concatenate([d[1] for d in done]),
+                      np.concatenate([d[2] for d in done]))
+
+
+def runs_of_block(ij: np.ndarray, kind: np.ndarray, fit: np.ndarray) -> Runs:
+    """A block of :func:`windowed_run_blocks` as :class:`Runs`."""
+    return _runs_from(ij, kind, fit)
+
+
+def windowed_run_blocks(geo, tol: float, path_tol: float, window: int):
+    """:func:`line_arc_runs_windowed` as it goes: yields ``(ij, kind, fit, low)`` per window — the
+    runs found final there (global vertex indices; the last run is held back while the next may
+    merge into it) and the lowest vertex the search may still read (``geo.vertices(a, b)`` is asked
+    for a ≥ low only, b rising window after window). The last block holds the last run."""
     m = geo.m
     kernel = run_search_kernel()
-    done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     pend = None                  # (ij, kind, fit) of the last run found, global vertex indices
     stop = np.zeros(1, dtype=np.int64)
+    empty = (np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros((0, 7)))
     i, extra = 0, window
     while i + MIN_RUN - 1 < m:
+        out = []
         carry = pend is not None and int(pend[0][1]) == i
         lo = int(pend[0][0]) if carry else i
         hi = min(m, i + extra)
-        pts = np.ascontiguousarray(geo.reduced[lo:hi])
+        pts = np.ascontiguousarray(geo.vertices(lo, hi))
         turn = geo.turn(lo, hi)
         size = (hi - lo) // (MIN_RUN - 1) + 2
         ij = np.zeros((size, 2), dtype=np.int64)
@@ -243,7 +259,7 @@ def line_arc_runs_windowed(geo: Chords, tol: float, path_tol: float, window: int
         if carry:
             ij[0], kind[0], fit[0] = pend[0] - lo, pend[1], pend[2]
         elif pend is not None:
-            done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
+            out.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
             pend = None
         limit = hi - lo if hi == m else hi - lo - 1
         count = kernel(pts, turn, _run_candidates(pts, tol), float(tol), float(path_tol), ij, kind, fit,
@@ -251,20 +267,23 @@ def line_arc_runs_windowed(geo: Chords, tol: float, path_tol: float, window: int
         resume = int(stop[0]) + lo
         if resume == i and hi < m:                  # no trial fitted in the window: widen it
             extra *= 2
+            if out:
+                yield (*out[0], lo)
             continue
         extra = window
         if count:
-            done.append((ij[:count - 1] + lo, kind[:count - 1], fit[:count - 1]))
+            out.append((ij[:count - 1] + lo, kind[:count - 1], fit[:count - 1]))
             pend = (ij[count - 1] + lo, int(kind[count - 1]), fit[count - 1].copy())
         i = resume
+        low = min(int(pend[0][0]), i) if pend is not None else i
+        block = tuple(np.concatenate([o[k] for o in out]) for k in range(3)) if out else empty
+        yield (*block, low)
         if hi == m:
             break
     if pend is not None:
-        done.append((pend[0][None, :], np.array([pend[1]]), pend[2][None, :]))
-    if not done:
-        return _runs_from(np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros((0, 7)))
-    return _runs_from(np.concatenate([d[0] for d in done]), np.concatenate([d[1] for d in done]),
-                      np.concatenate([d[2] for d in done]))
+        yield pend[0][None, :], np.array([pend[1]]), pend[2][None, :], m
+    else:
+        yield (*empty, m)
 
 
 def _runs_numpy(pts, turn, maybe, tol, path_tol) -> Runs:

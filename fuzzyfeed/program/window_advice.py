@@ -2,7 +2,9 @@
 window, advise its cuts in pieces (:func:`fuzzyfeed.program.stream.stream_program_advice`), hand
 their CSV rows on, write its lines back (:func:`fuzzyfeed.program.rewrite.rewrite_chunks`, the F in
 force carried from window to window), drop it. Every cut lies in one window, so its advice is the
-whole read's, bit for bit; the rows get the file's line and cut numbers. What the summary needs
+whole read's, bit for bit; the rows get the file's line and cut numbers. A cut split between
+windows is advised from the file in pieces (:func:`~fuzzyfeed.program.long_cut.advise_long_cut`,
+bit for bit the stream's) and each window takes the pieces of its own moves (:class:`_LongCut`). What the summary needs
 is kept as sums (no per-sample or per-move array of the program): the advised fraction's min, max,
 sum and count, the times at the programmed and advised F, the split points and the coverage.
 """
@@ -17,6 +19,7 @@ from fuzzyfeed.fuzzy.rules import RuleTable
 from fuzzyfeed.program.coverage import Coverage, NotJudged, FIRST_LINES, REASONS, program_coverage
 from fuzzyfeed.program.feeds import DEFAULT_MIN_PIECE_MM, pieces_times
 from fuzzyfeed.program.rewrite import rewrite_chunks
+from fuzzyfeed.program.cuts import cut_moves
 from fuzzyfeed.program.stream import concat_pieces, stream_program_advice
 from fuzzyfeed.program.windows import WINDOW_LINES, Fallback, read_windows
 
@@ -59,7 +62,8 @@ class WindowTotals:
 
 def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: float | None,
                       feed_step_mm_min: float, min_piece_mm: float = DEFAULT_MIN_PIECE_MM, tools=None,
-                      sink=None, write=None, window_lines: int = WINDOW_LINES) -> WindowTotals:
+                      sink=None, write=None, window_lines: int = WINDOW_LINES,
+                      piece_points: int | None = None) -> WindowTotals:
     """Advise the program at ``path`` window by window: ``sink(columns)`` takes every piece's CSV
     rows (as :func:`~fuzzyfeed.program.stream.stream_program_advice` makes them, with the file's cut
     and line numbers), ``write(text)`` the rewritten program in chunks. Raises
@@ -67,10 +71,28 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
     result (see there; also a program with no cut, or any error: the whole read names it)."""
     from fuzzyfeed.errors import FuzzyfeedError
 
+    from fuzzyfeed.program import stream
+
+    piece_points = stream.DEFAULT_PIECE_POINTS if piece_points is None else piece_points
     totals = WindowTotals()
     carry = {"f": None}
     rest: list = []
     newline = None
+    long = None          # the cut going on from window to window: its pieces (moves as the cut's ordinals)
+    kw = dict(step_mm=step_mm, cap_mm_min=cap_mm_min, feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm)
+
+    def taken(cols, offset: bool, win):
+        if offset and (win.line0 or win.cut0):
+            cols = dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
+        if sink is not None:
+            sink(cols)
+        pct = cols["feed_pct"]
+        if pct.size:
+            totals.pct_min = min(totals.pct_min, float(pct.min()))
+            totals.pct_max = max(totals.pct_max, float(pct.max()))
+            totals.pct_sum += float(np.sum(pct))
+            totals.pct_count += pct.size
+
     try:
         for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
             wp = win.program
@@ -78,31 +100,39 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
             totals.windows += 1
             totals.lines += len(wp.lines)
             totals.moves += wp.kind.size
-            pieces = []
-            if wp.n_cuts:
-                for piece in stream_program_advice(wp, table, step_mm=step_mm, cap_mm_min=cap_mm_min,
-                                                   feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm):
-                    cols = piece.columns
-                    if win.line0 or win.cut0:
-                        cols = dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
-                    if sink is not None:
-                        sink(cols)
-                    pct = cols["feed_pct"]
-                    if pct.size:
-                        totals.pct_min = min(totals.pct_min, float(pct.min()))
-                        totals.pct_max = max(totals.pct_max, float(pct.max()))
-                        totals.pct_sum += float(np.sum(pct))
-                        totals.pct_count += pct.size
+            parts = []                    # (move, end, feed) of the window's pieces, in move order
+            regular = list(range(wp.n_cuts))
+            if win.continued:             # cut 0 goes on from the window before
+                if long is None:
+                    raise Fallback("a cut split between windows without its start")
+                parts.append(long.take(win, 0, taken, last=not (win.continues and wp.n_cuts == 1)))
+                regular.remove(0)
+                if not (win.continues and wp.n_cuts == 1):
+                    long = None
+            starts_long = win.continues and not (win.continued and wp.n_cuts == 1)
+            if starts_long:
+                regular.remove(wp.n_cuts - 1)
+            if regular:
+                pieces = []
+                for piece in stream_program_advice(wp, table, cuts=regular, **kw):
+                    taken(piece.columns, True, win)
                     pieces.append(piece)
-                pm, pe, pf = concat_pieces(pieces)
+                parts.append(concat_pieces(pieces))
+                del pieces
+            if starts_long:
+                from fuzzyfeed.program.long_cut import advise_long_cut
+
+                long = _LongCut(advise_long_cut(path, win, wp.n_cuts - 1, table, tools=tools, window_lines=window_lines,
+                                                piece_points=piece_points, **kw))
+                parts.append(long.take(win, wp.n_cuts - 1, taken, last=False))
+            pm, pe, pf = (np.concatenate(c) for c in zip(*parts)) if parts else concat_pieces([])
+            if pm.size:
                 t_prog, t_adv = pieces_times(wp, pm, pe, pf)
                 totals.time_written_s += t_prog
                 totals.time_advised_s += t_adv
                 totals.splits += int(np.sum(np.diff(pm) == 0))
-            else:
-                pm, pe, pf = concat_pieces([])
-            del pieces
-            totals.cuts += wp.n_cuts
+            del parts
+            totals.cuts += wp.n_cuts - int(win.continued)
             totals.coverages.append((win.line0, program_coverage(wp)))
             if write is not None:
                 for chunk in rewrite_chunks(wp, pm, pe, pf, carry=carry):
@@ -113,6 +143,48 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
                 write(newline.join(block) + newline)
     except FuzzyfeedError as exc:
         raise Fallback(str(exc)) from None
+    if long is not None:
+        raise Fallback("a cut split between windows without its end")
     if totals.cuts == 0:
         raise Fallback("no cut: the whole read says so")
     return totals
+
+
+class _LongCut:
+    """A cut split between windows: its pieces (:func:`~fuzzyfeed.program.long_cut.advise_long_cut`)
+    handed to each window for its moves; a piece over a window's end is split there."""
+
+    def __init__(self, pieces):
+        self._pieces = pieces
+        self._ordinal = 0                 # the cut's sampled moves before the window
+        self._pending = None              # (move, end, feed) of a piece beyond the window before
+
+    def take(self, win, k: int, taken, last: bool):
+        """The pieces of the cut's moves in window ``win`` (its cut ``k``), window-local moves;
+        every piece's rows go to ``taken(columns, offset, win)`` when first met."""
+        moves = cut_moves(win.program, k)[0]
+        lo, hi = self._ordinal, self._ordinal + moves.size
+        got = []
+
+        def keep(pm, pe, pf):
+            i = int(np.searchsorted(pm, hi)) if not last else pm.size
+            got.append((pm[:i], pe[:i], pf[:i]))
+            self._pending = (pm[i:], pe[i:], pf[i:]) if i < pm.size else None
+
+        if self._pending is not None:
+            keep(*self._pending)
+        while self._pending is None:
+            try:
+                piece = next(self._pieces)
+            except StopIteration:
+                break
+            taken(piece.columns, False, win)
+            keep(piece.piece_move, piece.piece_end, piece.piece_feed_mm_min)
+        if last and (self._pending is not None or next(self._pieces, None) is not None):
+            raise Fallback("a cut split between windows ends before its pieces")
+        pm = np.concatenate([g[0] for g in got]) if got else np.zeros(0, int)
+        if pm.size and (pm.min() < lo or pm.max() >= hi):
+            raise Fallback("a piece outside the cut's moves in the window")
+        self._ordinal = hi
+        return (moves[pm - lo], np.concatenate([g[1] for g in got]) if got else np.zeros(0),
+                np.concatenate([g[2] for g in got]) if got else np.zeros(0))

@@ -10,9 +10,12 @@ numbers and epochs. A window is kept up to the line of its last move where a fre
 whole read's chain (a move that starts a cut, or one that ends the cut before it: a rapid, a kept
 move); the lines from there are read again with the next window, so that every cut lies in one
 window, each window's cuts are complete and the stop of every move is decided by the move after it
-(:attr:`Program.stops`). A window that holds no such line is read again twice as long, up to
-:data:`MAX_GROWTH` times: a cut longer than that is not split (the program is read whole, as
-before: memory then grows with the program).
+(:attr:`Program.stops`). A window that holds no such line (a cut longer than a window) ends at its
+last line whose moves all go on that cut (:data:`SPLIT_CUTS`): the next window goes on with the
+cut as its cut 0 (:attr:`Window.continues`, :attr:`Window.continued`; checked to be one cut there),
+and the cut is advised from the file in pieces (:mod:`fuzzyfeed.program.long_cut`), each window read
+again from its start state (:attr:`Window.start`). Without :data:`SPLIT_CUTS` such a window is read
+again twice as long, up to :data:`MAX_GROWTH` times, else the program is read whole.
 
 Where a join would not be exact the read gives up (:class:`Fallback`) and the caller reads the
 program whole, as before: parameters, expressions or O-words (executed rows), G91 axis
@@ -42,6 +45,9 @@ WINDOW_LINES = 100_000
 #: to hold a cut; a longer cut: the program is read whole (the same memory, read once). 1: no
 #: growth (a single-cut raster then pays one window's read before it is read whole, not three)
 MAX_GROWTH = 1
+#: A window without a line where a cut starts or ends ends inside its last cut instead (the next
+#: window goes on with that cut: :attr:`Window.continues`); False: it grows (:data:`MAX_GROWTH`).
+SPLIT_CUTS = True
 #: Programs of at least this many lines are read in windows by ``advise`` (smaller ones whole).
 MIN_LINES = 200_000
 #: Bytes read from the file at a time.
@@ -169,6 +175,13 @@ class _Lines:
             self._more()
         return self._eof and self._first + len(self._buf) <= b
 
+    def skip_to(self, a: int) -> None:
+        """Lines before ``a`` are read and dropped a block at a time (a read that starts there)."""
+        while not self._eof and self._first + len(self._buf) < a:
+            self._more()
+            self.drop(min(a, self._first + len(self._buf)))
+        self.drop(min(a, self._first + len(self._buf)))
+
     def drop(self, a: int) -> None:
         """Lines before ``a`` are no longer needed."""
         del self._buf[:a - self._first]
@@ -188,14 +201,17 @@ class Window:
     cut0: int
     program: Program
     final: bool
+    continues: bool = False        # its last cut goes on in the next window (split inside the cut)
+    continued: bool = False        # its first cut is the window before's last
+    start: ReadState | None = None  # the state before its first line (to read it again from there)
 
 
 def read_windows(path, tools: dict | None = None, window_lines: int = WINDOW_LINES,
-                 rest: list | None = None) -> Iterator[Window]:
+                 rest: list | None = None, start: Window | None = None) -> Iterator[Window]:
     """The program at ``path`` in windows (module docstring). Raises :class:`Fallback` where a join
     would not be exact. Lines after the program's end (M2/M30) beyond the last window are appended,
     a block at a time, to ``rest`` when given (as lists of lines, checked as the whole read checks
-    them)."""
+    them). ``start``: a window read before, read again from its first line on (the same windows)."""
     from fuzzyfeed.errors import FuzzyfeedError
 
     path = Path(path)
@@ -206,7 +222,10 @@ def read_windows(path, tools: dict | None = None, window_lines: int = WINDOW_LIN
         raise Fallback("not UTF-8 text, or empty")
     src = _Lines(path, scan)
     try:
-        state, cut0, w = program_start(), 0, int(window_lines)
+        state, cut0, w, continued = program_start(), 0, int(window_lines), False
+        if start is not None:
+            state, cut0, continued = start.start, start.cut0, start.continued
+            src.skip_to(state.line)
         while True:
             a = state.line
             lines = src.get(a, a + w)
@@ -215,8 +234,10 @@ def read_windows(path, tools: dict | None = None, window_lines: int = WINDOW_LIN
                 prog, capture, ended = _read_window(path, lines, scan.newline, state, tools)
             except FuzzyfeedError as exc:
                 raise Fallback(str(exc)) from None
+            if continued and not (prog.kind.size and prog.move_line[0] == 0 and prog.cut[0] == 0):
+                raise Fallback("a cut split between windows does not go on as one cut")
             if ended or eof:
-                yield Window(a, cut0, prog, True)
+                yield Window(a, cut0, prog, True, continued=continued, start=state)
                 if ended and rest is not None:
                     b = a + len(lines)
                     while not src.at_end(b):
@@ -227,6 +248,10 @@ def read_windows(path, tools: dict | None = None, window_lines: int = WINDOW_LIN
                         b += len(block)
                 return
             r = _restart(capture, len(lines))
+            inside = False
+            if r == 0 and SPLIT_CUTS:
+                r = _inside_cut(prog, capture)
+                inside = r > 0
             if r == 0:
                 if w >= MAX_GROWTH * int(window_lines):       # MAX_GROWTH read when called (tests set it)
                     raise Fallback(f"a cut longer than {w} lines: read whole")
@@ -235,10 +260,10 @@ def read_windows(path, tools: dict | None = None, window_lines: int = WINDOW_LIN
             nxt = _state_at(capture, r - 1, a + r, state)
             sliced = _slice(prog, lines, r)
             prog = capture = lines = None
-            yield Window(a, cut0, sliced, False)
-            cut0 += sliced.n_cuts
+            yield Window(a, cut0, sliced, False, continues=inside, continued=continued, start=state)
+            cut0 += sliced.n_cuts - int(inside)
             src.drop(a + r)
-            state, w = nxt, int(window_lines)
+            state, w, continued = nxt, int(window_lines), inside
     finally:
         src.close()
 
@@ -286,6 +311,17 @@ def _restart(capture: dict, n: int) -> int:
         return n
     cand = rows[capture["restart"]]
     cand = cand[cand > 0]
+    return int(cand.max()) if cand.size else 0
+
+
+def _inside_cut(prog: Program, capture: dict) -> int:
+    """The window's last line whose moves all go on a cut (not a chain's first move, not a stopper):
+    the next window may start there, its first cut the same cut (0: none)."""
+    rows = capture["move_rows"]
+    if rows.size == 0:
+        return 0
+    ok = (prog.cut >= 0) & ~capture["restart"] & (rows > 0)
+    cand = np.setdiff1d(rows[ok], rows[~ok])
     return int(cand.max()) if cand.size else 0
 
 

@@ -1,0 +1,370 @@
+"""A cut longer than a window of lines advised from its file in pieces (issue 36): memory bounded by
+a window and a few pieces, not by the cut.
+
+The windowed read (:mod:`fuzzyfeed.program.windows`) splits such a cut between windows
+(:attr:`~fuzzyfeed.program.windows.Window.continues`). :func:`advise_long_cut` gives the pieces
+:func:`fuzzyfeed.program.stream.stream_program_advice` gives for the whole cut, bit for bit, reading
+the cut's windows again from the first one's start state for every pass:
+
+1. the G1-run fit's two scans (:func:`fuzzyfeed.geometry.polyline_stream.fit_chunks`: the rounding
+   quantum's counts, the extent, the tiny moves' clusters — exact integers and the same sums);
+2. pass 0 of the stream: the pieces' plan and s at every core vertex, s at each piece's anchor kept
+   (one float a piece) and the cut's length;
+3. pass 1: the clipped Dκ's range and the curvature peaks' κ and Dκ;
+4. pass 2: the advice of each piece, the filter's sums handed on.
+
+Passes 2–4 run the fit's last pass (per-vertex κ and corners) in step with the moves, from the same
+read. A pass holds the moves from the piece before's core to the piece after's margin (the plan is
+made greedily from the cut's start as the stream makes it: the cumulative sample counts and lengths
+carried, the last piece merged where the stream merges it). Pieces carry their moves as ordinals
+of the cut's sampled moves (``ordinals``).
+
+Only a cut of straight G1 moves is advised so (arcs and G5.2 blocks: :class:`Fallback`, the program is
+read whole), with F > 0 everywhere and no move over the sample budget (else the whole read says why).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Iterator
+from types import SimpleNamespace
+
+import numpy as np
+
+from fuzzyfeed.fuzzy.advisor import point_sequence_table
+from fuzzyfeed.fuzzy.engine import compile_table
+from fuzzyfeed.fuzzy.features import features, normalise
+from fuzzyfeed.fuzzy.filters import curvature_peaks, filter_terms
+from fuzzyfeed.fuzzy.windows import forward_bounds, range_max
+from fuzzyfeed.geometry.polyline_chords import WINDOW_VERTICES
+from fuzzyfeed.geometry.sampling import MAX_POINTS, segment_pieces
+from fuzzyfeed.program.cuts import RunGeometry, cut_moves, path_length, sample_moves
+from fuzzyfeed.program.feeds import move_pieces
+from fuzzyfeed.program.model import LINE
+from fuzzyfeed.program.stream import MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, margin_mm
+from fuzzyfeed.program.windows import Fallback, Window, read_windows
+
+#: The passes read the cut in windows of this fraction of the windows' lines.
+PASS_SPLIT = 4
+#: Vertices a window of the cut's G1-run fit holds (:func:`~fuzzyfeed.geometry.polyline_stream.fit_chunks`).
+FIT_WINDOW = WINDOW_VERTICES
+
+
+def cut_windows(path, first: Window, k: int, tools, window_lines: int) -> Iterator[tuple[Window, np.ndarray]]:
+    """The windows of the cut that starts as cut ``k`` (the last) of window ``first`` and goes on
+    in the windows after it, read again from ``first``'s start in windows of
+    ``window_lines // PASS_SPLIT`` lines (the reader's working memory is a window's), with its
+    sampled moves in each (:func:`~fuzzyfeed.program.cuts.cut_moves`). The cut is found by the line
+    of its first move; the windows give the whole read's moves however they are cut."""
+    at = int(first.program.move_line[first.program.cut_moves(k)[0]]) + first.line0
+    lines = max(2, int(window_lines) // PASS_SPLIT)
+    j = None
+    for win in read_windows(path, tools=tools, window_lines=lines, start=first):
+        p = win.program
+        if j is None:
+            starts = [c for c in range(p.n_cuts) if int(p.move_line[p.cut_moves(c)[0]]) + win.line0 == at]
+            if not starts:
+                continue
+            j = starts[0]
+            goes_on = j == p.n_cuts - 1 and win.continues
+        else:
+            if not win.continued:
+                raise Fallback("a cut split between windows read again differently")
+            j = 0
+            goes_on = win.continues and p.n_cuts == 1
+        every = p.cut_moves(j)
+        if not np.all(p.feed_mm_min[every] > 0):
+            raise Fallback("a move without F: the whole read names it")
+        moves, kinds, _ = cut_moves(p, j)
+        if np.any(kinds != LINE):
+            raise Fallback("a cut longer than a window with arcs or G5.2 blocks")
+        yield win, moves
+        if not goes_on:
+            return
+    raise Fallback("a cut split between windows not found again")
+
+
+def _blocks(path, first, k, tools, window_lines, step_mm):
+    """The cut's moves window after window as arrays (the view's fields), checked."""
+    for win, moves in cut_windows(path, first, k, tools, window_lines):
+        p = win.program
+        start, end = p.start[moves], p.end[moves]
+        chord = np.linalg.norm(end - start, axis=1)
+        feed = p.feed_mm_min[moves]
+        count = segment_pieces(chord, step_mm).astype(np.int64)
+        if count.size and count.max() + 1 > MAX_POINTS:
+            raise Fallback("a move over the sample budget: the whole read names it")
+        yield dict(start=start, end=end, chord=chord, count=count, feed_mm_min=feed,
+                   move_line=p.move_line[moves] + win.line0, no_split=p.no_split[moves],
+                   comp_unknown=None if p.comp_unknown is None else p.comp_unknown[moves])
+
+
+_MOVE_FIELDS = ("start", "end", "chord", "count", "feed_mm_min", "move_line", "no_split", "comp_unknown")
+
+
+class _Pass:
+    """One pass over the cut: a buffer of its moves [b0, b1) and vertices [b0, b1] with the fit's κ
+    and corners, the cumulative sample counts and lengths (as the stream's plan sums them) and s."""
+
+    def __init__(self, blocks: Iterator[dict], fit):
+        self._blocks = blocks
+        self.n = fit.n - 1                       # the cut's moves
+        self._moves: deque = deque()            # blocks read, not yet in the buffer
+        self._first = True
+        self._pieces = fit.pieces(self._points)
+        self.done = False
+        self.b0 = 0
+        self.f = {name: None for name in _MOVE_FIELDS}
+        self.vk = np.zeros(0)
+        self.vc = np.zeros(0, bool)
+        self.cum_cnt = np.zeros(1, np.int64)
+        self.cum_len = np.zeros(1)
+        self.sv = np.full(1, np.nan)
+        self.sv[0] = 0.0
+        self.n_moves = 0                         # moves in the buffer (b1 - b0)
+
+    def _points(self):
+        for blk in self._blocks:
+            self._moves.append(blk)
+            if not len(blk["end"]):
+                continue
+            pts = np.vstack([blk["start"][:1], blk["end"]]) if self._first else blk["end"]
+            self._first = False
+            yield pts
+
+    def grow(self) -> bool:
+        """Read on: False at the cut's end."""
+        if self.done:
+            return False
+        try:
+            kappa, _, corner = next(self._pieces)
+        except StopIteration:
+            self.done = True
+            return False
+        self.vk = np.concatenate([self.vk, kappa])
+        self.vc = np.concatenate([self.vc, corner])
+        want = self.b0 + self.vk.size - 1 - (self.b0 + self.n_moves)   # moves whose both ends are known
+        parts = []
+        while want > 0:
+            blk = self._moves[0]
+            take = min(want, len(blk["end"]))
+            parts.append({k: (None if v is None else v[:take]) for k, v in blk.items()})
+            rest = {k: (None if v is None else v[take:]) for k, v in blk.items()}
+            if len(rest["end"]):
+                self._moves[0] = rest
+            else:
+                self._moves.popleft()
+            want -= take
+        if parts:
+            for name in _MOVE_FIELDS:
+                vals = [p[name] for p in parts]
+                new = None if vals[0] is None else np.concatenate(vals)
+                old = self.f[name]
+                self.f[name] = new if old is None else np.concatenate([old, new])
+            added = sum(len(p["end"]) for p in parts)
+            cnt = np.concatenate([p["count"] for p in parts])
+            ln = np.concatenate([p["chord"] for p in parts])
+            self.cum_cnt = np.concatenate([self.cum_cnt, self.cum_cnt[-1] + np.cumsum(cnt)])
+            self.cum_len = np.concatenate([self.cum_len, np.cumsum(np.concatenate([self.cum_len[-1:], ln]))[1:]])
+            self.sv = np.concatenate([self.sv, np.full(added, np.nan)])
+            self.n_moves += added
+        return True
+
+    def close(self) -> None:
+        """Stop the pass's reads and drop its buffer (the fit's generator refers back to the pass)."""
+        self._pieces.close()
+        self._blocks.close()
+        self._moves.clear()
+        self.f = {name: None for name in _MOVE_FIELDS}
+        self.vk = self.vc = self.cum_cnt = self.cum_len = self.sv = None
+
+    @property
+    def b1(self) -> int:
+        return self.b0 + self.n_moves
+
+    def release(self, a: int) -> None:
+        """Moves and vertices before ``a`` are not read again."""
+        cut = a - self.b0
+        if cut <= 0:
+            return
+        for name in _MOVE_FIELDS:
+            if self.f[name] is not None:
+                self.f[name] = self.f[name][cut:].copy()
+        self.vk, self.vc = self.vk[cut:].copy(), self.vc[cut:].copy()
+        self.cum_cnt, self.cum_len, self.sv = self.cum_cnt[cut:].copy(), self.cum_len[cut:].copy(), self.sv[cut:].copy()
+        self.b0 = a
+        self.n_moves -= cut
+
+    def until(self, test) -> None:
+        """Read on until ``test()`` holds or the cut ends."""
+        while not test() and self.grow():
+            pass
+
+    def view(self):
+        """The buffer as the program and run geometry :func:`~fuzzyfeed.program.cuts.sample_moves`
+        and :func:`~fuzzyfeed.program.feeds.move_pieces` read (move indices from b0)."""
+        n = self.n_moves
+        own = np.where(self.vc[:n + 1], np.inf, self.vk[:n + 1])
+        mn = np.minimum(own[:-1], own[1:])
+        vc = self.vc[:n + 1].copy()
+        if self.b0 == 0:
+            vc[0] = False
+        if self.b0 + n == self.n:
+            vc[-1] = False
+        geo = RunGeometry(self.vk[:n + 1], vc, np.where(np.isfinite(mn), mn, 0.0))
+        prog = SimpleNamespace(kind=np.full(n, LINE, dtype=np.int8), **self.f)
+        return prog, geo
+
+
+def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_mm_min, feed_step_mm_min: float,
+                    min_piece_mm: float, piece_points: int, tools, window_lines: int) -> Iterator[AdvicePiece]:
+    """The pieces of the cut starting as cut ``k`` of window ``first`` (module docstring), with
+    the file's cut number and lines; ``piece_move`` holds ordinals of the cut's sampled moves."""
+    from fuzzyfeed.geometry.polyline_stream import fit_chunks
+
+    cut_no = first.cut0 + k
+    engine = compile_table(table)
+    seq = point_sequence_table(table)
+
+    def blocks():
+        return _blocks(path, first, k, tools, window_lines, step_mm)
+
+    def chunks():
+        first_block = True
+        for blk in blocks():
+            if len(blk["end"]):
+                yield np.vstack([blk["start"][:1], blk["end"]]) if first_block else blk["end"]
+                first_block = False
+
+    fit = fit_chunks(chunks, window=FIT_WINDOW)
+    n = fit.n - 1                                   # moves: the vertices less one
+    margin = margin_mm(seq)
+    pp = min(int(piece_points), MAX_POINTS)
+
+    def sample(ps: _Pass, lo: int, hi: int):
+        prog, geo = ps.view()
+        moves = np.arange(ps.n_moves)
+        kinds = prog.kind
+        return prog, sample_moves(prog, moves, kinds, prog.chord, step_mm, lo - ps.b0, hi - ps.b0, geo)
+
+    # pass 0: the plan and s
+    plan = []
+    ps = _Pass(blocks(), fit)
+    ps.until(lambda: ps.n_moves >= 1)
+
+    def bound_after(a):
+        i = a - ps.b0
+        t_cnt, t_len = ps.cum_cnt[i] + pp, ps.cum_len[i] + margin
+        ps.until(lambda: ps.cum_cnt[-1] >= t_cnt and ps.cum_len[-1] >= t_len and ps.b1 >= min(a + MIN_MARGIN_MOVES, n))
+        b = max(int(np.searchsorted(ps.cum_cnt, t_cnt, side="left")), int(np.searchsorted(ps.cum_len, t_len, side="left")),
+                i + MIN_MARGIN_MOVES) + ps.b0
+        return min(b, n)
+
+    def short_tail(a):        # the stream's rule: the last core merged into the one before
+        i, j = a - ps.b0, n - ps.b0
+        return (ps.cum_cnt[j] - ps.cum_cnt[i] < pp or ps.cum_len[j] - ps.cum_len[i] < margin
+                or n - a < MIN_MARGIN_MOVES)
+
+    a = 0
+    b = bound_after(0)
+    while True:
+        nb = bound_after(b) if b < n else None
+        if nb == n and b > 0 and short_tail(b) and a < b:
+            # bounds [.., a, b, n] with the last core short: [a, n) is one core
+            b, nb = n, None
+        ia, ib = a - ps.b0, b - ps.b0
+        lo = int(np.searchsorted(ps.cum_len, ps.cum_len[ia] - margin, side="right")) - 1 + ps.b0
+        if lo < ps.b0 and ps.b0 > 0:
+            raise Fallback("a margin reaching before the piece before")
+        lo = max(min(lo, a - MIN_MARGIN_MOVES), 0)
+        t_len = ps.cum_len[ib] + margin
+        ps.until(lambda: ps.cum_len[-1] >= t_len and ps.b1 >= min(b + MIN_MARGIN_MOVES, n))
+        hi = int(np.searchsorted(ps.cum_len, t_len, side="left")) + ps.b0
+        hi = min(max(hi, b + MIN_MARGIN_MOVES), n)
+        if lo < ps.b0:
+            raise Fallback("a margin reaching before the buffer")
+        va = lo + 1 if lo > 0 else 0
+        anchor = float(ps.sv[va - ps.b0])
+        _, ms = sample(ps, lo, hi)
+        s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), anchor)
+        ps.sv[a + 1 - ps.b0:b + 1 - ps.b0] = s[ms.vertex_sample[a + 1 - lo:b + 1 - lo]]
+        plan.append((a, b, lo, hi, anchor, int(ps.cum_cnt[lo - ps.b0])))
+        if b >= n:
+            length = float(ps.sv[n - ps.b0])
+            break
+        ps.release(min(a, lo))
+        a, b = b, nb
+    ps.close()
+    span = (0.0, length)
+    total = length if length > 0 else 1.0
+    clip = seq.dk_clip_1_mm
+    corner = seq.filter == "corner-mean"
+
+    def pieces_of_pass():
+        ps = _Pass(blocks(), fit)
+        try:
+            for p, (a, b, lo, hi, anchor, g_lo) in enumerate(plan):
+                ps.until(lambda: ps.b1 >= hi)
+                prog, ms = sample(ps, lo, hi)
+                va = lo + 1 if lo > 0 else 0
+                s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), anchor)
+                yield p, a, b, lo, hi, g_lo, prog, ms, s, ps.b0
+                del prog, ms, s
+                nxt_lo = plan[p + 1][2] if p + 1 < len(plan) else hi
+                ps.release(min(nxt_lo, a))
+        finally:
+            ps.close()
+
+    # pass 1: the range of the clipped Dκ (and κ, Dκ at the curvature peaks)
+    dk_lo, dk_hi = np.inf, -np.inf
+    peak_k, peak_raw = [], []
+    for p, a, b, lo, hi, g_lo, prog, ms, s, b0 in pieces_of_pass():
+        raw = range_max(ms.curvature, *forward_bounds(s.size, s=s, length_mm=seq.window_mm, span=span))
+        core = slice(int(ms.vertex_sample[a - lo]), int(ms.vertex_sample[b - lo]) + 1)
+        c = np.minimum(raw[core], clip)
+        dk_lo, dk_hi = min(dk_lo, float(c.min())), max(dk_hi, float(c.max()))
+        if corner:
+            at = curvature_peaks(ms.curvature)[core]
+            peak_k.append(ms.curvature[core][at])
+            peak_raw.append(raw[core][at])
+    lowest = None
+    if corner:
+        pk = np.concatenate(peak_k)
+        if pk.size:
+            lowest = float(engine.feed_pct(pk, normalise(np.concatenate(peak_raw), clip, (dk_lo, dk_hi))).min())
+        del pk, peak_k, peak_raw
+    # pass 2: the advice, piece by piece
+    carry = CarriedSums()
+    for p, a, b, lo, hi, g_lo, prog, ms, s, b0 in pieces_of_pass():
+        feats = features(ms.curvature, seq.window_points, clip, s, seq.window_mm, span=span, bounds=(dk_lo, dk_hi))
+        ctrl = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
+        v, wlo, whi, w = filter_terms(ctrl, seq.filter, seq.filter_points, s, seq.filter_mm,
+                                      feats.curvature_1_mm, span=span, lowest=lowest)
+        c0 = int(ms.vertex_sample[a - lo])
+        c1 = int(ms.vertex_sample[b - lo])
+        nxt = plan[p + 1][5] if p + 1 < len(plan) else None
+        smooth = carry.smooth(v, wlo, whi, w, g_lo, c0, c1, nxt)
+        pct = np.clip(smooth, seq.feed_floor_pct, 100.0)
+        r0 = c0 if a == 0 else c0 + 1
+        rows = slice(r0, c1 + 1)
+        sample_move = np.concatenate([[ms.seg_move[0]], ms.seg_move])[rows]
+        ceil = prog.feed_mm_min[sample_move]
+        if cap_mm_min is not None:
+            ceil = np.minimum(ceil, cap_mm_min)
+        columns = {"cut": np.full(c1 + 1 - r0, cut_no + 1), "source_line": prog.move_line[sample_move] + 1,
+                   "u": s[rows] / total, "x_mm": ms.xyz[rows, 0], "y_mm": ms.xyz[rows, 1],
+                   "z_mm": ms.xyz[rows, 2], "s_mm": s[rows], "curvature_1_mm": ms.curvature[rows],
+                   "curvature_window_max_1_mm": feats.window_max_1_mm[rows],
+                   "curvature_variation": feats.curvature_variation[rows],
+                   "feed_pct_controller": ctrl[rows], "feed_pct": pct[rows],
+                   "programmed_feed_mm_min": ceil, "feed_mm_min": pct[rows] / 100.0 * ceil}
+        segs = slice(c0, c1)
+        phi = pct / 100.0
+        seg_phi = np.minimum(phi[:-1], phi[1:])[segs]
+        seg_move = ms.seg_move[segs]
+        ceiling_seg = prog.feed_mm_min[seg_move]
+        if cap_mm_min is not None:
+            ceiling_seg = np.minimum(ceiling_seg, cap_mm_min)
+        pm, pe, pf = move_pieces(prog, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
+                                 ceiling_seg, feed_step_mm_min, min_piece_mm)
+        yield AdvicePiece(cut=cut_no, columns=columns, piece_move=pm + b0, piece_end=pe, piece_feed_mm_min=pf)
