@@ -60,14 +60,16 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
     fix_mmap_threshold()               # large programs: the columns a read drops go back to the system
     step = options.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
     step_mm = options.step_mm or DEFAULT_STEP_MM
-    if selector is None and machine is None and options.reference and not options.verify_rs274:
+    if selector is None and machine is None and options.reference:
         from fuzzyfeed.advice.program_windows import windowed_result
+
+        verify = _verifier(options, tools)     # rs274 missing: refused before anything is read
 
         def whole():                   # the whole read, where the windows cannot give its result
             program = read_program(path, tools=tools)
             if program.n_cuts == 0:
                 return NothingResult(spec, options, path, program)
-            return ProgramResult(spec, options, path, program, table, None, step_mm, step, None)
+            return ProgramResult(spec, options, path, program, table, None, step_mm, step, verify)
 
         def checks(csv, gcode, gcode_g52, plot, report):
             _check_outputs(csv, gcode, gcode_g52, plot)

@@ -55,6 +55,7 @@ class WindowedProgramResult(AdviceResult):
         self._whole = None
         self._totals = None
         self.window_lines = window_lines
+        self.verification = None     # what rs274 said of the rewrite (verify_rs274), once written
 
     def whole(self):
         if self._whole is None:
@@ -81,6 +82,9 @@ class WindowedProgramResult(AdviceResult):
         from fuzzyfeed.errors import FuzzyfeedError
         from fuzzyfeed.program.windows import Fallback
 
+        if self.options.verify_rs274 and self._whole is None:
+            self._checks(csv, gcode, gcode_g52, plot, report)       # refused before anything is read
+            _need_gcode(gcode)
         if plot or report or gcode_g52 or (csv is None and gcode is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
         self._checks(csv, gcode, gcode_g52, plot, report)
@@ -92,7 +96,7 @@ class WindowedProgramResult(AdviceResult):
         except (Fallback, FuzzyfeedError):
             fallback = True
         if fallback:     # outside the except: its traceback would keep the window read alive (~40 MB)
-            self._totals = None
+            self._totals = self.verification = None
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
         for w in said:           # the reader's notices, once (none when the whole read took over)
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
@@ -106,16 +110,37 @@ class WindowedProgramResult(AdviceResult):
         from fuzzyfeed.program.windows import WINDOW_LINES
 
         cap = self.options.feed_mm_min
+        window_lines = self.window_lines or WINDOW_LINES
+        verify = bool(self.options.verify_rs274)
         with contextlib.ExitStack() as stack:
-            out = write = None
+            out = write = spill = None
             if csv is not None:
                 out = ColumnStream(stack.enter_context(atomic_write(csv, "w", newline="")), csv)
-            if gcode is not None:
+            if verify:                   # the rewrite to a scratch file, checked, then copied
+                import tempfile
+                from pathlib import Path
+
+                from fuzzyfeed.program.verify_windows import PieceSpill
+
+                scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="fuzzyfeed-rs274-")))
+                spill = PieceSpill(scratch / "pieces")
+                first = scratch / "first" / self.path.name
+                first.parent.mkdir()
+                first_handle = stack.enter_context(open(first, "w", newline=""))
+                write = first_handle.write
+            elif gcode is not None:
                 write = stack.enter_context(atomic_write(gcode, "w", newline="")).write
             self._totals = advise_in_windows(self.path, self.table, step_mm=self.step_mm, cap_mm_min=cap,
                                              feed_step_mm_min=self.feed_step_mm_min, tools=self.tools,
                                              sink=None if out is None else out.write, write=write,
-                                             window_lines=self.window_lines or WINDOW_LINES)
+                                             window_lines=window_lines, on_window=spill)
+            if verify:
+                from fuzzyfeed.program.verify_windows import verify_windows
+
+                first_handle.close()
+                with atomic_write(gcode, "wb") as handle:
+                    self.verification = verify_windows(self.path, first, spill, self.tools, window_lines,
+                                                       scratch, handle)
         if csv is not None:
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = self._feed_note(cap)
@@ -139,7 +164,8 @@ class WindowedProgramResult(AdviceResult):
                 f"max {t.pct_max:.2f} %   (F rounded down to {step:g} mm/min steps)",
                 f"feed moves of the advised cuts: {t.time_written_s:.3f} s at the programmed F, "
                 f"{t.time_advised_s:.3f} s at the advised F (no acceleration); {t.splits} split points",
-                t.coverage().summary()]
+                t.coverage().summary(),
+                *([self.verification.summary()] if self.verification is not None else [])]
 
     def figures(self) -> dict:
         t = self._totals
@@ -147,7 +173,15 @@ class WindowedProgramResult(AdviceResult):
             return self.whole().figures()
         return {"cuts": t.cuts, "cuts_advised": t.cuts, "time_written_s": t.time_written_s,
                 "time_advised_s": t.time_advised_s, "feed_pct_min": t.pct_min,
-                "feed_pct_mean": t.pct_sum / t.pct_count, **t.coverage().figures()}
+                "feed_pct_mean": t.pct_sum / t.pct_count, **t.coverage().figures(),
+                **({} if self.verification is None else self.verification.figures())}
 
     def _plot(self, output) -> None:
         self.whole()._plot(output)
+
+
+def _need_gcode(gcode) -> None:
+    from fuzzyfeed.errors import ExportError
+
+    if not gcode:
+        raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
