@@ -96,3 +96,11 @@ def test_the_streamed_comparison_is_the_lists_one_and_ranges_split_as_lists():
         assert [i for x, y in a for i in range(x, y)] == flat[:k]
         assert [i for x, y in b for i in range(x, y)] == flat[k:]
         assert [i for x, y in _cat(a, b) for i in range(x, y)] == flat and count(sel) == len(flat)
+
+
+@pytest.mark.parametrize("window_lines", [40, 300])
+def test_the_plot_in_windows_is_the_whole_reads(tmp_path, monkeypatch, capsys, window_lines):
+    """--plot in windows: the thinned trace is kept as the rows come, the same PNG byte for byte as
+    the whole read's (with the CSV, the program and the summary)."""
+    out = _compare(tmp_path, _raster(tmp_path / "r.ngc"), monkeypatch, capsys, window_lines, "--plot", "p.png")
+    assert "wrote x.csv and p.png" in out

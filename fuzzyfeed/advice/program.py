@@ -281,18 +281,23 @@ class ProgramResult(AdviceResult):
         _refuse_report(report)
         if self._verify is not None and not gcode:
             raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
-        if plot:
-            self.advice                  # the plot draws the whole cuts' advice
+        trace = None
+        if plot:                         # the plot's trace kept as the rows come (report/plot_trace.py)
+            from fuzzyfeed.report.plot_trace import FuzzyTrace
+
+            trace = FuzzyTrace()
         cap = self.options.feed_mm_min
         if csv is not None:              # rows written as the pieces come
             with atomic_write(csv, "w", newline="") as handle:
                 out = ColumnStream(handle, csv)
-                self._advise(out.write)
+                self._advise(out.write if trace is None else _tee(out.write, trace.add))
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = _feed_note(cap)
             write_metadata(csv, out.names, record)
+        elif trace is not None:
+            self._advise(trace.add)
         if plot:
-            self.plot(plot)
+            self._plot_trace(trace, plot)
         if gcode:
             if self._text is not None or self._verify is not None:
                 _write_text(gcode, self.text)
@@ -311,10 +316,26 @@ class ProgramResult(AdviceResult):
         return lines
 
     def _plot(self, output) -> None:
-        from fuzzyfeed.report.plot import plot_fuzzy_advice
+        from fuzzyfeed.report.plot_trace import FuzzyTrace
 
-        plot_fuzzy_advice(combined_advice(self.advice),
-                          f"{self.path.name}: {self._n_advised()} cut(s) end to end", output)
+        trace = FuzzyTrace()
+        self._advise(trace.add)
+        self._plot_trace(trace, output)
+
+    def _plot_trace(self, trace, output) -> None:
+        """The advised cuts end to end (:func:`~fuzzyfeed.report.plot_trace.plot_trace`: the rows
+        thinned as they come, the same plot whether the program was read whole or in windows)."""
+        from fuzzyfeed.report.plot_trace import plot_trace
+
+        plot_trace(trace, self.table, f"{self.path.name}: {self._n_advised()} cut(s) end to end", output)
+
+
+def _tee(*sinks):
+    """One CSV sink handing each piece's rows to every one of ``sinks``."""
+    def sink(cols: dict) -> None:
+        for each in sinks:
+            each(cols)
+    return sink
 
 
 class MachineProgramResult(AdviceResult):

@@ -56,6 +56,7 @@ class WindowedProgramResult(AdviceResult):
         self._totals = None
         self.window_lines = window_lines
         self.verification = None     # what rs274 said of the rewrite (verify_rs274), once written
+        self._trace = None           # the plot's thinned trace (report/plot_trace.py), once written
 
     def whole(self):
         if self._whole is None:
@@ -85,24 +86,24 @@ class WindowedProgramResult(AdviceResult):
         if self.options.verify_rs274 and self._whole is None:
             self._checks(csv, gcode, gcode_g52, plot, report)       # refused before anything is read
             _need_gcode(gcode)
-        if plot or report or gcode_g52 or (csv is None and gcode is None) or self._whole is not None:
+        if report or gcode_g52 or (csv is None and gcode is None and plot is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
         self._checks(csv, gcode, gcode_g52, plot, report)
         fallback = False
         try:
             with warnings.catch_warnings(record=True) as said:
                 warnings.simplefilter("always")
-                lines = self._write_windows(csv, gcode)
+                lines = self._write_windows(csv, gcode, plot)
         except (Fallback, FuzzyfeedError):
             fallback = True
         if fallback:     # outside the except: its traceback would keep the window read alive (~40 MB)
-            self._totals = self.verification = None
+            self._totals = self.verification = self._trace = None
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
         for w in said:           # the reader's notices, once (none when the whole read took over)
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         return lines
 
-    def _write_windows(self, csv, gcode) -> list[str]:
+    def _write_windows(self, csv, gcode, plot=None) -> list[str]:
         from fuzzyfeed.base.atomic import atomic_write
         from fuzzyfeed.fuzzy.provenance import provenance
         from fuzzyfeed.io.csv import ColumnStream, write_metadata
@@ -112,10 +113,17 @@ class WindowedProgramResult(AdviceResult):
         cap = self.options.feed_mm_min
         window_lines = self.window_lines or WINDOW_LINES
         verify = bool(self.options.verify_rs274)
+        sinks = []
+        if plot is not None:             # the plot's trace, kept as the rows come
+            from fuzzyfeed.report.plot_trace import FuzzyTrace
+
+            self._trace = FuzzyTrace()
+            sinks.append(self._trace.add)
         with contextlib.ExitStack() as stack:
             out = write = spill = None
             if csv is not None:
                 out = ColumnStream(stack.enter_context(atomic_write(csv, "w", newline="")), csv)
+                sinks.insert(0, out.write)
             if verify:                   # the rewrite to a scratch file, checked, then copied
                 import tempfile
                 from pathlib import Path
@@ -132,7 +140,7 @@ class WindowedProgramResult(AdviceResult):
                 write = stack.enter_context(atomic_write(gcode, "w", newline="")).write
             self._totals = advise_in_windows(self.path, self.table, step_mm=self.step_mm, cap_mm_min=cap,
                                              feed_step_mm_min=self.feed_step_mm_min, tools=self.tools,
-                                             sink=None if out is None else out.write, write=write,
+                                             sink=_tee(sinks), write=write,
                                              window_lines=window_lines, on_window=spill)
             if verify:
                 from fuzzyfeed.program.verify_windows import verify_windows
@@ -145,9 +153,11 @@ class WindowedProgramResult(AdviceResult):
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = self._feed_note(cap)
             write_metadata(csv, out.names, record)
+        if plot is not None:
+            self._plot(plot)
         lines = []
-        if csv is not None:
-            lines.append(f"wrote {csv}")
+        if csv is not None or plot:
+            lines.append("wrote " + " and ".join(p for p in (csv, plot) if p))
         if gcode:
             lines.append(f"wrote {gcode}")
         return lines
@@ -177,7 +187,20 @@ class WindowedProgramResult(AdviceResult):
                 **({} if self.verification is None else self.verification.figures())}
 
     def _plot(self, output) -> None:
-        self.whole()._plot(output)
+        if self._trace is None or self._totals is None:
+            return self.whole()._plot(output)
+        from fuzzyfeed.report.plot_trace import plot_trace
+
+        plot_trace(self._trace, self.table, f"{self.path.name}: {self._totals.cuts} cut(s) end to end", output)
+
+
+def _tee(sinks):
+    """None, or one CSV sink handing each piece's rows to every one of ``sinks``."""
+    if not sinks:
+        return None
+    from fuzzyfeed.advice.program import _tee as tee
+
+    return tee(*sinks)
 
 
 def _need_gcode(gcode) -> None:
