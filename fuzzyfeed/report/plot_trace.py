@@ -32,6 +32,8 @@ MAX_SEGMENTS = 1 << 18
 #: The smallest bucket width and cell side (mm): a power of two, far under any pixel.
 FIRST_WIDTH_MM = 2.0 ** -20
 FIRST_CELL_MM = 2.0 ** -20
+#: Rows taken before they are thinned with those kept (memory: a few times this many rows).
+PENDING_ROWS = 1 << 17
 _SERIES = ("feed_pct_controller", "feed_pct", "curvature_1_mm", "curvature_variation")
 
 
@@ -78,6 +80,8 @@ class FuzzyTrace:
         self._v_lo, self._v_hi = np.inf, -np.inf
         self._lo_xy, self._hi_xy = np.full(2, np.inf), np.full(2, -np.inf)
         self._f_max = -np.inf
+        self._pending: list = []         # (rows, segments) taken since the last flush
+        self._pending_n = 0
         self.cuts = 0
 
     def add(self, cols: dict) -> None:
@@ -124,12 +128,21 @@ class FuzzyTrace:
         self._lo_xy = np.minimum(self._lo_xy, xy.min(axis=0))
         self._hi_xy = np.maximum(self._hi_xy, xy.max(axis=0))
         self._f_max = max(self._f_max, float(ceil.max()))
-        rows = {"s": s, "i": idx, **{k: np.asarray(cols[k], dtype=float) for k in _SERIES}}
-        self._rows = {k: np.concatenate([self._rows[k], rows[k]]) for k in self._rows}
+        self._pending.append(({"s": s, "i": idx, **{k: np.asarray(cols[k], dtype=float) for k in _SERIES}},
+                              {"a": seg_a, "b": seg_b, "v": seg_v, "i": idx[on]}))
+        self._pending_n += n
+        if self._pending_n >= PENDING_ROWS:
+            self._flush()
+
+    def _flush(self) -> None:
+        """The rows and segments taken since the last flush thinned with those kept (the result
+        is the same whenever this runs: the sizes only grow, the least that bound them is found)."""
+        if not self._pending:
+            return
+        self._rows = {k: np.concatenate([self._rows[k], *(r[k] for r, _ in self._pending)]) for k in self._rows}
+        self._seg = {k: np.concatenate([self._seg[k], *(g[k] for _, g in self._pending)]) for k in self._seg}
+        self._pending, self._pending_n = [], 0
         self._thin_rows()
-        self._seg = {"a": np.concatenate([self._seg["a"], seg_a]), "b": np.concatenate([self._seg["b"], seg_b]),
-                     "v": np.concatenate([self._seg["v"], seg_v]),
-                     "i": np.concatenate([self._seg["i"], idx[on]])}
         self._thin_segments()
 
     # -- the lines against arc length ------------------------------------------------------
@@ -170,6 +183,7 @@ class FuzzyTrace:
             self.cell *= 2.0
 
     def data(self) -> FuzzyTraceData:
+        self._flush()
         r, g = self._rows, self._seg
         return FuzzyTraceData(s=r["s"], lines={k: r[k] for k in _SERIES},
                               segments=np.stack([g["a"], g["b"]], axis=1) if g["v"].size else np.zeros((0, 2, 2)),
