@@ -104,3 +104,22 @@ def test_the_plot_in_windows_is_the_whole_reads(tmp_path, monkeypatch, capsys, w
     the whole read's (with the CSV, the program and the summary)."""
     out = _compare(tmp_path, _raster(tmp_path / "r.ngc"), monkeypatch, capsys, window_lines, "--plot", "p.png")
     assert "wrote x.csv and p.png" in out
+
+
+def test_outputs_the_whole_read_refuses_are_refused_before_any_read(tmp_path, monkeypatch, capsys):
+    """--report without a machine and --gcode-g52: one line, exit 2, nothing written, and the
+    program never read (neither whole nor in windows)."""
+    import fuzzyfeed.program.read as read
+    import fuzzyfeed.program.window_advice as window_advice
+    from fuzzyfeed.cli import main
+
+    prog = _raster(tmp_path / "r.ngc")
+    monkeypatch.setattr(windows, "MIN_LINES", 1)
+    monkeypatch.setattr(window_advice, "read_windows", lambda *a, **k: pytest.fail("read in windows"))
+    monkeypatch.setattr(read, "read_program", lambda *a, **k: pytest.fail("read whole"))
+    for extra, said in ((["--report", str(tmp_path / "r.html")], "--report"),
+                        (["--gcode-g52", str(tmp_path / "g.ngc")], "--gcode-g52")):
+        assert main(["advise", str(prog), "-o", str(tmp_path / "x.csv"), *extra]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and said in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.ngc"]

@@ -1,11 +1,16 @@
 """A long program advised without a machine window by window (issue 36: memory bounded by a window
-of lines, not by the program): ``advise PROGRAM -o x.csv [--gcode y.ngc]`` on a program of at
-least :data:`~fuzzyfeed.program.windows.MIN_LINES` lines. The CSV and the program are written
-as the windows are advised (:func:`~fuzzyfeed.program.window_advice.advise_in_windows`); the
-result is the whole read's, byte for byte. Where the windows cannot give it (see
-:mod:`fuzzyfeed.program.windows`), and for anything else asked of the result (the text, the
-columns, a plot, rs274's check), the program is read whole and advised as before
-(:class:`~fuzzyfeed.advice.program.ProgramResult`)."""
+of lines, not by the program): ``advise PROGRAM -o x.csv [--gcode y.ngc] [--plot p.png]
+[--verify-rs274]`` on a program of at least :data:`~fuzzyfeed.program.windows.MIN_LINES` lines.
+The CSV and the program are written as the windows are advised
+(:func:`~fuzzyfeed.program.window_advice.advise_in_windows`), the plot drawn from a trace thinned
+as the rows come (:mod:`fuzzyfeed.report.plot_trace`), the rewrite checked by rs274 streamed
+(:mod:`fuzzyfeed.program.verify_windows`); the result is the whole read's, byte for byte. Where
+the windows cannot give it (see :mod:`fuzzyfeed.program.windows`), and for anything else asked of
+the result (the text, the columns), the program is read whole and advised as before
+(:class:`~fuzzyfeed.advice.program.ProgramResult`). Outputs the whole read refuses (``--report``
+without a machine, ``--gcode-g52``, the same file twice, ``--verify-rs274`` without ``--gcode``)
+are refused before anything is read.
+"""
 
 from __future__ import annotations
 
@@ -83,12 +88,12 @@ class WindowedProgramResult(AdviceResult):
         from fuzzyfeed.errors import FuzzyfeedError
         from fuzzyfeed.program.windows import Fallback
 
-        if self.options.verify_rs274 and self._whole is None:
-            self._checks(csv, gcode, gcode_g52, plot, report)       # refused before anything is read
-            _need_gcode(gcode)
-        if report or gcode_g52 or (csv is None and gcode is None and plot is None) or self._whole is not None:
+        if self._whole is None:          # refused before anything is read (as the whole read refuses them)
+            self._checks(csv, gcode, gcode_g52, plot, report)
+            if self.options.verify_rs274:
+                _need_gcode(gcode)
+        if (csv is None and gcode is None and plot is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
-        self._checks(csv, gcode, gcode_g52, plot, report)
         fallback = False
         try:
             with warnings.catch_warnings(record=True) as said:
