@@ -509,35 +509,3 @@ class NothingResult(AdviceResult):
         written = [p for p in (csv, gcode) if p]
         return ["wrote " + " and ".join(written)] if written else []
 
-
-def combined_advice(pa):
-    """One FuzzyAdvice over all advised cuts end to end (for the plot): arc length runs on."""
-    from fuzzyfeed.fuzzy.advisor import FuzzyAdvice
-    from fuzzyfeed.fuzzy.features import Features
-    from fuzzyfeed.geometry.sampling import PathSamples
-    from fuzzyfeed.machine.profile import FeedProfile
-
-    parts = {k: [] for k in ("xyz", "s", "tangent", "k", "wmax", "dk", "raw", "pct", "feed")}
-    offset = 0.0
-    for cs, adv, ceil in zip(pa.cuts, pa.advice, pa.ceiling_mm_min):
-        sm = cs.samples
-        parts["xyz"].append(sm.xyz)
-        parts["s"].append(sm.s + offset)
-        offset += sm.length
-        parts["tangent"].append(sm.tangent)
-        parts["k"].append(sm.curvature)
-        parts["wmax"].append(adv.features.window_max_1_mm)
-        parts["dk"].append(adv.features.curvature_variation)
-        parts["raw"].append(adv.controller_pct)
-        parts["pct"].append(adv.feed_pct)
-        parts["feed"].append(adv.feed_pct / 100.0 * ceil / 60.0)
-    cat = {k: np.concatenate(v) for k, v in parts.items()}
-    nan = np.full_like(cat["xyz"], np.nan)
-    s = cat["s"]
-    samples = PathSamples(u=s / max(s[-1], 1e-300), xyz=cat["xyz"], s=s, tangent=cat["tangent"],
-                          curvature=cat["k"], d1=nan, d2=nan, dim=3)
-    f_max = float(np.max(np.concatenate(pa.ceiling_mm_min))) / 60.0
-    profile = FeedProfile(samples=samples, feed_mm_s=cat["feed"], method="fuzzy", max_feed_mm_s=f_max)
-    feats = Features(curvature_1_mm=cat["k"], window_max_1_mm=cat["wmax"], curvature_variation=cat["dk"])
-    return FuzzyAdvice(profile=profile, features=feats, controller_pct=cat["raw"],
-                       feed_pct=cat["pct"], table=pa.table)

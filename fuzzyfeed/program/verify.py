@@ -4,7 +4,9 @@ must accept the rewrite and give the same canonical moves apart from the feeds (
 pieces on its line or arc, within 1 µm, covering it exactly; every other call identical). Where it
 refuses or the moves differ, the lines whose rewrite is to blame keep their text: the rewrite is
 tried on halves of the changed lines (a bisection, at most ``max_runs`` runs of rs274) and only
-the lines it accepts are rewritten.
+the lines it accepts are rewritten. rs274's calls are read from a pipe and compared as they come
+(:mod:`fuzzyfeed.program.verify_stream`; a long program read in windows:
+:mod:`fuzzyfeed.program.verify_windows`, the same verdicts).
 
 Tool table: the one the advice used (diameters in mm, written for rs274 in inches, as the
 stand-alone rs274 reads them); without one, tools 1–999 of diameter 0 so that tool changes are
