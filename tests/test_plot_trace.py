@@ -92,7 +92,13 @@ def test_the_trace_does_not_depend_on_the_split_and_keeps_every_bucket_and_cell(
             longer.append(i)
     want = sorted([*last.values(), *longer])
     assert len(want) == d.mid.size <= 400 and len(want) < 5990
-    assert np.array_equal(d.segments[:, 1], xy[want]) and np.array_equal(d.segments[:, 0], xy[np.array(want) - 1])
+    raw = whole._seg                  # the kept segments as they are on the path
+    assert np.array_equal(raw["b"], xy[want]) and np.array_equal(raw["a"], xy[np.array(want) - 1])
+    # drawn about their middles, along themselves, at least sqrt(2) cells long: no gap between cells
+    length = np.linalg.norm(raw["b"] - raw["a"], axis=1)
+    drawn = np.linalg.norm(d.segments[:, 1] - d.segments[:, 0], axis=1)
+    assert np.allclose(d.segments.mean(axis=1), 0.5 * (raw["a"] + raw["b"]), rtol=0, atol=1e-12)
+    assert np.allclose(drawn, np.maximum(length, 2 ** 0.5 * whole.cell), rtol=1e-12, atol=1e-12)
     feed = cols["feed_pct"] / 100.0 * cols["programmed_feed_mm_min"] / 60.0 * 60.0
     assert np.allclose(d.mid, 0.5 * (feed[np.array(want) - 1] + feed[want]), rtol=0, atol=0)
 

@@ -13,7 +13,8 @@ sample of the program is held; the same rows in any split give the same trace.
   of two times :data:`FIRST_CELL_MM`, doubled while more than :data:`MAX_SEGMENTS` segments are
   kept); of the segments between consecutive samples of a cut no longer than ``c``, each cell
   keeps the last drawn whose middle lies in it, the longer ones are all kept; they are drawn in the
-  path's order. The colour scale and the axes run over every segment and sample, not only those
+  path's order, a kept short one stretched about its middle to √2 cells (it stands for its cell:
+  no gaps; it moves by less than a cell, under a pixel). The colour scale and the axes run over every segment and sample, not only those
   kept. A cell is well under a pixel of the printed plot and a line 2 points wide: each pixel
   shows the colour of the last pass over it, as when every segment is drawn.
 A program whose rows fit under these bounds keeps them all: its plot is drawn from every sample.
@@ -32,6 +33,9 @@ MAX_SEGMENTS = 1 << 18
 #: The smallest bucket width and cell side (mm): a power of two, far under any pixel.
 FIRST_WIDTH_MM = 2.0 ** -20
 FIRST_CELL_MM = 2.0 ** -20
+#: A kept segment shorter than this many cell sides is drawn this long, about its middle, along
+#: itself (it stands for the segments of its cell that are not drawn: no gap between the kept ones).
+CELL_COVER = 2.0 ** 0.5
 #: Rows taken before they are thinned with those kept (memory: a few times this many rows).
 PENDING_ROWS = 1 << 17
 _SERIES = ("feed_pct_controller", "feed_pct", "curvature_1_mm", "curvature_variation")
@@ -185,8 +189,16 @@ class FuzzyTrace:
     def data(self) -> FuzzyTraceData:
         self._flush()
         r, g = self._rows, self._seg
+        a, b = g["a"].copy(), g["b"].copy()
+        if self.cell > FIRST_CELL_MM:    # thinned: a cell's last segment drawn across the whole cell
+            d = b - a
+            n = np.linalg.norm(d, axis=1)
+            grow = (n > 0) & (n < CELL_COVER * self.cell)
+            half = (0.5 * CELL_COVER * self.cell / np.where(grow, n, 1.0))[:, None] * d
+            m = 0.5 * (a + b)
+            a[grow], b[grow] = (m - half)[grow], (m + half)[grow]
         return FuzzyTraceData(s=r["s"], lines={k: r[k] for k in _SERIES},
-                              segments=np.stack([g["a"], g["b"]], axis=1) if g["v"].size else np.zeros((0, 2, 2)),
+                              segments=np.stack([a, b], axis=1) if g["v"].size else np.zeros((0, 2, 2)),
                               mid=g["v"], value_range=(self._v_lo, self._v_hi), lo_xy=self._lo_xy,
                               hi_xy=self._hi_xy, max_feed_mm_s=self._f_max / 60.0, cuts=self.cuts)
 
