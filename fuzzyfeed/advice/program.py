@@ -60,14 +60,16 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
     fix_mmap_threshold()               # large programs: the columns a read drops go back to the system
     step = options.feed_step_mm_min or DEFAULT_PROGRAM_FEED_STEP_MM_MIN
     step_mm = options.step_mm or DEFAULT_STEP_MM
-    if selector is None and machine is None and options.reference and not options.verify_rs274:
+    if selector is None and machine is None and options.reference:
         from fuzzyfeed.advice.program_windows import windowed_result
+
+        verify = _verifier(options, tools)     # rs274 missing: refused before anything is read
 
         def whole():                   # the whole read, where the windows cannot give its result
             program = read_program(path, tools=tools)
             if program.n_cuts == 0:
                 return NothingResult(spec, options, path, program)
-            return ProgramResult(spec, options, path, program, table, None, step_mm, step, None)
+            return ProgramResult(spec, options, path, program, table, None, step_mm, step, verify)
 
         def checks(csv, gcode, gcode_g52, plot, report):
             _check_outputs(csv, gcode, gcode_g52, plot)
@@ -279,18 +281,23 @@ class ProgramResult(AdviceResult):
         _refuse_report(report)
         if self._verify is not None and not gcode:
             raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
-        if plot:
-            self.advice                  # the plot draws the whole cuts' advice
+        trace = None
+        if plot:                         # the plot's trace kept as the rows come (report/plot_trace.py)
+            from fuzzyfeed.report.plot_trace import FuzzyTrace
+
+            trace = FuzzyTrace()
         cap = self.options.feed_mm_min
         if csv is not None:              # rows written as the pieces come
             with atomic_write(csv, "w", newline="") as handle:
                 out = ColumnStream(handle, csv)
-                self._advise(out.write)
+                self._advise(out.write if trace is None else _tee(out.write, trace.add))
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = _feed_note(cap)
             write_metadata(csv, out.names, record)
+        elif trace is not None:
+            self._advise(trace.add)
         if plot:
-            self.plot(plot)
+            self._plot_trace(trace, plot)
         if gcode:
             if self._text is not None or self._verify is not None:
                 _write_text(gcode, self.text)
@@ -309,10 +316,26 @@ class ProgramResult(AdviceResult):
         return lines
 
     def _plot(self, output) -> None:
-        from fuzzyfeed.report.plot import plot_fuzzy_advice
+        from fuzzyfeed.report.plot_trace import FuzzyTrace
 
-        plot_fuzzy_advice(combined_advice(self.advice),
-                          f"{self.path.name}: {self._n_advised()} cut(s) end to end", output)
+        trace = FuzzyTrace()
+        self._advise(trace.add)
+        self._plot_trace(trace, output)
+
+    def _plot_trace(self, trace, output) -> None:
+        """The advised cuts end to end (:func:`~fuzzyfeed.report.plot_trace.plot_trace`: the rows
+        thinned as they come, the same plot whether the program was read whole or in windows)."""
+        from fuzzyfeed.report.plot_trace import plot_trace
+
+        plot_trace(trace, self.table, f"{self.path.name}: {self._n_advised()} cut(s) end to end", output)
+
+
+def _tee(*sinks):
+    """One CSV sink handing each piece's rows to every one of ``sinks``."""
+    def sink(cols: dict) -> None:
+        for each in sinks:
+            each(cols)
+    return sink
 
 
 class MachineProgramResult(AdviceResult):
@@ -486,35 +509,3 @@ class NothingResult(AdviceResult):
         written = [p for p in (csv, gcode) if p]
         return ["wrote " + " and ".join(written)] if written else []
 
-
-def combined_advice(pa):
-    """One FuzzyAdvice over all advised cuts end to end (for the plot): arc length runs on."""
-    from fuzzyfeed.fuzzy.advisor import FuzzyAdvice
-    from fuzzyfeed.fuzzy.features import Features
-    from fuzzyfeed.geometry.sampling import PathSamples
-    from fuzzyfeed.machine.profile import FeedProfile
-
-    parts = {k: [] for k in ("xyz", "s", "tangent", "k", "wmax", "dk", "raw", "pct", "feed")}
-    offset = 0.0
-    for cs, adv, ceil in zip(pa.cuts, pa.advice, pa.ceiling_mm_min):
-        sm = cs.samples
-        parts["xyz"].append(sm.xyz)
-        parts["s"].append(sm.s + offset)
-        offset += sm.length
-        parts["tangent"].append(sm.tangent)
-        parts["k"].append(sm.curvature)
-        parts["wmax"].append(adv.features.window_max_1_mm)
-        parts["dk"].append(adv.features.curvature_variation)
-        parts["raw"].append(adv.controller_pct)
-        parts["pct"].append(adv.feed_pct)
-        parts["feed"].append(adv.feed_pct / 100.0 * ceil / 60.0)
-    cat = {k: np.concatenate(v) for k, v in parts.items()}
-    nan = np.full_like(cat["xyz"], np.nan)
-    s = cat["s"]
-    samples = PathSamples(u=s / max(s[-1], 1e-300), xyz=cat["xyz"], s=s, tangent=cat["tangent"],
-                          curvature=cat["k"], d1=nan, d2=nan, dim=3)
-    f_max = float(np.max(np.concatenate(pa.ceiling_mm_min))) / 60.0
-    profile = FeedProfile(samples=samples, feed_mm_s=cat["feed"], method="fuzzy", max_feed_mm_s=f_max)
-    feats = Features(curvature_1_mm=cat["k"], window_max_1_mm=cat["wmax"], curvature_variation=cat["dk"])
-    return FuzzyAdvice(profile=profile, features=feats, controller_pct=cat["raw"],
-                       feed_pct=cat["pct"], table=pa.table)

@@ -1,11 +1,16 @@
 """A long program advised without a machine window by window (issue 36: memory bounded by a window
-of lines, not by the program): ``advise PROGRAM -o x.csv [--gcode y.ngc]`` on a program of at
-least :data:`~fuzzyfeed.program.windows.MIN_LINES` lines. The CSV and the program are written
-as the windows are advised (:func:`~fuzzyfeed.program.window_advice.advise_in_windows`); the
-result is the whole read's, byte for byte. Where the windows cannot give it (see
-:mod:`fuzzyfeed.program.windows`), and for anything else asked of the result (the text, the
-columns, a plot, rs274's check), the program is read whole and advised as before
-(:class:`~fuzzyfeed.advice.program.ProgramResult`)."""
+of lines, not by the program): ``advise PROGRAM -o x.csv [--gcode y.ngc] [--plot p.png]
+[--verify-rs274]`` on a program of at least :data:`~fuzzyfeed.program.windows.MIN_LINES` lines.
+The CSV and the program are written as the windows are advised
+(:func:`~fuzzyfeed.program.window_advice.advise_in_windows`), the plot drawn from a trace thinned
+as the rows come (:mod:`fuzzyfeed.report.plot_trace`), the rewrite checked by rs274 streamed
+(:mod:`fuzzyfeed.program.verify_windows`); the result is the whole read's, byte for byte. Where
+the windows cannot give it (see :mod:`fuzzyfeed.program.windows`), and for anything else asked of
+the result (the text, the columns), the program is read whole and advised as before
+(:class:`~fuzzyfeed.advice.program.ProgramResult`). Outputs the whole read refuses (``--report``
+without a machine, ``--gcode-g52``, the same file twice, ``--verify-rs274`` without ``--gcode``)
+are refused before anything is read.
+"""
 
 from __future__ import annotations
 
@@ -55,6 +60,8 @@ class WindowedProgramResult(AdviceResult):
         self._whole = None
         self._totals = None
         self.window_lines = window_lines
+        self.verification = None     # what rs274 said of the rewrite (verify_rs274), once written
+        self._trace = None           # the plot's thinned trace (report/plot_trace.py), once written
 
     def whole(self):
         if self._whole is None:
@@ -81,24 +88,27 @@ class WindowedProgramResult(AdviceResult):
         from fuzzyfeed.errors import FuzzyfeedError
         from fuzzyfeed.program.windows import Fallback
 
-        if plot or report or gcode_g52 or (csv is None and gcode is None) or self._whole is not None:
+        if self._whole is None:          # refused before anything is read (as the whole read refuses them)
+            self._checks(csv, gcode, gcode_g52, plot, report)
+            if self.options.verify_rs274:
+                _need_gcode(gcode)
+        if (csv is None and gcode is None and plot is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
-        self._checks(csv, gcode, gcode_g52, plot, report)
         fallback = False
         try:
             with warnings.catch_warnings(record=True) as said:
                 warnings.simplefilter("always")
-                lines = self._write_windows(csv, gcode)
+                lines = self._write_windows(csv, gcode, plot)
         except (Fallback, FuzzyfeedError):
             fallback = True
         if fallback:     # outside the except: its traceback would keep the window read alive (~40 MB)
-            self._totals = None
+            self._totals = self.verification = self._trace = None
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
         for w in said:           # the reader's notices, once (none when the whole read took over)
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         return lines
 
-    def _write_windows(self, csv, gcode) -> list[str]:
+    def _write_windows(self, csv, gcode, plot=None) -> list[str]:
         from fuzzyfeed.base.atomic import atomic_write
         from fuzzyfeed.fuzzy.provenance import provenance
         from fuzzyfeed.io.csv import ColumnStream, write_metadata
@@ -106,23 +116,53 @@ class WindowedProgramResult(AdviceResult):
         from fuzzyfeed.program.windows import WINDOW_LINES
 
         cap = self.options.feed_mm_min
+        window_lines = self.window_lines or WINDOW_LINES
+        verify = bool(self.options.verify_rs274)
+        sinks = []
+        if plot is not None:             # the plot's trace, kept as the rows come
+            from fuzzyfeed.report.plot_trace import FuzzyTrace
+
+            self._trace = FuzzyTrace()
+            sinks.append(self._trace.add)
         with contextlib.ExitStack() as stack:
-            out = write = None
+            out = write = spill = None
             if csv is not None:
                 out = ColumnStream(stack.enter_context(atomic_write(csv, "w", newline="")), csv)
-            if gcode is not None:
+                sinks.insert(0, out.write)
+            if verify:                   # the rewrite to a scratch file, checked, then copied
+                import tempfile
+                from pathlib import Path
+
+                from fuzzyfeed.program.verify_windows import PieceSpill
+
+                scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="fuzzyfeed-rs274-")))
+                spill = PieceSpill(scratch / "pieces")
+                first = scratch / "first" / self.path.name
+                first.parent.mkdir()
+                first_handle = stack.enter_context(open(first, "w", newline=""))
+                write = first_handle.write
+            elif gcode is not None:
                 write = stack.enter_context(atomic_write(gcode, "w", newline="")).write
             self._totals = advise_in_windows(self.path, self.table, step_mm=self.step_mm, cap_mm_min=cap,
                                              feed_step_mm_min=self.feed_step_mm_min, tools=self.tools,
-                                             sink=None if out is None else out.write, write=write,
-                                             window_lines=self.window_lines or WINDOW_LINES)
+                                             sink=_tee(sinks), write=write,
+                                             window_lines=window_lines, on_window=spill)
+            if verify:
+                from fuzzyfeed.program.verify_windows import verify_windows
+
+                first_handle.close()
+                with atomic_write(gcode, "wb") as handle:
+                    self.verification = verify_windows(self.path, first, spill, self.tools, window_lines,
+                                                       scratch, handle)
         if csv is not None:
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = self._feed_note(cap)
             write_metadata(csv, out.names, record)
+        if plot is not None:
+            self._plot(plot)
         lines = []
-        if csv is not None:
-            lines.append(f"wrote {csv}")
+        if csv is not None or plot:
+            lines.append("wrote " + " and ".join(p for p in (csv, plot) if p))
         if gcode:
             lines.append(f"wrote {gcode}")
         return lines
@@ -139,7 +179,8 @@ class WindowedProgramResult(AdviceResult):
                 f"max {t.pct_max:.2f} %   (F rounded down to {step:g} mm/min steps)",
                 f"feed moves of the advised cuts: {t.time_written_s:.3f} s at the programmed F, "
                 f"{t.time_advised_s:.3f} s at the advised F (no acceleration); {t.splits} split points",
-                t.coverage().summary()]
+                t.coverage().summary(),
+                *([self.verification.summary()] if self.verification is not None else [])]
 
     def figures(self) -> dict:
         t = self._totals
@@ -147,7 +188,28 @@ class WindowedProgramResult(AdviceResult):
             return self.whole().figures()
         return {"cuts": t.cuts, "cuts_advised": t.cuts, "time_written_s": t.time_written_s,
                 "time_advised_s": t.time_advised_s, "feed_pct_min": t.pct_min,
-                "feed_pct_mean": t.pct_sum / t.pct_count, **t.coverage().figures()}
+                "feed_pct_mean": t.pct_sum / t.pct_count, **t.coverage().figures(),
+                **({} if self.verification is None else self.verification.figures())}
 
     def _plot(self, output) -> None:
-        self.whole()._plot(output)
+        if self._trace is None or self._totals is None:
+            return self.whole()._plot(output)
+        from fuzzyfeed.report.plot_trace import plot_trace
+
+        plot_trace(self._trace, self.table, f"{self.path.name}: {self._totals.cuts} cut(s) end to end", output)
+
+
+def _tee(sinks):
+    """None, or one CSV sink handing each piece's rows to every one of ``sinks``."""
+    if not sinks:
+        return None
+    from fuzzyfeed.advice.program import _tee as tee
+
+    return tee(*sinks)
+
+
+def _need_gcode(gcode) -> None:
+    from fuzzyfeed.errors import ExportError
+
+    if not gcode:
+        raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")

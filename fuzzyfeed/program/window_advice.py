@@ -63,10 +63,11 @@ class WindowTotals:
 def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: float | None,
                       feed_step_mm_min: float, min_piece_mm: float = DEFAULT_MIN_PIECE_MM, tools=None,
                       sink=None, write=None, window_lines: int = WINDOW_LINES,
-                      piece_points: int | None = None) -> WindowTotals:
+                      piece_points: int | None = None, on_window=None) -> WindowTotals:
     """Advise the program at ``path`` window by window: ``sink(columns)`` takes every piece's CSV
     rows (as :func:`~fuzzyfeed.program.stream.stream_program_advice` makes them, with the file's cut
-    and line numbers), ``write(text)`` the rewritten program in chunks. Raises
+    and line numbers), ``write(text)`` the rewritten program in chunks, ``on_window(window, move,
+    end, feed)`` each window's pieces (its own move numbers). Raises
     :class:`~fuzzyfeed.program.windows.Fallback` where the windows cannot give the whole read's
     result (see there; also a program with no cut, or any error: the whole read names it)."""
     from fuzzyfeed.errors import FuzzyfeedError
@@ -132,6 +133,8 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
                 totals.time_advised_s += t_adv
                 totals.splits += int(np.sum(np.diff(pm) == 0))
             del parts
+            if on_window is not None:
+                on_window(win, pm, pe, pf)
             totals.cuts += wp.n_cuts - int(win.continued)
             totals.coverages.append((win.line0, program_coverage(wp)))
             if write is not None:

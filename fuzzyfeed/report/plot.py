@@ -27,33 +27,50 @@ def save_figure(fig, output: str | os.PathLike) -> None:
         plt.close(fig)
 
 
-def colored_path(ax, samples: PathSamples, values: np.ndarray, label: str, cmap: str = "viridis",
-                 log: bool = False):
-    """Draw the path in the xy plane as a line coloured by ``values``; returns the colorbar.
-
+def path_segments(samples: PathSamples, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The path's steps in the xy plane (n, 2, 2) and each one's value (the mean of its ends).
     A step between samples that is longer than its arc length is not path but a jump between the
     pieces of a path (a program's rapid between two cuts): it is left out."""
-    from matplotlib.collections import LineCollection
-    from matplotlib.colors import LogNorm, Normalize
-
     pts = samples.xyz[:, :2]
     chord = np.linalg.norm(np.diff(np.asarray(samples.xyz, dtype=float), axis=0), axis=1)
     ds = np.diff(np.asarray(samples.s, dtype=float))
     on_path = chord <= ds * (1.0 + 1e-6) + 1e-9 * max(1.0, float(samples.s[-1]))
     segments = np.stack([pts[:-1], pts[1:]], axis=1)[on_path]
     mid = (0.5 * (values[:-1] + values[1:]))[on_path]
+    return segments, mid
+
+
+def colored_path(ax, samples: PathSamples, values: np.ndarray, label: str, cmap: str = "viridis",
+                 log: bool = False):
+    """Draw the path in the xy plane as a line coloured by ``values``; returns the colorbar
+    (:func:`path_segments`: jumps between pieces left out)."""
+    segments, mid = path_segments(samples, values)
+    pts = samples.xyz[:, :2]
+    return draw_segments(ax, segments, mid, (float(mid.min()), float(mid.max())), pts.min(axis=0),
+                         pts.max(axis=0), label, cmap, log)
+
+
+def draw_segments(ax, segments: np.ndarray, mid: np.ndarray, value_range: tuple[float, float], lo_xy, hi_xy,
+                  label: str, cmap: str = "viridis", log: bool = False):
+    """Segments (n, 2, 2) coloured by ``mid`` on a scale over ``value_range`` (the values of every
+    segment of the path, also those not drawn), the axes over ``lo_xy``..``hi_xy`` (mm); returns
+    the colorbar."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import LogNorm, Normalize
+
+    v_lo, v_hi = value_range
     if log:
         positive = mid[mid > 0]
         # four decades below the peak are enough to see where a path is sharp
-        floor = max(positive.min(), mid.max() * 1e-4) if positive.size else 1e-6
-        norm = LogNorm(vmin=floor, vmax=max(mid.max(), floor * 10))
+        floor = max(positive.min(), v_hi * 1e-4) if positive.size else 1e-6
+        norm = LogNorm(vmin=floor, vmax=max(v_hi, floor * 10))
         mid = np.maximum(mid, floor)
     else:
-        norm = Normalize(vmin=mid.min(), vmax=mid.max() if mid.max() > mid.min() else mid.min() + 1)
+        norm = Normalize(vmin=v_lo, vmax=v_hi if v_hi > v_lo else v_lo + 1)
     lc = LineCollection(segments, array=mid, cmap=cmap, norm=norm, linewidths=2.0)
     ax.add_collection(lc)
-    ax.set_xlim(pts[:, 0].min() - 1, pts[:, 0].max() + 1)
-    ax.set_ylim(pts[:, 1].min() - 1, pts[:, 1].max() + 1)
+    ax.set_xlim(lo_xy[0] - 1, hi_xy[0] + 1)
+    ax.set_ylim(lo_xy[1] - 1, hi_xy[1] + 1)
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
@@ -80,40 +97,51 @@ def plot_shape_curvature(samples: PathSamples, title: str, output: str | os.Path
 def plot_fuzzy_advice(advice, title: str, output: str | os.PathLike) -> None:
     """Fuzzy advice: feed % against arc length (controller output and filtered feed) over κ and the
     normalised Dκ, and the path coloured by the advised feed (mm/min)."""
-    plt = _pyplot()
     samples = advice.profile.samples
-    s = samples.s
+    segments, mid = path_segments(samples, advice.profile.feed_mm_min)
+    pts = samples.xyz[:, :2]
+    draw_fuzzy(samples.s, advice.controller_pct, advice.feed_pct, advice.features.curvature_1_mm,
+               advice.features.curvature_variation, segments, mid, (float(mid.min()), float(mid.max())),
+               pts.min(axis=0), pts.max(axis=0), advice.table, advice.profile.max_feed_mm_s, title, output)
+
+
+def draw_fuzzy(s, controller_pct, feed_pct, curvature, variation, segments, mid, value_range, lo_xy, hi_xy,
+               table, max_feed_mm_s: float, title: str, output: str | os.PathLike) -> None:
+    """:func:`plot_fuzzy_advice`'s figure from its arrays: the lines against arc length ``s``, the
+    path's segments coloured by ``mid`` (:func:`draw_segments`); a long program's come thinned
+    (:mod:`fuzzyfeed.report.plot_trace`)."""
+    plt = _pyplot()
     fig = plt.figure(figsize=(13, 7.5))
     grid = fig.add_gridspec(2, 2, width_ratios=[1.5, 1], height_ratios=[1, 1])
     ax_f = fig.add_subplot(grid[0, 0])
     ax_k = fig.add_subplot(grid[1, 0], sharex=ax_f)
     ax_p = fig.add_subplot(grid[:, 1])
-    ax_f.plot(s, advice.controller_pct, lw=0.8, color="0.6", label="controller (before filter)")
-    ax_f.plot(s, advice.feed_pct, lw=1.6, color="C0",
-              label=f"advised feed ({advice.table.filter} filter, M = "
-                    + (f"{advice.table.filter_mm:g} mm)" if advice.table.filter_mm
-                       else f"{advice.table.filter_points} points)"))
-    ax_f.axhline(advice.table.feed_floor_pct, color="C3", lw=0.8, ls=":", label="feed floor")
+    ax_f.plot(s, controller_pct, lw=0.8, color="0.6", label="controller (before filter)")
+    ax_f.plot(s, feed_pct, lw=1.6, color="C0",
+              label=f"advised feed ({table.filter} filter, M = "
+                    + (f"{table.filter_mm:g} mm)" if table.filter_mm
+                       else f"{table.filter_points} points)"))
+    ax_f.axhline(table.feed_floor_pct, color="C3", lw=0.8, ls=":", label="feed floor")
     ax_f.set_ylabel("feed (% of max)")
     ax_f.set_ylim(0, 105)
     ax_f.grid(True, alpha=0.3)
     ax_f.legend(loc="lower right", fontsize=8)
-    ax_f.set_title(f"{title}: fuzzy feed advice ({advice.table.name} rules, "
-                   f"F = {advice.profile.max_feed_mm_s * 60:g} mm/min)")
-    ax_k.semilogy(s, np.maximum(advice.features.curvature_1_mm, 1e-5), lw=1.0, color="C1",
+    ax_f.set_title(f"{title}: fuzzy feed advice ({table.name} rules, "
+                   f"F = {max_feed_mm_s * 60:g} mm/min)")
+    ax_k.semilogy(s, np.maximum(curvature, 1e-5), lw=1.0, color="C1",
                   label="curvature κ (1/mm)")
     ax_k.set_ylabel("curvature κ (1/mm)")
     ax_k.set_xlabel("arc length s (mm)")
     ax_k.grid(True, which="both", alpha=0.3)
     ax_d = ax_k.twinx()
-    ax_d.plot(s, advice.features.curvature_variation, lw=1.0, color="C2",
-              label="normalised Dκ (WS = " + (f"{advice.table.window_mm:g} mm)" if advice.table.window_mm
-                                              else f"{advice.table.window_points} points)"))
+    ax_d.plot(s, variation, lw=1.0, color="C2",
+              label="normalised Dκ (WS = " + (f"{table.window_mm:g} mm)" if table.window_mm
+                                              else f"{table.window_points} points)"))
     ax_d.set_ylabel("normalised Dκ")
     ax_d.set_ylim(-0.02, 1.05)
     lines = ax_k.get_lines() + ax_d.get_lines()
     ax_k.legend(lines, [ln.get_label() for ln in lines], loc="lower right", fontsize=8)
-    colored_path(ax_p, samples, advice.profile.feed_mm_min, "advised feed (mm/min)", cmap="turbo_r")
+    draw_segments(ax_p, segments, mid, value_range, lo_xy, hi_xy, "advised feed (mm/min)", cmap="turbo_r")
     ax_p.set_title("path coloured by advised feed")
     fig.tight_layout()
     save_figure(fig, output)
