@@ -123,3 +123,23 @@ def test_outputs_the_whole_read_refuses_are_refused_before_any_read(tmp_path, mo
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and said in err[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.ngc"]
+
+
+def test_long_cuts_checked_and_plotted_in_windows_are_the_whole_reads(tmp_path, monkeypatch, capsys):
+    """Cuts longer than a window (advised from the file in pieces, split at the windows' ends) with
+    rs274's check and the plot: the windows' first pass hands each window its own moves, the
+    check's rewrites read the same windows again; outputs byte for byte the whole read's."""
+    import fuzzyfeed.geometry.polyline_runs as runs
+    import fuzzyfeed.program.long_cut as long_cut
+    import fuzzyfeed.program.stream as stream
+
+    rs274_binary()
+    monkeypatch.setattr(runs, "COMPILED_MIN_VERTICES", 0)   # as on a real long cut: compiled both ways
+    monkeypatch.setattr(stream, "DEFAULT_PIECE_POINTS", 300)
+    monkeypatch.setattr(long_cut, "FIT_WINDOW", 150)
+    seen = []
+    real = long_cut.advise_long_cut
+    monkeypatch.setattr(long_cut, "advise_long_cut", lambda *a, **k: seen.append(1) or real(*a, **k))
+    prog = _raster(tmp_path / "r.ngc", cuts=2, rows=12)
+    out = _compare(tmp_path, prog, monkeypatch, capsys, 60, "--verify-rs274", "--plot", "p.png")
+    assert seen and "rs274 accepts the rewritten program" in out
