@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from fuzzyfeed.slw.preprocess import Reference, _evaluate, evaluate_reference
-from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration
+from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration, transition_time
 from fuzzyfeed.slw.window_blocks import _Junction
 
 _EMPTY = np.empty(0)
@@ -56,6 +56,10 @@ ACC_KEEP = 0.5
 #: offending point instead: the rest of the rise or fall keeps the acceleration its directions
 #: allow (issue 38: nurbs41 slow-Y, a 17 mm fall at 287 mm/s² where most of it allows 742).
 STRETCH_KEEP = 0.6
+#: … and only where the whole transition at what its stretch allows would take this share less
+#: time than at the lowered acceleration (a jerk-bound change gains little from a higher
+#: acceleration and loses a junction's zero acceleration: nurbs48 slow-Y cosine, a 16 mm/s rise).
+STRETCH_GAIN = 0.25
 #: Samples of a block's profile within this share of a limit (axis acceleration or feed) are
 #: checked against the path evaluated at the samples themselves, not interpolated between points.
 EXACT_NEAR = 0.99
@@ -266,11 +270,14 @@ class BlockCheck:
         peak = max(peak_acceleration(seg), 1e-9) if seg.duration_s else current
         need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
         acc = max(min(current, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
-        if self.carry and self.per_direction and side != 2 and seg.duration_s and k < n_samples:
+        if self.carry and self.per_direction and seg.duration_s and seg.v1 != seg.v0 and k < n_samples:
             here = np.flatnonzero(seg_id[:n_samples] == seg_id[k])
-            allows = float(np.median(stretch_acc(1.0 if side == 0 else -1.0, tan[here], cen[here],
+            allows = float(np.median(stretch_acc(1.0 if seg.v1 > seg.v0 else -1.0, tan[here], cen[here],
                                                  self.axis_acc)))
-            if acc < STRETCH_KEEP * min(allows, float(self.axis_acc.max())):
+            allows = min(allows, float(self.axis_acc.max()))
+            slow = transition_time(seg.v0, seg.v1, acc, self.jerk, self.shape)
+            if acc < STRETCH_KEEP * allows and \
+                    transition_time(seg.v0, seg.v1, allows, self.jerk, self.shape) < (1.0 - STRETCH_GAIN) * slow:
                 # the transition's worst point allows far less than the rest of its stretch: a
                 # junction there (zero tangential acceleration), the rest keeps its acceleration
                 self._split(i, s[k], cap=float(v[k]))
