@@ -6,7 +6,9 @@ accelerations a_t·T_j + v²·κN_j (+ v·|ΔT_j|/Ts at a kink) against A_j. A f
 adds a junction there; an axial acceleration above its limit lowers the block's tangential
 acceleration (on unequal axes only that of the transition at fault, the rise's or the fall's: the
 per-point interval |a_t·T_j + v²·κN_j| ≤ A_j where it broke, not the block's worst direction), or
-caps the feed of a new junction when the centripetal part alone nearly uses the axis up.
+caps the feed of a new junction when the centripetal part alone nearly uses the axis up, or (unequal
+axes) adds a junction where the transition's worst point allows far less than the rest of its
+stretch (:func:`stretch_acc`).
 """
 
 from __future__ import annotations
