@@ -52,6 +52,11 @@ SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 
 MACHINES = {"equal": EQUAL, "slow-y": SLOW_Y}
 #: Over a limit: a tick above it by more than this (the summary prints two decimals of a per cent).
 OVER = 1 + 5e-5
+#: Diagnostic only (not the floor): the jerk at which a jerk-bound seven-phase change of feed takes
+#: as long as the cosine's, 2·√(Δv/J') = π·√(Δv/(2J)) ⇔ J' = 8J/π² (profile.py). The floor under
+#: J' (cosine cases, column ``/cosJ``) shows how much of a cosine's gap the transition's shape
+#: alone makes on the jerk side (an acceleration-bound cosine, π/2 x Δv/A, costs more still).
+COSINE_JERK = 8.0 / np.pi ** 2
 LIBRARY = Path("/work/main/benchmarks/library/programs")
 
 
@@ -141,10 +146,16 @@ def run_case(name: str, curve, limits: MachineLimits, transition: str, cap=None,
     bound = path_bound(traj.curve, limits, feed_cap=cap, halve=False)  # the path followed
     floor = jerk_floor(traj.curve, limits, bound)
     old = max(bound.time_s, legs_s(traj.curve, limits))  # the floor before the corner chain
+    cos_floor = None
+    if transition == "cosine":  # diagnostic: the floor at the cosine's equivalent jerk (COSINE_JERK)
+        from dataclasses import replace
+
+        cos_floor = jerk_floor(traj.curve, replace(limits, jerk_mm_s3=COSINE_JERK * limits.jerk_mm_s3), bound)
     m = measure(traj)
     return {"name": name, "length": traj.curve.length, "cpu": cpu, "time": traj.cycle_time_s,
             "bound": bound.time_s, "floor": floor, "ratio": traj.cycle_time_s / floor,
             "ratio_old": traj.cycle_time_s / old,
+            "ratio_cos": None if cos_floor is None else traj.cycle_time_s / cos_floor,
             "worst": max(m[k] for k in LIMITS), "limit": max(LIMITS, key=lambda k: m[k]),
             "crit": traj.n_critical, **({"curve": traj.curve} if keep_curve else {})}
 
@@ -153,11 +164,12 @@ def line(r: dict) -> str:
     if "fail" in r:
         return f"{r['name']:<34} FAILED after {r['cpu']:.2f} s: {r['fail']}"
     return (f"{r['name']:<34} {r['length']:9.1f} {r['time']:9.3f} {r['bound']:9.3f} {r['floor']:9.3f} "
-            f"{r['ratio']:7.4f} {r['ratio_old']:7.4f} {r['worst']:8.5f} {r['limit']:>8} {r['crit']:6d} {r['cpu']:7.2f}")
+            f"{r['ratio']:7.4f} {r['ratio_old']:7.4f} {r['worst']:8.5f} {r['limit']:>8} {r['crit']:6d} {r['cpu']:7.2f}"
+            + ("" if r.get("ratio_cos") is None else f" {r['ratio_cos']:7.4f}"))
 
 
 HEADER = (f"{'path / machine / transition':<34} {'length mm':>9} {'SLW s':>9} {'bound s':>9} {'floor s':>9} "
-          f"{'/floor':>7} {'/old':>7} {'worst':>8} {'limit':>8} {'crit':>6} {'cpu s':>7}")
+          f"{'/floor':>7} {'/old':>7} {'worst':>8} {'limit':>8} {'crit':>6} {'cpu s':>7} {'/cosJ':>7}")
 
 
 def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None, builtin_only: bool = False):
@@ -222,6 +234,11 @@ def summary(results: list[dict], label: str) -> tuple[float, float, float, int, 
           f"{worst['time']:.3f} s against a floor of {worst['floor']:.3f} s); compute worst {slow['cpu']:.2f} s "
           f"({slow['name']}), total {sum(r['cpu'] for r in results):.1f} s; against the floor without the corner "
           f"chain: median {np.median([r['ratio_old'] for r in ok]):.4f}, worst {max(r['ratio_old'] for r in ok):.4f}")
+    cos = [r["ratio_cos"] for r in ok if r.get("ratio_cos") is not None]
+    if cos:
+        print(f"{label} (diagnostic, not the floor): against the floor at the cosine's equivalent jerk "
+              f"8J/pi^2: median {np.median(cos):.4f}, 90th percentile {np.percentile(cos, 90):.4f}, "
+              f"worst {max(cos):.4f}")
     return float(np.median(ratios)), float(worst["ratio"]), float(slow["cpu"]), len(fails), len(over)
 
 

@@ -111,7 +111,9 @@ def test_plan_window_equals_the_python_scans(shape):
 # limit): the slow-Y rows and butterfly equal changed (ticks -0.9 % to +0.7 %), the others not;
 # rows re-recorded at branch median6 (issue 38: a block's top lowered instead of a junction where
 # a limit falls a little under it): slow-Y butterfly, cusp, nurbs3, nurbs7 and cam1000 changed
-# (ticks 0 to -0.8 %), the others not
+# (ticks 0 to -0.8 %), the others not; slow-Y butterfly (both transitions) and cam1000 seven-phase
+# re-recorded at branch med7 (a transition's junction where its stretch allows far more than its
+# worst point: ticks -1.3 %, -2.2 %, +0.04 %), the others not
 RECORDED = [
     ("wm", "equal", "cosine", 1443, 365699.83331926435, 3045171.8029829967),
     ("wm", "equal", "seven-phase", 1383, 401452.77425995073, 3231134.0848481804),
@@ -123,8 +125,8 @@ RECORDED = [
     ("trident2", "slow-y", "seven-phase", 2362, 399433.4817869243, 2077096.7309248347),
     ("butterfly", "equal", "cosine", 6366, 1495823.2160064566, 28715387.969913438),
     ("butterfly", "equal", "seven-phase", 6171, 1526320.2335887137, 29331141.858432733),
-    ("butterfly", "slow-y", "cosine", 10097, 1187333.430334495, 18039342.656193133),
-    ("butterfly", "slow-y", "seven-phase", 9879, 1247158.356347581, 18517401.91502548),
+    ("butterfly", "slow-y", "cosine", 9965, 1207177.8466783783, 18187041.41172118),
+    ("butterfly", "slow-y", "seven-phase", 9666, 1271806.528929654, 18738956.37551513),
     ("cusp", "equal", "cosine", 4148, 740684.3136640326, 31634815.491321318),
     ("cusp", "equal", "seven-phase", 4074, 737063.2809867469, 31967616.715954777),
     ("cusp", "slow-y", "cosine", 6531, 674738.7113614874, 20487932.664919708),
@@ -140,7 +142,7 @@ RECORDED = [
     ("cam1000", "equal", "cosine", 5383, 199998.40553753672, 51042560.38310294),
     ("cam1000", "equal", "seven-phase", 5361, 199997.68238748307, 51131166.16350623),
     ("cam1000", "slow-y", "cosine", 9047, 530582.914940326, 30922485.800755456),
-    ("cam1000", "slow-y", "seven-phase", 8985, 555131.856263082, 30861345.795609668),
+    ("cam1000", "slow-y", "seven-phase", 8989, 554211.1314666132, 30841928.458605327),
 ]
 
 

@@ -88,3 +88,36 @@ def test_a_limit_falling_a_little_under_a_blocks_top_adds_no_junctions():
     inside = traj.critical_s_mm[(traj.critical_s_mm > 87.0) & (traj.critical_s_mm < 98.4)]
     assert inside.size <= 3, inside
     assert traj.cycle_time_s < 1.9
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1.0, -1.0]))
+def test_stretch_acc_is_the_largest_acceleration_every_axis_allows(seed, sign):
+    # independent: the largest α on a fine grid of [0, max A_j] with |sign·α·T_j + c_j| ≤ A_j on
+    # every axis (the allowed set of each axis is an interval in α, so the grid's last good α is
+    # within one step of the closed form)
+    from fuzzyfeed.slw.window_check import stretch_acc
+
+    rng = np.random.default_rng(seed)
+    acc = np.array([1000.0, 250.0, 1000.0])
+    tan = rng.normal(size=(8, 3))
+    tan /= np.linalg.norm(tan, axis=1, keepdims=True)
+    cen = rng.uniform(-1.0, 1.0, size=(8, 3)) * acc[None, :] * rng.uniform(0.0, 1.0, size=(8, 1))
+    got = stretch_acc(sign, tan, cen, acc)
+    grid = np.linspace(0.0, acc.max(), 200_001)
+    for k in range(8):
+        ok = np.all(np.abs(sign * grid[:, None] * tan[k][None, :] + cen[k][None, :]) <= acc[None, :], axis=1)
+        want = grid[ok].max()
+        assert abs(got[k] - want) <= acc.max() / 200_000 + 1e-9, (k, got[k], want)
+
+
+def test_a_fall_keeps_the_acceleration_its_stretch_allows():
+    """nurbs41 slow-Y seven-phase: a 27 mm block whose 17 mm fall (97.5 -> 13.7 mm/s) ran at
+    287 mm/s² for one point near its end, where the rest of the fall allows up to 742 (main:
+    1.992 s); a junction at that point lets the fall before it keep ≥ 400 mm/s²."""
+    traj = schedule(slw_cases.random_nurbs(41)[0], SLOW_Y, transition="seven-phase")
+    falls = [(b.s1 - b.s0, b.acc_down_mm_s2) for b in traj.blocks
+             if b.s0 < 50.0 < b.s1 and b.v_start > b.v_end]
+    assert falls and falls[0][1] >= 400.0, falls
+    assert traj.cycle_time_s < 1.98
+    assert_keeps_limits(traj)

@@ -6,7 +6,9 @@ accelerations a_t·T_j + v²·κN_j (+ v·|ΔT_j|/Ts at a kink) against A_j. A f
 adds a junction there; an axial acceleration above its limit lowers the block's tangential
 acceleration (on unequal axes only that of the transition at fault, the rise's or the fall's: the
 per-point interval |a_t·T_j + v²·κN_j| ≤ A_j where it broke, not the block's worst direction), or
-caps the feed of a new junction when the centripetal part alone nearly uses the axis up.
+caps the feed of a new junction when the centripetal part alone nearly uses the axis up, or (unequal
+axes) adds a junction where the transition's worst point allows far less than the rest of its
+stretch (:func:`stretch_acc`).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import math
 import numpy as np
 
 from fuzzyfeed.slw.preprocess import Reference, _evaluate, evaluate_reference
-from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration
+from fuzzyfeed.slw.profile import block_segments, lowest_end_speed, peak_acceleration, transition_time
 from fuzzyfeed.slw.window_blocks import _Junction
 
 _EMPTY = np.empty(0)
@@ -50,9 +52,31 @@ CEN_SPLIT = 0.9
 #: machine's tangential acceleration gets a junction at the offending point instead (a 28 mm
 #: block crawled at 17 % of it for one point of one axis; random curve 199 of bench_slw).
 ACC_KEEP = 0.5
+#: On unequal axes (approach 2), a transition whose acceleration an axis-acceleration repair would
+#: take below this share of what its own stretch allows (the median over its samples of the largest
+#: tangential acceleration each leaves the axes, :func:`stretch_acc`) gets a junction at the
+#: offending point instead: the rest of the rise or fall keeps the acceleration its directions
+#: allow (issue 38: nurbs41 slow-Y, a 17 mm fall at 287 mm/s² where most of it allows 742).
+STRETCH_KEEP = 0.6
+#: … and only where the whole transition at what its stretch allows would take this share less
+#: time than at the lowered acceleration (a jerk-bound change gains little from a higher
+#: acceleration and loses a junction's zero acceleration: nurbs48 slow-Y cosine, a 16 mm/s rise).
+STRETCH_GAIN = 0.25
 #: Samples of a block's profile within this share of a limit (axis acceleration or feed) are
 #: checked against the path evaluated at the samples themselves, not interpolated between points.
 EXACT_NEAR = 0.99
+
+
+def stretch_acc(sign: float, tan: np.ndarray, cen: np.ndarray, axis_acc: np.ndarray) -> np.ndarray:
+    """Per sample, the largest α ≥ 0 with |sign·α·T_j + c_j| ≤ A_j on every axis (c_j = v²·κN_j
+    the centripetal part; ``sign`` +1 a rise, −1 a fall): with u_j = sign·T_j, α ≤ (A_j − c_j)/u_j
+    where u_j > 0 and α ≤ (A_j + c_j)/|u_j| where u_j < 0 (0 where the centripetal part alone
+    breaks the axis)."""
+    u = sign * np.asarray(tan, dtype=float)
+    acc = np.asarray(axis_acc, dtype=float)[None, :u.shape[1]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lim = np.where(u > 0.0, (acc - cen) / u, np.where(u < 0.0, (acc + cen) / -u, np.inf))
+    return np.clip(np.nan_to_num(np.min(lim, axis=1), nan=0.0), 0.0, float(acc.max()))
 
 
 class BlockCheck:
@@ -160,6 +184,7 @@ class BlockCheck:
             vlim[near] = np.minimum(vlim[near], self._feed_limit(exact.s, exact.vlim, exact.tangent, exact.kn))
             tan[near], kn[near] = exact.tangent, exact.kn
         r, worst_axis, cen = self._axis_ratio(v, a, tan, kn)
+        n_samples = s.size
         kinks = self._kink_samples(s, v, a)
         if kinks is not None:  # a kink's tick, as one more sample (no feed limit of its own)
             s_k, v_k, a_k, tan_k, cen_k, at = kinks
@@ -247,6 +272,19 @@ class BlockCheck:
         peak = max(peak_acceleration(seg), 1e-9) if seg.duration_s else current
         need = 1.0 - (r[k] - 1.0) / max(tan_ratio, 1e-3)
         acc = max(min(current, peak) * min(max(need, 0.5), 0.995), 1e-3 * self.acc)
+        if self.carry and self.per_direction and seg.duration_s and seg.v1 != seg.v0 and k < n_samples:
+            here = np.flatnonzero(seg_id[:n_samples] == seg_id[k])
+            allows = float(np.median(stretch_acc(1.0 if seg.v1 > seg.v0 else -1.0, tan[here], cen[here],
+                                                 self.axis_acc)))
+            allows = min(allows, float(self.axis_acc.max()))
+            slow = transition_time(seg.v0, seg.v1, acc, self.jerk, self.shape)
+            if acc < STRETCH_KEEP * allows and \
+                    transition_time(seg.v0, seg.v1, allows, self.jerk, self.shape) < (1.0 - STRETCH_GAIN) * slow:
+                # the transition's worst point allows far less than the rest of its stretch: a
+                # junction there (zero tangential acceleration), the rest keeps its acceleration
+                self._split(i, s[k], cap=float(v[k]))
+                self.stats.caps_lowered += 1
+                return False
         if acc < ACC_KEEP * self.acc:
             # the whole block would crawl for one point: a junction there instead (zero
             # tangential acceleration), the rest of the block keeps its acceleration
