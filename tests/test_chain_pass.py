@@ -85,3 +85,32 @@ def test_carried_parts_are_the_whole_plans_run_on_library_programs(rel, machine_
     for chain in sorted(path.chains, key=lambda c: -c.motion.n_segments)[:3]:
         for size, part_windows in ((3, 1), (40, 2)):
             assert_same(chain.motion, chain.seg_measured, machine, size, part_windows, True, 1e-3)
+
+
+@pytest.mark.parametrize("rel, machine_name", [("programs/linuxcnc/arcspiral.ngc", "linuxcnc-mill"),
+                                                ("programs/camotics/engrave.ngc", "reference")])
+def test_runs_without_plans_are_made_part_by_part_the_same(rel, machine_name, monkeypatch):
+    # run_program(keep_plans=False) (the value report's whole runs, the uniform check) with every
+    # chain run part by part: the same rows, times, maxima and where as with whole plans
+    from fuzzyfeed.machine import chain_pass, plan_parts
+    from fuzzyfeed.program import run as program_run
+
+    machine = load_machine(machine_name)
+    path = library_path(rel, machine)
+    whole = program_run.run_program(path, machine, feed_scale=0.8, keep_plans=False)
+    called = []
+    real = chain_pass.stream_chain
+    monkeypatch.setattr(chain_pass, "stream_chain", lambda *a, **k: called.append(1) or real(*a, **k))
+    monkeypatch.setattr(program_run, "CARRIED_MIN_SEGMENTS", 2)
+    monkeypatch.setattr(plan_parts, "WINDOW_SEGMENTS", 7)
+    monkeypatch.setattr(chain_pass, "WINDOW_SEGMENTS", 7)
+    monkeypatch.setattr(chain_pass, "PART_WINDOWS", 2)
+    parts = program_run.run_program(path, machine, feed_scale=0.8, keep_plans=False)
+    assert len(called) >= sum(c.motion.n_segments >= 2 for c in path.chains) > 0
+    assert parts.time_s == whole.time_s and parts.max_um == whole.max_um and parts.p99_um == whole.p99_um
+    assert parts.air_max_um == whole.air_max_um and parts.cut_max_um().tobytes() == whole.cut_max_um().tobytes()
+    assert repr(parts.worst()) == repr(whole.worst()) and repr(parts.worst_air()) == repr(whole.worst_air())
+    for a, b in zip(parts.runs, whole.runs):
+        assert a.plan is None and a.time_s == b.time_s and a.tick_move.tobytes() == b.tick_move.tobytes()
+        for name in ARRAYS + ("seg_max_mm",):
+            assert np.asarray(getattr(a.stream, name)).tobytes() == np.asarray(getattr(b.stream, name)).tobytes()

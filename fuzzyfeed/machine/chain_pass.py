@@ -72,14 +72,21 @@ def carried_groups(sw: Sweep, machine: Machine, part_windows: int = PART_WINDOWS
 
 
 def stream_chain(motion: Motion, machine: Machine, measured: np.ndarray | None = None, keep_mm: float | None = None,
-                 fast: bool = True, skip_mm: float | None = None, size: int = WINDOW_SEGMENTS,
-                 part_windows: int = PART_WINDOWS) -> tuple[StreamRun, float]:
+                 fast: bool = True, skip_mm: float | None = None, size: int | None = None,
+                 part_windows: int | None = None, before_ticks=None) -> tuple[StreamRun, float]:
     """``stream_plan(plan_motion(motion, machine), machine, measured, keep_mm, fast=fast,
     skip_mm=skip_mm)`` (no windows) part by part (module docstring), and the plan's time (s); the
-    run holds no plan (``plan`` None)."""
+    run holds no plan (``plan`` None). ``size``/``part_windows``: segments per plan window and plan
+    windows per part (default :data:`~fuzzyfeed.machine.plan_parts.WINDOW_SEGMENTS`,
+    :data:`PART_WINDOWS`). ``before_ticks(time_s)`` is called with the plan's time before any tick
+    is run (a caller's budget check)."""
+    size = WINDOW_SEGMENTS if size is None else size
+    part_windows = PART_WINDOWS if part_windows is None else part_windows
     n = motion.n_segments
     meas = np.ones(n, bool) if measured is None else np.asarray(measured, dtype=bool)
     sw = sweep(motion, machine, np.zeros(0, np.int64), size)
+    if before_ticks is not None:
+        before_ticks(sw.time_s)
     groups = carried_groups(sw, machine, part_windows)
     if fast:
         skip = skip_threshold(machine) if skip_mm is None else float(skip_mm)
