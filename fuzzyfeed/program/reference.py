@@ -17,9 +17,12 @@ import numpy as np
 
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.plan_parts import PartsRun, changed_sweep, stream_parts
+from fuzzyfeed.machine.plan_windows import plan_windows
 from fuzzyfeed.machine.planner import Motion, Plan
 from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS
-from fuzzyfeed.program.run import Chain, ChainRun, ProgramPath, ProgramRun, run_chain, settle_p99, without_plan
+from fuzzyfeed.program import run as program_run
+from fuzzyfeed.program.run import (Chain, ChainRun, ProgramPath, ProgramRun, chain_motion, run_chain, settle_p99,
+                                  without_plan)
 from fuzzyfeed.program.uniform import (HOT_MAX_TICKS, MAX_TICKS, NO_PROGRESS, UNIFORM_CHECKS,  # noqa: F401
                                        UNIFORM_RTOL, Uniform, _hot, _planned_time, check_uniform, uniform_slowdown)
 
@@ -92,9 +95,9 @@ class _Measured:
     lookback_segment: np.ndarray
 
     @classmethod
-    def of(cls, r: ChainRun, plan: Plan) -> _Measured:
+    def of(cls, r: ChainRun, plan: Plan | _Profile) -> _Measured:
         s = r.stream
-        return cls(_Profile.of(plan), s.seg_max_mm, s.contour_mm, s.speed_mm_s, s.tick_segment,
+        return cls(plan if isinstance(plan, _Profile) else _Profile.of(plan), s.seg_max_mm, s.contour_mm, s.speed_mm_s, s.tick_segment,
                    s.nearest_segment, s.lookback_segment)
 
     def splice_parts(self, r: PartsRun, redone: np.ndarray) -> _Measured:
@@ -149,7 +152,8 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     it) and runs the stretches to redo part by part (:func:`~fuzzyfeed.machine.plan_parts.stream_parts`):
     no plan of a whole chain: 1 B a segment (which to redo) and, while splicing, the new largest
     error per segment (8 B), besides the feeds' own temporaries (:func:`_lowered`). The
-    first and last runs are whole runs (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`)."""
+    first and last runs are whole runs (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`;
+    a long chain's made part by part: :func:`_whole_run`)."""
     tol = (machine.contour_tol_um if tol_um is None else tol_um) * 1e-3
     chains = tuple(refine_chain(c, piece_mm) for c in path.chains)
     refined = ProgramPath(program=path.program, chains=chains, chord_tol_mm=path.chord_tol_mm)
@@ -158,10 +162,10 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     state: list[_Measured] = []
     runs: list[ChainRun] = []        # each chain's last whole run: its rows, without plans
     for c in chains:
-        r = run_chain(c, machine, keep_mm=tol)
-        state.append(_Measured.of(r, r.plan))
-        runs.append(without_plan(r))
-        del r
+        m, r = _whole_run(c, machine, None, tol)
+        state.append(m)
+        runs.append(r)
+        del m, r
     touched = [False] * len(chains)
     horizon = WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s
     passes = 1
@@ -193,11 +197,8 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             # a fraction of a µm): the passes end on whole runs, as they began
             stale = [i for i, t in enumerate(touched) if t]
             for i in stale:
-                r = run_chain(chains[i], machine, feeds[i], keep_mm=tol)
-                state[i] = _Measured.of(r, r.plan)
-                runs[i] = without_plan(r)
+                state[i], runs[i] = _whole_run(chains[i], machine, feeds[i], tol)
                 touched[i] = False
-                del r
             if not any((state[i].contour_mm > tol).any() for i in stale):
                 break
     del state
@@ -207,6 +208,29 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     final = settle_p99(refined, machine, runs, lambda i: feeds[i], keep_mm=tol, keep_plans=False)
     return Reference(path=refined, feeds=tuple(feeds), run=final, passes=passes,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
+
+
+def _whole_run(chain: Chain, machine: Machine, feed: np.ndarray | None, tol: float) -> tuple[_Measured, ChainRun]:
+    """A whole run of ``chain`` (its feeds, or ``feed``) for the passes: what they measure and its
+    rows without the plan. A chain of at least :data:`~fuzzyfeed.program.run.CARRIED_MIN_SEGMENTS`
+    is run part by part (:func:`~fuzzyfeed.machine.chain_pass.stream_chain`) and its speed profile
+    taken window by window (:func:`_window_profile`): the same floats, no whole plan held."""
+    if chain.motion.n_segments < program_run.CARRIED_MIN_SEGMENTS:
+        r = run_chain(chain, machine, feed, keep_mm=tol)
+        return _Measured.of(r, r.plan), without_plan(r)
+    r = run_chain(chain, machine, feed, keep_mm=tol, keep_plan=False)
+    return _Measured.of(r, _window_profile(chain_motion(chain, feed), machine)), r
+
+
+def _window_profile(motion: Motion, machine: Machine) -> _Profile:
+    """The plan's speed profile (:class:`_Profile`) made window by window
+    (:func:`~fuzzyfeed.machine.plan_windows.plan_windows`, bit for bit ``plan_motion``'s arrays)."""
+    n = motion.n_segments
+    out = _Profile(np.empty(n), np.empty(n), np.empty(n), np.empty(n))
+    for pw in plan_windows(motion, machine):
+        sl = slice(pw.first, pw.stop)
+        out.v_entry[sl], out.v_peak[sl], out.v_exit[sl], out.acc[sl] = pw.v_entry, pw.v_peak, pw.v_exit, pw.acc
+    return out
 
 
 def _reachable_feed(motion: Motion, machine: Machine) -> np.ndarray:
