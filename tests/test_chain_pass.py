@@ -114,3 +114,31 @@ def test_runs_without_plans_are_made_part_by_part_the_same(rel, machine_name, mo
         assert a.plan is None and a.time_s == b.time_s and a.tick_move.tobytes() == b.tick_move.tobytes()
         for name in ARRAYS + ("seg_max_mm",):
             assert np.asarray(getattr(a.stream, name)).tobytes() == np.asarray(getattr(b.stream, name)).tobytes()
+
+
+@pytest.mark.parametrize("shift", [-2, 17, -300, -700])
+def test_parts_joined_inside_a_segment_carry_the_leap(shift, monkeypatch):
+    # the joins moved (-300, -700 ticks: inside the 1 s plunge at F300, where a leap of the fast
+    # path is under way; every part given 40 plan windows more of context each side): the same
+    # run, a leap bounded by the run's last tick, not the part's (fails with k_end = the part's)
+    from fuzzyfeed.machine import chain_pass
+
+    real = chain_pass.carried_groups
+
+    def shifted(sw, machine, part_windows):
+        groups = real(sw, machine, part_windows)
+        n_win = sw.first.size - 1
+        out = []
+        for i, (w0, w1, (lo, hi)) in enumerate(groups):
+            lo = lo + shift if i else lo
+            hi = hi + shift if i + 1 < len(groups) else hi
+            out.append((max(w0 - 40, 0), min(w1 + 40, n_win), (lo, hi)))
+        return [g for g in out if g[2][0] <= g[2][1]]
+
+    monkeypatch.setattr(chain_pass, "carried_groups", shifted)
+    machine = load_machine("reference")
+    for text, size in ((_banded_raster(), 4), (_raster_program(rows=4, step=1.5), 1)):   # moves of 1.5 mm
+        path = program_path(parse_program(text), machine.chord_tol_mm)
+        chain = max(path.chains, key=lambda c: c.motion.n_segments)
+        got = assert_same(chain.motion, chain.seg_measured, machine, size, 1, True)
+        assert got.leapt_ticks > 0
