@@ -69,3 +69,54 @@ def test_the_floor_is_of_the_feed_the_machine_can_run():
     got = floor_errors(fast, ~RAPID, machine, np.array([2, 4]))
     assert np.array_equal(got, floor_errors(slow, ~RAPID, machine, np.array([2, 4])))
     assert got[1] < machine.contour_tol_um * 1e-3 < got[0]
+
+
+def _floor_errors_whole_plan(motion, measured, machine, segments, floor=0.01):
+    """floor_errors as main db75ac7 made it: the whole chain planned, its windows run."""
+    from fuzzyfeed.machine.planner import plan_motion
+    from fuzzyfeed.machine.stream import stream_plan, tick_count, warmup_ticks
+
+    seg = np.unique(np.asarray(segments, dtype=np.int64))
+    reachable = np.minimum(motion.feed_mm_s, machine.speed_along(motion.points))
+    scaled = Motion(motion.points, np.where(motion.rapid, motion.feed_mm_s, reachable * floor), motion.rapid,
+                    motion.arc_radius_mm)
+    plan = plan_motion(scaled, machine)
+    ts = machine.ts_s
+    k_end = tick_count(plan, ts)
+    span = int(np.ceil(WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s / ts))
+    ka = np.clip(np.floor(plan.t_start[seg] / ts).astype(np.int64), 0, k_end)
+    kb = np.minimum(np.clip(np.ceil(plan.t_start[seg + 1] / ts).astype(np.int64), 0, k_end), ka + span)
+    windows = []
+    for a, b in zip(ka.tolist(), kb.tolist()):
+        if windows and a - warmup_ticks(machine) <= windows[-1][1]:
+            windows[-1] = (windows[-1][0], max(windows[-1][1], b))
+        else:
+            windows.append((a, b))
+    run = stream_plan(plan, machine, measured, keep_mm=np.inf, windows=windows, fast=False)
+    return run.seg_max_mm[np.asarray(segments, dtype=np.int64)]
+
+
+@pytest.mark.parametrize("size", [3, 50, 4096])
+def test_floor_errors_planned_in_windows_are_the_whole_plans(size):
+    # the plan made window by window (plan_parts): the same floats as the whole chain's plan, on
+    # the raster of test_plan_parts with rapid entries and on the small case, segments unsorted
+    import sys
+    from pathlib import Path
+
+    from fuzzyfeed.program.read import parse_program
+    from fuzzyfeed.program.run import program_path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_chain_pass import _banded_raster
+
+    machine = load_machine("reference")
+    chain = max(program_path(parse_program(_banded_raster()), machine.chord_tol_mm).chains,
+                key=lambda c: c.motion.n_segments)
+    n = chain.motion.n_segments
+    entries = np.flatnonzero(~chain.seg_measured[:-1] & chain.seg_measured[1:]) + 1
+    segs = np.concatenate([entries, np.random.default_rng(size).choice(n, 12, replace=False), entries[:1]])
+    got = floor_errors(chain.motion, chain.seg_measured, machine, segs, size=size)
+    want = _floor_errors_whole_plan(chain.motion, chain.seg_measured, machine, segs)
+    assert got.tobytes() == want.tobytes() and got.max() > 0
+    small = floor_errors(_motion(), ~RAPID, machine, np.array([4, 2]), size=min(size, 2))
+    assert small.tobytes() == _floor_errors_whole_plan(_motion(), ~RAPID, machine, np.array([4, 2])).tobytes()

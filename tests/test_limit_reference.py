@@ -162,3 +162,20 @@ def test_the_last_run_takes_run_programs_p99_rerun_where_the_fast_path_leaves_it
     assert ref.run.p99_settled
     ticks = run_program(ref.path, machine, feeds=list(ref.feeds), fast=False)
     assert ref.run.p99_um == ticks.p99_um and ref.run.max_um == ticks.max_um
+
+
+def test_the_limit_reference_with_its_whole_runs_made_part_by_part_is_the_same(tmp_path, monkeypatch):
+    # every chain's first, stale and last whole runs planned and run part by part (chain_pass) and
+    # its profile taken window by window: the same passes, feeds, time, max and p99
+    from fuzzyfeed.machine import chain_pass, plan_parts
+    from fuzzyfeed.program import run as program_run
+
+    made = []
+    real = chain_pass.stream_chain
+    monkeypatch.setattr(chain_pass, "stream_chain", lambda *a, **k: made.append(1) or real(*a, **k))
+    monkeypatch.setattr(program_run, "CARRIED_MIN_SEGMENTS", 2)
+    monkeypatch.setattr(plan_parts, "WINDOW_SEGMENTS", 9)
+    monkeypatch.setattr(chain_pass, "WINDOW_SEGMENTS", 9)
+    monkeypatch.setattr(chain_pass, "PART_WINDOWS", 3)
+    ref = _check(_raster(tmp_path, 3000), "reference", min_passes=3)
+    assert ref.run.max_um > 0 and len(made) >= 2      # the first run and the last

@@ -99,7 +99,7 @@ def test_stream_equals_the_tick_reference_on_the_library(rel):
 def test_uniform_slowdown_on_hot_stretches_equals_the_search_on_whole_runs(monkeypatch):
     # the search re-running only the stretches around the hot spots finds the factor the search on
     # whole runs finds (both to the search's 1 %), and its checking run holds the tolerance
-    import fuzzyfeed.program.reference as reference
+    import fuzzyfeed.program.uniform as reference
 
     machine = load_machine("reference")
     program = read_program(Path(__file__).parent / "programs" / "corpus" / "grbl_02.ngc")

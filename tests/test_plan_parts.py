@@ -127,7 +127,7 @@ def _hot_trial_with_plans(st, scale, hot):
     """The uniform search's hot trial as main 2a1349a made it: a whole plan per chain, its windows run."""
     from fuzzyfeed.machine.stream import warmup_ticks
     from fuzzyfeed.program.apart import masked
-    from fuzzyfeed.program.reference import HOT_MAX_TICKS
+    from fuzzyfeed.program.uniform import HOT_MAX_TICKS
     from fuzzyfeed.program.run import run_chain
 
     plans, windows = [], []
@@ -152,7 +152,7 @@ def _hot_trial_with_plans(st, scale, hot):
 
 @pytest.mark.parametrize("program", ["raster", "programs/camotics/engrave.ngc"])
 def test_hot_trials_are_the_whole_plans(program):
-    from fuzzyfeed.program.reference import _Search
+    from fuzzyfeed.program.uniform import _Search
     from fuzzyfeed.program.run import run_program
 
     machine = load_machine("reference")

@@ -12,7 +12,7 @@ import pytest
 from fuzzyfeed.machine.description import load_machine
 from fuzzyfeed.machine.planner import Motion
 from fuzzyfeed.machine.trace import trace_motion
-from fuzzyfeed.program import reference
+from fuzzyfeed.program import uniform as reference
 from fuzzyfeed.program.read import read_program
 from fuzzyfeed.program.run import program_path, run_program
 

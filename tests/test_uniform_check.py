@@ -13,7 +13,7 @@ import pytest
 from fuzzyfeed.cli import main
 from fuzzyfeed.fuzzy.rule_reader import load_rule_table
 from fuzzyfeed.machine.description import load_machine
-from fuzzyfeed.program import reference
+from fuzzyfeed.program import uniform as reference
 from fuzzyfeed.program.read import read_program
 from fuzzyfeed.program.run import program_path, run_program
 from fuzzyfeed.report.value import UNCHECKED, evaluate_program

@@ -105,11 +105,11 @@ def run_library(args: argparse.Namespace, out: Path) -> int:
             skipped.append(f"{f}: no feed move to advise")
             continue
         if args.max_written_s is not None:
-            from fuzzyfeed.machine.planner import plan_motion
+            from fuzzyfeed.machine.plan_windows import planned_time
             from fuzzyfeed.program.run import program_path
 
-            planned = sum(plan_motion(c.motion, machine).time_s
-                          for c in program_path(prog, machine.chord_tol_mm).chains)
+            # each chain's planned time window by window (bit for bit plan_motion's), no whole plan
+            planned = sum(planned_time(c.motion, machine) for c in program_path(prog, machine.chord_tol_mm).chains)
             if planned > args.max_written_s:
                 skipped.append(f"{f}: {planned:.0f} s as written, over --max-written-s {args.max_written_s:g}")
                 continue

@@ -233,10 +233,13 @@ def leap_end(t_start, total, ts, seg, k, k_end):
 
 @numba.njit(cache=True, nogil=True)
 def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_acc, t_cruise,
-              measured, fb, fa, ts, total, k_from, k_measure, k_end, lookback, margin, keep_mm,
+              measured, fb, fa, ts, total, k_from, k_measure, k_end, k_stop, lookback, margin, keep_mm,
               y_hist, x_hist, prev, s_ring, seg_ring, seg_max, hist, fstate, istate, ev_f, ev_i,
               box_lo, box_hi, block, slack, unmeasured_cum, skip_mm, bound_scale, leap_decay):
-    """Ticks k_from … k_end (inclusive) of a plan; ticks before k_measure only run the servo.
+    """Ticks k_from … k_stop (inclusive; k_stop ≤ k_end, the last tick of the run: the leap's
+    bound) of a plan; ticks before k_measure only run the servo. A run stopped at k_stop < k_end
+    resumes at k_stop + 1 with the state left (on another stretch of the same plan, its segment
+    indices moved: :mod:`fuzzyfeed.machine.chain_pass`).
 
     The nearest segment of the window is found as the plain scan would (the least squared distance,
     the first segment reaching it), skipping every block of ``block`` segments whose bounding box
@@ -250,7 +253,7 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
     ticks update ``seg_max`` (per commanded segment, in the part), ``hist`` and ``fstate``/
     ``istate``; ticks over ``keep_mm`` in the part are events, run-length merged while their
     (segment, lookback, nearest, 0.1 mm bin, at-rest) key holds — the most demanding one
-    (smallest speed/√error) kept. Returns the tick to resume at (k_end + 1 when done; earlier
+    (smallest speed/√error) kept. Returns the tick to resume at (k_stop + 1 when done; earlier
     when ``ev_f`` is full: drain it and call again).
 
     **Fast path** (``skip_mm`` > 0): a measured tick whose window holds no unmeasured segment
@@ -278,7 +281,7 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
     ring = s_ring.shape[0]
     cap = ev_f.shape[0]
     seg = istate[I_SEG]
-    for k in range(k_from, k_end + 1):
+    for k in range(k_from, k_stop + 1):
         if istate[I_EV_N] >= cap:         # one free slot at each tick's start: resume here
             istate[I_SEG] = seg
             return k
@@ -454,4 +457,4 @@ def run_ticks(points, unit, length, s_vertex, t_start, v_entry, v_peak, acc, t_a
                 istate[I_K3] = sbin
                 istate[I_K4] = rest
     istate[I_SEG] = seg
-    return k_end + 1
+    return k_stop + 1

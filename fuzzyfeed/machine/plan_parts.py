@@ -129,7 +129,13 @@ def plan_parts(motion: Motion, machine: Machine, sw: Sweep, spans: list[tuple[in
     """The second sweep: per part (in the order of the ticks) its :class:`PlanRange` and its tick
     windows ``spans`` (of the chain, from :func:`~fuzzyfeed.machine.stream.tick_windows` on
     ``sw``'s times), with the same ``size`` and ``feed_scale`` as :func:`sweep`."""
-    groups = _groups(sw, machine, spans)
+    yield from plan_groups(motion, machine, sw, _groups(sw, machine, spans), size, feed_scale)
+
+
+def plan_groups(motion: Motion, machine: Machine, sw: Sweep, groups, size: int = WINDOW_SEGMENTS,
+                feed_scale: float = 1.0) -> Iterator[tuple[PlanRange, object]]:
+    """Per group ``(w0, w1, what)`` (plan windows [w0, w1), increasing) its :class:`PlanRange` and
+    ``what``, the windows shared with the group before planned once."""
     if not groups:
         return
     coord_max = float(np.abs(motion.points).max())

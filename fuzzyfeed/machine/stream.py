@@ -344,7 +344,7 @@ class TickPass:
                                                          side="right")) - 1, 0), n - 1)
             k = k_from
             while k <= kb:
-                k = run(*arrays, ts, plan.time_s, k, ka, kb, lookback, WINDOW_MARGIN_MM, self.keep,
+                k = run(*arrays, ts, plan.time_s, k, ka, kb, kb, lookback, WINDOW_MARGIN_MM, self.keep,
                         y_hist, x_hist, prev, s_ring, seg_ring, seg_max, self.hist, fstate, istate,
                         self.ev_f, self.ev_i, *box_args, unmeasured_cum, self.skip_mm, self.bound_scale,
                         self.leap)

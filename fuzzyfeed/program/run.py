@@ -33,6 +33,9 @@ PATH_CHUNK_MOVES = 1 << 15
 #: The most servo periods one chain's run may simulate (CPU, not memory: the run keeps no ticks;
 #: 100–300 ns a tick, so a minute or two).
 MAX_STREAM_TICKS = 5e8
+#: Segments from which a chain run without keeping its plan is planned and run part by part
+#: (:func:`fuzzyfeed.machine.chain_pass.stream_chain`: bit for bit, O(part) of the plan held).
+CARRIED_MIN_SEGMENTS = 1 << 17
 #: Runs again with a lower fast-path threshold before every tick is searched, for an unsettled p99.
 P99_RETRIES = 1
 
@@ -358,14 +361,26 @@ def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = Non
     ``plan``) and run it through the servo tick by tick (only the tick ``windows`` if given),
     measuring the contour error of its measured ticks; ticks over ``keep_mm`` (default the
     machine's tolerance) are kept as events. ``fast``, ``skip_mm``: the tick pass's fast path and its
-    threshold (:func:`~fuzzyfeed.machine.stream.stream_plan`)."""
+    threshold (:func:`~fuzzyfeed.machine.stream.stream_plan`). A chain of at least
+    :data:`CARRIED_MIN_SEGMENTS` run whole without keeping its plan is planned and run part by part
+    (:func:`~fuzzyfeed.machine.chain_pass.stream_chain`, the same floats)."""
+    def budget(time_s: float) -> None:
+        ticks = time_s / machine.ts_s
+        if windows is None and not ticks <= MAX_STREAM_TICKS:
+            raise InputError(f"a run of {time_s:.0f} s at Ts = {machine.ts_s:g} s is {ticks:.2g} servo "
+                             f"periods; at most {MAX_STREAM_TICKS:.0e} are simulated (split the program, or "
+                             "give a longer --ts-s)")
+
+    if plan is None and windows is None and not keep_plan and chain.motion.n_segments >= CARRIED_MIN_SEGMENTS:
+        # a long chain whose plan is not kept: planned and run part by part (bit for bit the same)
+        from fuzzyfeed.machine.chain_pass import stream_chain
+
+        sr, time_s = stream_chain(chain_motion(chain, feed_mm_s), machine, chain.seg_measured, keep_mm=keep_mm,
+                                  fast=fast, skip_mm=skip_mm, before_ticks=budget)
+        return ChainRun(plan=None, stream=sr, tick_move=chain.seg_move[sr.tick_segment], time_s=time_s)
     if plan is None:
         plan = plan_motion(chain_motion(chain, feed_mm_s), machine)
-    ticks = plan.time_s / machine.ts_s
-    if windows is None and not ticks <= MAX_STREAM_TICKS:
-        raise InputError(f"a run of {plan.time_s:.0f} s at Ts = {machine.ts_s:g} s is {ticks:.2g} servo "
-                         f"periods; at most {MAX_STREAM_TICKS:.0e} are simulated (split the program, or "
-                         "give a longer --ts-s)")
+    budget(plan.time_s)
     sr = stream_plan(plan, machine, chain.seg_measured, keep_mm=keep_mm, windows=windows, fast=fast,
                      skip_mm=skip_mm)
     run = ChainRun(plan=plan, stream=sr, tick_move=chain.seg_move[sr.tick_segment], time_s=float(plan.time_s))

@@ -5,7 +5,7 @@ same controller and servo model (:mod:`fuzzyfeed.program.run`) —
 - **advised**: the program fuzzyfeed writes (its text read back and run), the cuts that break the
   tolerance as written advised with the table (a machine table by default), the others left alone;
 - **uniform**: every F times the one factor that just holds the tolerance
-  (:func:`~fuzzyfeed.program.reference.uniform_slowdown`);
+  (:func:`~fuzzyfeed.program.uniform.uniform_slowdown`);
 - **limit reference**: feeds lowered piece by piece only where the run breaks the tolerance
   (:func:`~fuzzyfeed.program.reference.limit_reference`).
 
@@ -30,7 +30,8 @@ from fuzzyfeed.program.advice_pieces import KEEP_ROWS, AdvisedFeeds, advised_fee
 from fuzzyfeed.program.model import Program
 from fuzzyfeed.program.read import parse_program
 from fuzzyfeed.program.apart import apart_lines
-from fuzzyfeed.program.reference import Uniform, check_uniform, limit_reference, uniform_slowdown
+from fuzzyfeed.program.reference import limit_reference
+from fuzzyfeed.program.uniform import Uniform, check_uniform, uniform_slowdown
 from fuzzyfeed.program.rewrite import rewrite_program
 from fuzzyfeed.program.run import ProgramPath, ProgramRun, program_path, run_program, without_plan
 from fuzzyfeed.report.value_trace import FeedTrace, feed_trace
@@ -234,7 +235,7 @@ class Evaluation:
 
     def checked(self) -> Evaluation:
         """This evaluation with the uniform slowdown checked by a whole run
-        (:func:`~fuzzyfeed.program.reference.check_uniform`) and the limit reference run, where
+        (:func:`~fuzzyfeed.program.uniform.check_uniform`) and the limit reference run, where
         :func:`evaluate_program` left them (``check_uniform=False``); itself when nothing is left."""
         u, r = self.uniform, self.report
         if self.path is None:
