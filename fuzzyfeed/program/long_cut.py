@@ -33,15 +33,14 @@ import numpy as np
 
 from fuzzyfeed.fuzzy.advisor import point_sequence_table
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.features import features, normalise
-from fuzzyfeed.fuzzy.filters import curvature_peaks, filter_terms
-from fuzzyfeed.fuzzy.windows import forward_bounds, range_max
+from fuzzyfeed.fuzzy.features import features
+from fuzzyfeed.fuzzy.filters import filter_terms
 from fuzzyfeed.geometry.polyline_chords import WINDOW_VERTICES
 from fuzzyfeed.geometry.sampling import MAX_POINTS, segment_pieces
 from fuzzyfeed.program.cuts import RunGeometry, cut_moves, path_length, sample_moves
 from fuzzyfeed.program.feeds import move_pieces
 from fuzzyfeed.program.model import LINE
-from fuzzyfeed.program.stream import MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, margin_mm
+from fuzzyfeed.program.stream import MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, dk_range, margin_mm
 from fuzzyfeed.program.windows import Fallback, Window, read_windows
 
 #: The passes read the cut in windows of this fraction of the windows' lines.
@@ -316,23 +315,8 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
             ps.close()
 
     # pass 1: the range of the clipped Dκ (and κ, Dκ at the curvature peaks)
-    dk_lo, dk_hi = np.inf, -np.inf
-    peak_k, peak_raw = [], []
-    for p, a, b, lo, hi, g_lo, prog, ms, s, b0 in pieces_of_pass():
-        raw = range_max(ms.curvature, *forward_bounds(s.size, s=s, length_mm=seq.window_mm, span=span))
-        core = slice(int(ms.vertex_sample[a - lo]), int(ms.vertex_sample[b - lo]) + 1)
-        c = np.minimum(raw[core], clip)
-        dk_lo, dk_hi = min(dk_lo, float(c.min())), max(dk_hi, float(c.max()))
-        if corner:
-            at = curvature_peaks(ms.curvature)[core]
-            peak_k.append(ms.curvature[core][at])
-            peak_raw.append(raw[core][at])
-    lowest = None
-    if corner:
-        pk = np.concatenate(peak_k)
-        if pk.size:
-            lowest = float(engine.feed_pct(pk, normalise(np.concatenate(peak_raw), clip, (dk_lo, dk_hi))).min())
-        del pk, peak_k, peak_raw
+    dk_lo, dk_hi, lowest = dk_range(((a, b, lo, ms, s) for _, a, b, lo, _, _, _, ms, s, _ in pieces_of_pass()),
+                                    engine, clip, seq.window_mm, span, corner)
     # pass 2: the advice, piece by piece
     carry = CarriedSums()
     for p, a, b, lo, hi, g_lo, prog, ms, s, b0 in pieces_of_pass():

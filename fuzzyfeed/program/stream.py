@@ -145,6 +145,30 @@ def _cuts(program, chosen, table, step_mm, cap, feed_step, min_piece, piece_poin
         yield from _advise_cut(program, k, seq, engine, step_mm, cap, feed_step, min_piece, piece_points)
 
 
+def dk_range(pieces, engine, clip: float, window_mm: float, span, corner: bool):
+    """Pass 1 of a cut advised in pieces: the range (lo, hi) of the clipped Dκ (windowed max of κ,
+    seed 002 eq. 10) over the pieces' cores and, for corner-mean, the controller's lowest output at
+    a curvature peak of the cut (its cap is held above it; None otherwise). ``pieces`` yields
+    (a, b, lo, ms, s): the core's first and last vertex, the piece's first vertex, its samples, s."""
+    dk_lo, dk_hi = np.inf, -np.inf
+    peak_k, peak_raw = [], []
+    for a, b, lo, ms, s in pieces:
+        raw = range_max(ms.curvature, *forward_bounds(s.size, s=s, length_mm=window_mm, span=span))
+        core = slice(int(ms.vertex_sample[a - lo]), int(ms.vertex_sample[b - lo]) + 1)
+        c = np.minimum(raw[core], clip)
+        dk_lo, dk_hi = min(dk_lo, float(c.min())), max(dk_hi, float(c.max()))
+        if corner:
+            at = curvature_peaks(ms.curvature)[core]
+            peak_k.append(ms.curvature[core][at])
+            peak_raw.append(raw[core][at])
+    lowest = None
+    if corner:
+        pk = np.concatenate(peak_k)
+        if pk.size:
+            lowest = float(engine.feed_pct(pk, normalise(np.concatenate(peak_raw), clip, (dk_lo, dk_hi))).min())
+    return dk_lo, dk_hi, lowest
+
+
 def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, piece_points):
     moves, kinds, chord = cut_moves(program, k)
     n = moves.size
@@ -174,25 +198,12 @@ def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, p
     # pass 1: the range of the clipped Dκ over the cut (and κ, Dκ at the curvature peaks)
     clip = table.dk_clip_1_mm
     corner = table.filter == "corner-mean"
-    dk_lo, dk_hi = np.inf, -np.inf
-    peak_k, peak_raw = [], []
-    for p in range(n_pieces):
-        a, b = int(plan.cores[p]), int(plan.cores[p + 1])
-        lo, _, ms, s = piece(p, sv)
-        raw = range_max(ms.curvature, *forward_bounds(s.size, s=s, length_mm=table.window_mm, span=span))
-        core = slice(int(ms.vertex_sample[a - lo]), int(ms.vertex_sample[b - lo]) + 1)
-        c = np.minimum(raw[core], clip)
-        dk_lo, dk_hi = min(dk_lo, float(c.min())), max(dk_hi, float(c.max()))
-        if corner:
-            at = curvature_peaks(ms.curvature)[core]
-            peak_k.append(ms.curvature[core][at])
-            peak_raw.append(raw[core][at])
-    # the controller's lowest output at a peak of the cut: corner-mean's cap is held above it
-    lowest = None
-    if corner:
-        pk = np.concatenate(peak_k)
-        if pk.size:
-            lowest = float(engine.feed_pct(pk, normalise(np.concatenate(peak_raw), clip, (dk_lo, dk_hi))).min())
+    def cores():
+        for p in range(n_pieces):
+            lo, _, ms, s = piece(p, sv)
+            yield int(plan.cores[p]), int(plan.cores[p + 1]), lo, ms, s
+
+    dk_lo, dk_hi, lowest = dk_range(cores(), engine, clip, table.window_mm, span, corner)
     # pass 2: the advice, piece by piece, the filter's cumulative sums handed on
     feed = program.feed_mm_min
     carry = CarriedSums()

@@ -280,23 +280,24 @@ def _whole_search(st: _Search, hi: float, hi_max: float) -> Uniform:
     places already set apart left out)."""
     path, machine, tol = st.path, st.machine, st.tol
     lo, lo_run, lo_max = None, None, 0.0
+
+    def trial(c: float) -> float:
+        """Run the whole program at F × c; c becomes lo if it holds the tolerance, else hi."""
+        nonlocal lo, lo_run, lo_max, hi
+        r = run_program(path, machine, feed_scale=c, keep_plans=False)
+        st.runs += 1
+        m = run_max_um(r, st.apart)
+        if m <= tol:
+            lo, lo_run, lo_max = c, r, m
+        else:
+            hi = c
+        return m
+
     c = hi * min(1.0, tol / hi_max)
     while lo is None:
-        r = run_program(path, machine, feed_scale=c, keep_plans=False)
-        st.runs += 1
-        m = run_max_um(r, st.apart)
-        if m <= tol:
-            lo, lo_run, lo_max = c, r, m
-        else:
-            hi = c
+        m = trial(c)
+        if lo is None:
             c *= max(0.1, min(0.7, tol / m))
     while hi / lo > 1.0 + UNIFORM_RTOL:
-        c = math.sqrt(lo * hi)
-        r = run_program(path, machine, feed_scale=c, keep_plans=False)
-        st.runs += 1
-        m = run_max_um(r, st.apart)
-        if m <= tol:
-            lo, lo_run, lo_max = c, r, m
-        else:
-            hi = c
+        trial(math.sqrt(lo * hi))
     return Uniform(lo, lo_run, st.runs, lo_run.time_s, lo_max, apart=st.places(lo_run))
