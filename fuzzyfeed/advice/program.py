@@ -275,7 +275,7 @@ class ProgramResult(AdviceResult):
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
         from fuzzyfeed.base.atomic import atomic_write
         from fuzzyfeed.fuzzy.provenance import provenance
-        from fuzzyfeed.io.csv import ColumnStream, write_metadata
+        from fuzzyfeed.io.csv import ColumnStream, tee, write_metadata
 
         _check_outputs(csv, gcode, gcode_g52, plot)
         _refuse_report(report)
@@ -290,7 +290,7 @@ class ProgramResult(AdviceResult):
         if csv is not None:              # rows written as the pieces come
             with atomic_write(csv, "w", newline="") as handle:
                 out = ColumnStream(handle, csv)
-                self._advise(out.write if trace is None else _tee(out.write, trace.add))
+                self._advise(out.write if trace is None else tee(out.write, trace.add))
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = _feed_note(cap)
             write_metadata(csv, out.names, record)
@@ -328,14 +328,6 @@ class ProgramResult(AdviceResult):
         from fuzzyfeed.report.plot_trace import plot_trace
 
         plot_trace(trace, self.table, f"{self.path.name}: {self._n_advised()} cut(s) end to end", output)
-
-
-def _tee(*sinks):
-    """One CSV sink handing each piece's rows to every one of ``sinks``."""
-    def sink(cols: dict) -> None:
-        for each in sinks:
-            each(cols)
-    return sink
 
 
 class MachineProgramResult(AdviceResult):

@@ -203,7 +203,7 @@ def _tee(sinks):
     """None, or one CSV sink handing each piece's rows to every one of ``sinks``."""
     if not sinks:
         return None
-    from fuzzyfeed.advice.program import _tee as tee
+    from fuzzyfeed.io.csv import tee
 
     return tee(*sinks)
 

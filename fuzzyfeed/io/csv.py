@@ -248,3 +248,11 @@ def write_metadata(csv_path: str | os.PathLike, columns: list[str], record: Mapp
     with atomic_write(path, "w") as handle:
         handle.write(json.dumps(meta, indent=2, ensure_ascii=False) + "\n")
     return path
+
+
+def tee(*sinks):
+    """One sink of CSV columns handing each piece's rows to every one of ``sinks``."""
+    def sink(cols: dict) -> None:
+        for each in sinks:
+            each(cols)
+    return sink

@@ -15,7 +15,6 @@ accepted (compensation then has no radius, as in fuzzyfeed's reading).
 
 from __future__ import annotations
 
-import shutil
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -24,12 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from fuzzyfeed.program.model import Program
-from fuzzyfeed.program.verify_stream import TIMEOUT_S, TOL  # noqa: F401  (the check's limits, named here too)
-
-
-def rs274_path() -> str | None:
-    """rs274 on PATH, or None."""
-    return shutil.which("rs274")
+from fuzzyfeed.program.verify_stream import TIMEOUT_S, TOL, rs274_path  # noqa: F401  (named here too)
 
 
 @dataclass(frozen=True)

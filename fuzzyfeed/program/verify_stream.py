@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import shutil
 import subprocess
 import threading
 from collections.abc import Callable, Iterable, Iterator
@@ -40,14 +41,17 @@ def write_tool_table(tools_mm: dict[int, float] | None, path: Path) -> None:
         path.write_text("".join(f"T{t} P{t} D0 Z0 ;\n" for t in range(1, 1000)))
 
 
+def rs274_path() -> str | None:
+    """rs274 on PATH, or None."""
+    return shutil.which("rs274")
+
+
 class Rs274Process:
     """``rs274 -t TABLE -g program`` in ``workdir`` (its own HOME; nothing else there), its calls on
     a pipe: :meth:`calls` yields them as they come, :meth:`finish` reads the rest and says whether
     rs274 accepted the program (``(ok, message)``: its first two lines on stderr, or the time limit)."""
 
     def __init__(self, program: Path, tools_mm: dict[int, float] | None, workdir: Path):
-        from fuzzyfeed.program.verify import rs274_path
-
         binary = rs274_path()
         if binary is None:
             raise InputError("--verify-rs274: rs274 not found on PATH (LinuxCNC's interpreter; Debian "
