@@ -290,8 +290,14 @@ def block_segments(length: float, v_s: float, v_e: float, v_max: float, acc: flo
 
 def segment_state(seg: Segment, tau):
     """s, v, a, j at times τ (array, 0 ≤ τ ≤ T) into a segment: the cosine of seed 000
-    (eq. (17)-(19)), or the seven-phase ramp (:func:`_seven_phase_state`)."""
+    (eq. (17)-(19)), or the seven-phase ramp (:func:`_seven_phase_state`); a transition between
+    states with acceleration (slw/acc_profile.AccSegment) phase by phase."""
     import numpy as np
+
+    if not isinstance(seg, Segment):
+        from fuzzyfeed.slw.acc_profile import acc_segment_state
+
+        return acc_segment_state(seg, tau)
 
     tau = np.asarray(tau, dtype=float)
     T = seg.duration_s
