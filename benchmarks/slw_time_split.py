@@ -100,7 +100,9 @@ def split(name: str, curve, limits, transition: str, cap=None) -> dict:
     inner = np.isfinite(v[1:-1]) & (v[1:-1] > 0)
     deficit = float(np.median(v_at[1:-1][inner] / v[1:-1][inner])) if inner.any() else float("nan")
     return {"name": name, "ratio": traj.cycle_time_s / floor, "floor": floor, "shares": shares,
-            "gaps": m, "extra": int(crit.size - (crit.size and near.sum())), "feed_at_points": deficit}
+            "gaps": m, "extra": int(crit.size - (crit.size and near.sum())), "feed_at_points": deficit,
+            # for slw_junction_kinds.py: the schedule, the gaps' ends and their excess (s)
+            "detail": (traj, s, excess)}
 
 
 def line(r: dict) -> str:

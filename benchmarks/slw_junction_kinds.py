@@ -1,0 +1,101 @@
+"""Which of the window's added junctions a nonzero junction acceleration could help (issue 38).
+
+Every junction the look-ahead window adds (a repair's or a block cut's, not a chain point of the
+floor: as benchmarks/slw_time_split.py's ``junc``) is a zero acceleration. Per junction, the
+transitions either side of it (the last segment of the block before, the first of the block
+after) give its kind:
+
+- ``through``: a rise into it and a rise out of it, or a fall and a fall: the feed passes it
+  monotonically, and only here can a junction state (v, a ≠ 0) (slw/acc_profile.py) keep the
+  acceleration instead of ramping it to zero and back;
+- ``valley`` (a fall then a rise) / ``peak`` (a rise then a fall): an extremum of the feed,
+  where a = 0 is what any smooth profile has;
+- ``flat``: a cruise on either side (a = 0 there anyway).
+
+Per transition it prints the count of each kind and the share of slw_time_split's ``junc`` excess
+(% of the floor) in gaps whose added junctions are all ``through`` (``through``), none (``other``),
+or both (``mixed``).
+
+Run: PYTHONPATH=<tree> python benchmarks/slw_junction_kinds.py [--stride K] [--transition ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from bench_slw import cases  # noqa: E402
+from slw_time_split import split  # noqa: E402
+
+KINDS = ("through", "valley", "peak", "flat")
+
+
+def _direction(seg) -> int:
+    return (seg.v1 > seg.v0) - (seg.v1 < seg.v0)
+
+
+def junction_kinds(traj, s_points, tol):
+    """(s, kind) of every block boundary that is no chain point in ``s_points``."""
+    out = []
+    for left, right in zip(traj.blocks[:-1], traj.blocks[1:]):
+        if not left.segments or not right.segments:
+            continue
+        s = left.s1
+        if s_points.size and np.abs(s_points - s).min() <= tol:
+            continue
+        d0, d1 = _direction(left.segments[-1]), _direction(right.segments[0])
+        kind = "flat" if d0 == 0 or d1 == 0 else "through" if d0 == d1 else "valley" if d0 < d1 else "peak"
+        out.append((s, kind))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--random", type=int, default=110)
+    ap.add_argument("--stride", type=int, default=1, help="every K-th case only")
+    ap.add_argument("--transition", choices=("both", "seven-phase", "cosine"), default="both")
+    args = ap.parse_args()
+    transitions = ("cosine", "seven-phase") if args.transition == "both" else (args.transition,)
+    counts = {t: Counter() for t in transitions}
+    shares = {t: [] for t in transitions}
+    for i, (name, curve, lim, cap) in enumerate(cases(args.random, 1, builtin_only=True)):
+        if i % args.stride:
+            continue
+        for t in transitions:
+            r = split(f"{name}/{t}", curve, lim, t, cap)
+            traj, s, excess = r["detail"]
+            tol = max(1e-3, 1e-6 * traj.curve.length)
+            kinds = junction_kinds(traj, s, tol)
+            c = Counter(k for _, k in kinds)
+            counts[t].update(c)
+            part = {"through": 0.0, "other": 0.0, "mixed": 0.0}
+            gap = np.clip(np.searchsorted(s, [x for x, _ in kinds]) - 1, 0, max(excess.size - 1, 0))
+            inner = (gap > 0) & (gap < excess.size - 1)   # slw_time_split counts start/end apart
+            for g in np.unique(gap[inner]):
+                ks = {k for (x, k), gg, ok in zip(kinds, gap, inner) if ok and gg == g}
+                part["through" if ks == {"through"} else "other" if "through" not in ks else "mixed"] += \
+                    float(excess[g]) / r["floor"]
+            shares[t].append(part)
+            print(f"{name}/{t:<12} ratio {r['ratio']:.4f} junc {100 * r['shares']['junc']:5.2f} % | "
+                  + " ".join(f"{k} {c.get(k, 0):3d}" for k in KINDS) + " | junc excess % of floor: "
+                  + " ".join(f"{k} {100 * v:5.2f}" for k, v in part.items()), flush=True)
+    for t in transitions:
+        tab = {k: np.array([p[k] for p in shares[t]]) for k in ("through", "other", "mixed")}
+        total = sum(counts[t].values())
+        print(f"{t}: {len(shares[t])} cases, {total} added junctions: "
+              + ", ".join(f"{k} {counts[t].get(k, 0)} ({100 * counts[t].get(k, 0) / max(total, 1):.0f} %)"
+                          for k in KINDS)
+              + "; junc excess, mean % of the floor: "
+              + ", ".join(f"{k} {100 * v.mean():.2f}" for k, v in tab.items()))
+
+
+if __name__ == "__main__":
+    main()
