@@ -10,7 +10,12 @@ after) give its kind:
   acceleration instead of ramping it to zero and back;
 - ``valley`` (a fall then a rise) / ``peak`` (a rise then a fall): an extremum of the feed,
   where a = 0 is what any smooth profile has;
-- ``flat``: a cruise on either side (a = 0 there anyway).
+- ``flat``: a cruise on either side (a = 0 there anyway, in the schedule as it is; a stair: a
+  transition into the junction's feed, then a cruise at it, where a plan choosing junction states
+  could follow the limit in one transition instead).
+
+The flats are also counted by their two sides (``fall>cruise``: a fall into the junction, a cruise
+out of it; …).
 
 Per transition it prints the count of each kind and the share of slw_time_split's ``junc`` excess
 (% of the floor) in gaps whose added junctions are all ``through`` (``through``), none (``other``),
@@ -38,12 +43,15 @@ from slw_time_split import split  # noqa: E402
 KINDS = ("through", "valley", "peak", "flat")
 
 
+_NAMES = {-1: "fall", 0: "cruise", 1: "rise"}
+
+
 def _direction(seg) -> int:
     return (seg.v1 > seg.v0) - (seg.v1 < seg.v0)
 
 
 def junction_kinds(traj, s_points, tol):
-    """(s, kind) of every block boundary that is no chain point in ``s_points``."""
+    """(s, kind, sides) of every block boundary that is no chain point in ``s_points``."""
     out = []
     for left, right in zip(traj.blocks[:-1], traj.blocks[1:]):
         if not left.segments or not right.segments:
@@ -53,7 +61,7 @@ def junction_kinds(traj, s_points, tol):
             continue
         d0, d1 = _direction(left.segments[-1]), _direction(right.segments[0])
         kind = "flat" if d0 == 0 or d1 == 0 else "through" if d0 == d1 else "valley" if d0 < d1 else "peak"
-        out.append((s, kind))
+        out.append((s, kind, f"{_NAMES[d0]}>{_NAMES[d1]}"))
     return out
 
 
@@ -66,6 +74,7 @@ def main() -> None:
     transitions = ("cosine", "seven-phase") if args.transition == "both" else (args.transition,)
     counts = {t: Counter() for t in transitions}
     shares = {t: [] for t in transitions}
+    sides = {t: Counter() for t in transitions}
     for i, (name, curve, lim, cap) in enumerate(cases(args.random, 1, builtin_only=True)):
         if i % args.stride:
             continue
@@ -74,13 +83,14 @@ def main() -> None:
             traj, s, excess = r["detail"]
             tol = max(1e-3, 1e-6 * traj.curve.length)
             kinds = junction_kinds(traj, s, tol)
-            c = Counter(k for _, k in kinds)
+            c = Counter(k for _, k, _ in kinds)
             counts[t].update(c)
+            sides[t].update(x for _, k, x in kinds if k == "flat")
             part = {"through": 0.0, "other": 0.0, "mixed": 0.0}
-            gap = np.clip(np.searchsorted(s, [x for x, _ in kinds]) - 1, 0, max(excess.size - 1, 0))
+            gap = np.clip(np.searchsorted(s, [x for x, _, _ in kinds]) - 1, 0, max(excess.size - 1, 0))
             inner = (gap > 0) & (gap < excess.size - 1)   # slw_time_split counts start/end apart
             for g in np.unique(gap[inner]):
-                ks = {k for (x, k), gg, ok in zip(kinds, gap, inner) if ok and gg == g}
+                ks = {k for (_, k, _), gg, ok in zip(kinds, gap, inner) if ok and gg == g}
                 part["through" if ks == {"through"} else "other" if "through" not in ks else "mixed"] += \
                     float(excess[g]) / r["floor"]
             shares[t].append(part)
@@ -93,6 +103,7 @@ def main() -> None:
         print(f"{t}: {len(shares[t])} cases, {total} added junctions: "
               + ", ".join(f"{k} {counts[t].get(k, 0)} ({100 * counts[t].get(k, 0) / max(total, 1):.0f} %)"
                           for k in KINDS)
+              + " (flats: " + ", ".join(f"{x} {n}" for x, n in sides[t].most_common()) + ")"
               + "; junc excess, mean % of the floor: "
               + ", ".join(f"{k} {100 * v.mean():.2f}" for k, v in tab.items()))
 
