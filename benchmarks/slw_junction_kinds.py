@@ -17,6 +17,13 @@ after) give its kind:
 The flats are also counted by their two sides (``fall>cruise``: a fall into the junction, a cruise
 out of it; …).
 
+At the valley bottoms (``valley`` and ``flat``), the junction's feed against two limits at its
+point: ``vlim``, the pointwise limit with zero tangential acceleration (the centripetal part alone
+on each axis, the command feed, axis velocities, chord, cap), and ``v_any``, the same with the
+axis accelerations' maximum-velocity curve instead of the centripetal part alone (any tangential
+acceleration |a| ≤ the machine's tangential acceleration, by bisection on _kernels.acc_range under
+_kernels.mvc: an upper bound for a junction state (v, a ≠ 0), which jerk limits further).
+
 Per transition it prints the count of each kind and the share of slw_time_split's ``junc`` excess
 (% of the floor) in gaps whose added junctions are all ``through`` (``through``), none (``other``),
 or both (``mixed``).
@@ -65,6 +72,49 @@ def junction_kinds(traj, s_points, tol):
     return out
 
 
+def bottom_ratios(traj, limits, cap, bottoms):
+    """v_J / vlim and v_J / v_any at the junctions ``bottoms`` ((s, v_J) pairs; module docstring)."""
+    import fuzzyfeed.slw._kernels as kernels
+    from fuzzyfeed.slw.preprocess import evaluate_reference
+
+    if not bottoms:
+        return np.empty(0), np.empty(0)
+    s = np.array([b[0] for b in bottoms])
+    v = np.array([b[1] for b in bottoms])
+    order = np.argsort(s)
+    s, v = s[order], v[order]
+    ref = evaluate_reference(traj.curve, limits, s, cap=cap)
+    d = ref.tangent.shape[1]
+    acc = np.asarray(limits.axis_acc_mm_s2, dtype=float)[:d]
+    vel = np.asarray(limits.axis_vel_mm_s, dtype=float)[:d]
+    x = np.empty(s.size)
+    kernels.mvc(np.ascontiguousarray(ref.tangent), np.ascontiguousarray(ref.kn), acc, x)
+    tan, kn = np.abs(ref.tangent), np.abs(ref.kn)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        other = np.min(np.where(tan > 0.0, vel[None, :] / tan, np.inf), axis=1)
+        kappa = np.sqrt(np.sum(kn * kn, axis=1))
+        rho = np.where(kappa > 0.0, 1.0 / kappa, np.inf)
+        delta = limits.chord_tol_mm
+        chord = np.where(np.isinf(rho) | (2.0 * rho <= delta), np.inf,
+                         2.0 / limits.ts_s * np.sqrt(np.maximum(2.0 * rho * delta - delta * delta, 0.0)))
+    other = np.minimum(np.minimum(other, chord), limits.feed_mm_s)
+    if cap is not None:
+        other = np.minimum(other, cap(s))
+    a_t = limits.tangential_acc_mm_s2
+    for i in range(s.size):  # the largest x whose range of a meets [−a_t, a_t]
+        good, bad = min(ref.vlim[i] ** 2, x[i]), x[i]
+        t_i, k_i = np.ascontiguousarray(ref.tangent[i]), np.ascontiguousarray(ref.kn[i])
+        lo, hi = kernels.acc_range(bad, t_i, k_i, acc) if np.isfinite(bad) else (np.inf, -np.inf)
+        if not (lo <= hi and lo <= a_t and hi >= -a_t):
+            for _ in range(60):
+                mid = 0.5 * (good + bad) if np.isfinite(bad) else 2.0 * good + 1.0
+                lo, hi = kernels.acc_range(mid, t_i, k_i, acc)
+                good, bad = (mid, bad) if (lo <= hi and lo <= a_t and hi >= -a_t) else (good, mid)
+            x[i] = good
+    v_any = np.minimum(np.sqrt(x), other)
+    return v / ref.vlim, v / v_any
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--random", type=int, default=110)
@@ -75,6 +125,7 @@ def main() -> None:
     counts = {t: Counter() for t in transitions}
     shares = {t: [] for t in transitions}
     sides = {t: Counter() for t in transitions}
+    bottoms = {t: ([], []) for t in transitions}
     for i, (name, curve, lim, cap) in enumerate(cases(args.random, 1, builtin_only=True)):
         if i % args.stride:
             continue
@@ -83,6 +134,11 @@ def main() -> None:
             traj, s, excess = r["detail"]
             tol = max(1e-3, 1e-6 * traj.curve.length)
             kinds = junction_kinds(traj, s, tol)
+            by_s = {round(b.s1, 9): b.v_end for b in traj.blocks}
+            r0, r1 = bottom_ratios(traj, lim, cap, [(x, by_s[round(x, 9)]) for x, k, _ in kinds
+                                                     if k in ("valley", "flat")])
+            bottoms[t][0].extend(r0.tolist())
+            bottoms[t][1].extend(r1.tolist())
             c = Counter(k for _, k, _ in kinds)
             counts[t].update(c)
             sides[t].update(x for _, k, x in kinds if k == "flat")
@@ -103,6 +159,8 @@ def main() -> None:
         print(f"{t}: {len(shares[t])} cases, {total} added junctions: "
               + ", ".join(f"{k} {counts[t].get(k, 0)} ({100 * counts[t].get(k, 0) / max(total, 1):.0f} %)"
                           for k in KINDS)
+              + (f"; at the bottoms v_J/vlim median {np.median(bottoms[t][0]):.4f}, v_J/v_any median "
+                 f"{np.median(bottoms[t][1]):.4f} (mean {np.mean(bottoms[t][1]):.4f})" if bottoms[t][0] else "")
               + " (flats: " + ", ".join(f"{x} {n}" for x, n in sides[t].most_common()) + ")"
               + "; junc excess, mean % of the floor: "
               + ", ".join(f"{k} {100 * v.mean():.2f}" for k, v in tab.items()))
