@@ -78,6 +78,10 @@ class AccSegment:
             v = v_end
         return s
 
+    def state(self, tau):
+        """s, v, a, j at times τ (:func:`acc_segment_state`; profile.segment_state calls it)."""
+        return acc_segment_state(self, tau)
+
     def phases(self) -> tuple[tuple[str, float, float, float], ...]:
         """(kind, duration, a at its start, a at its end) of the three phases; kind ``lin`` (constant
         jerk), ``sin`` (quarter sine), ``cos`` (quarter cosine) or ``hold``."""

@@ -294,10 +294,8 @@ def segment_state(seg: Segment, tau):
     states with acceleration (slw/acc_profile.AccSegment) phase by phase."""
     import numpy as np
 
-    if not isinstance(seg, Segment):
-        from fuzzyfeed.slw.acc_profile import acc_segment_state
-
-        return acc_segment_state(seg, tau)
+    if not isinstance(seg, Segment):  # an AccSegment (its own phases; no import back here)
+        return seg.state(tau)
 
     tau = np.asarray(tau, dtype=float)
     T = seg.duration_s
