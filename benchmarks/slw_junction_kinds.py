@@ -75,6 +75,7 @@ def junction_kinds(traj, s_points, tol):
 def bottom_ratios(traj, limits, cap, bottoms):
     """v_J / vlim and v_J / v_any at the junctions ``bottoms`` ((s, v_J) pairs; module docstring)."""
     import fuzzyfeed.slw._kernels as kernels
+    from fuzzyfeed.slw.lookahead import SlidingWindow
     from fuzzyfeed.slw.preprocess import evaluate_reference
 
     if not bottoms:
@@ -86,20 +87,11 @@ def bottom_ratios(traj, limits, cap, bottoms):
     ref = evaluate_reference(traj.curve, limits, s, cap=cap)
     d = ref.tangent.shape[1]
     acc = np.asarray(limits.axis_acc_mm_s2, dtype=float)[:d]
-    vel = np.asarray(limits.axis_vel_mm_s, dtype=float)[:d]
     x = np.empty(s.size)
     kernels.mvc(np.ascontiguousarray(ref.tangent), np.ascontiguousarray(ref.kn), acc, x)
-    tan, kn = np.abs(ref.tangent), np.abs(ref.kn)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        other = np.min(np.where(tan > 0.0, vel[None, :] / tan, np.inf), axis=1)
-        kappa = np.sqrt(np.sum(kn * kn, axis=1))
-        rho = np.where(kappa > 0.0, 1.0 / kappa, np.inf)
-        delta = limits.chord_tol_mm
-        chord = np.where(np.isinf(rho) | (2.0 * rho <= delta), np.inf,
-                         2.0 / limits.ts_s * np.sqrt(np.maximum(2.0 * rho * delta - delta * delta, 0.0)))
-    other = np.minimum(np.minimum(other, chord), limits.feed_mm_s)
-    if cap is not None:
-        other = np.minimum(other, cap(s))
+    # the other limits (command, axis velocities, chord, cap): the window's lifted limit, which is
+    # them wherever the centripetal part binds (window_check.BlockCheck._feed_limit_numpy)
+    other = SlidingWindow(limits, traj.curve, cap=cap)._feed_limit_numpy(ref.s, ref.vlim, ref.tangent, ref.kn)
     a_t = limits.tangential_acc_mm_s2
     for i in range(s.size):  # the largest x whose range of a meets [−a_t, a_t]
         good, bad = min(ref.vlim[i] ** 2, x[i]), x[i]
