@@ -7,8 +7,8 @@ Planning for Automatic Machines and Robots, §3.4, the acceleration profile of t
 acceleration goes a0 → a_p in a ramp of t1, holds a_p for t2, and goes a_p → a1 in a ramp of t3,
 with |a| ≤ A throughout and |j| ≤ J.
 
-- ``seven-phase``: the ramps at constant jerk ±J, t = |Δa|/J (B&M eq. (3.30)-(3.31) for the
-  acceleration phase); each ramp changes the feed by (a_i + a_e)·t/2. The time-optimal one (bang,
+- ``seven-phase``: the ramps at constant jerk ±J, t = |Δa|/J (the double S's acceleration phase,
+  B&M §3.4); each ramp changes the feed by (a_i + a_e)·t/2. The time-optimal one (bang,
   coast at ±A, bang) is found in closed form: with σ the sign of v1 − v0 against the single ramp
   a0 → a1, a_p = σ·√((2J·σΔv + a0² + a1²)/2), saturated at ±A with the hold
   t2 = (σΔv − Δv_ramps(A))/A.
@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from fuzzyfeed.slw.profile import COSINE, SEVEN_PHASE, check_shape
+from fuzzyfeed.slw.profile import SEVEN_PHASE, check_shape
 
 #: Boundary accelerations may exceed A by this share (rounding of the state they come from).
 ACC_RTOL = 1e-9
@@ -70,7 +70,7 @@ class AccSegment:
 
     @property
     def length_mm(self) -> float:
-        """Distance covered: the phases' closed forms (:func:`_phase`) summed."""
+        """Distance covered: the phases' closed forms (:func:`_phase_end`) summed."""
         s, v = 0.0, self.v0
         for kind, t, a_i, a_e in self.phases():
             ds, v_end = _phase_end(kind, t, a_i, a_e, v)
