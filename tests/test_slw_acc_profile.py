@@ -120,3 +120,31 @@ def test_bad_states_are_refused():
         acc_transition(0.0, 0.0, 10.0, 0.0, A, J, "trapezoid")
     with pytest.raises(ValueError, match="≥ 0"):
         AccSegment(0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_ticks_through_a_junction_that_keeps_its_acceleration(shape):
+    """The interpolator's per-tick sampling (trajectory._sample_profile) takes transitions with a
+    junction acceleration as they are: a rise 0 → 50 mm/s ending at 400 mm/s², one going on from
+    there to 100 mm/s, a cruise and a stop; ticks continuous in a (jerk ≤ J) and ending at the length."""
+    from fuzzyfeed.slw.profile import Segment, transition_time
+    from fuzzyfeed.slw.trajectory import _sample_profile
+    from fuzzyfeed.slw.window_blocks import ScheduledBlock
+
+    ts = 1e-3
+    first = acc_transition(0.0, 0.0, 50.0, 400.0, A, J, shape)
+    second = acc_transition(50.0, 400.0, 100.0, 0.0, A, J, shape)
+    stop = Segment(100.0, 0.0, transition_time(100.0, 0.0, A, J, shape), J if shape == SEVEN_PHASE else None)
+    segs = (first, second, Segment(100.0, 100.0, 0.1), stop)
+    total = sum(g.length_mm for g in segs)
+    blocks = [ScheduledBlock(0.0, first.length_mm, 0.0, 50.0, 2, segs[:1], A, True),
+              ScheduledBlock(first.length_mm, total, 50.0, 0.0, 1, segs[1:], A, True)]
+    t, s, v, a, j = _sample_profile(blocks, ts, total)
+    assert s[-1] == pytest.approx(total) and v[-1] == 0.0
+    assert np.abs(np.diff(a)).max() <= J * ts * (1 + 1e-9)
+    assert np.abs(a).max() <= A * (1 + 1e-9) and np.abs(j).max() <= J * (1 + 1e-9)
+    # at the junction's tick the acceleration is the kept one, not zero
+    k = int(np.argmin(np.abs(t - first.duration_s)))
+    assert a[k] == pytest.approx(400.0, abs=J * ts)
+    # positions agree with the feed integrated over the ticks (trapezoid, second order in Ts)
+    assert np.allclose(s, np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * ts)]), atol=1e-3)
