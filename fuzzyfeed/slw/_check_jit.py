@@ -18,6 +18,15 @@ import numba
 N_RATIOS = 9
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _keep(r, i, k, best, where):
+    """Ratio ``r`` at tick ``k`` kept as ratio i's worst if larger: NaN never wins (a comparison
+    with NaN is false), the first of equal values stays."""
+    if r > best[i]:
+        best[i] = r
+        where[i] = k
+
+
 @numba.njit(cache=True, nogil=True)
 def worst_ticks(xyz, jerk, ts, feed, axis_vel, axis_acc, jerk_limit, path_scale, skip, best, where):
     """For each ratio of tick_ratios: the largest value into ``best`` and its first tick into
@@ -43,48 +52,21 @@ def worst_ticks(xyz, jerk, ts, feed, axis_vel, axis_acc, jerk_limit, path_scale,
             vy = dy / ts
             vz = dz / ts
             f = math.sqrt((dx * dx + dy * dy) + dz * dz) / ts
-            r = f / feed
-            if r > best[0]:   # NaN never wins; the first of equal values stays
-                best[0] = r
-                where[0] = k
-            r = abs(vx) / axis_vel[0]
-            if r > best[1]:   # NaN never wins; the first of equal values stays
-                best[1] = r
-                where[1] = k
-            r = abs(vy) / axis_vel[1]
-            if r > best[2]:   # NaN never wins; the first of equal values stays
-                best[2] = r
-                where[2] = k
-            r = abs(vz) / axis_vel[2]
-            if r > best[3]:   # NaN never wins; the first of equal values stays
-                best[3] = r
-                where[3] = k
-            r = abs(jerk[k]) / jerk_limit
-            if r > best[7]:   # NaN never wins; the first of equal values stays
-                best[7] = r
-                where[7] = k
+            _keep(f / feed, 0, k, best, where)
+            _keep(abs(vx) / axis_vel[0], 1, k, best, where)
+            _keep(abs(vy) / axis_vel[1], 2, k, best, where)
+            _keep(abs(vz) / axis_vel[2], 3, k, best, where)
+            _keep(abs(jerk[k]) / jerk_limit, 7, k, best, where)
         else:                   # to rest after the last tick
             vx = 0.0
             vy = 0.0
             vz = 0.0
             f = 0.0
-            r = abs(jerk[k]) / jerk_limit
-            if r > best[7]:   # NaN never wins; the first of equal values stays
-                best[7] = r
-                where[7] = k
+            _keep(abs(jerk[k]) / jerk_limit, 7, k, best, where)
         # the axis accelerations at tick k: (v_k − v_k−1) / Ts
-        r = abs((vx - vx0) / ts) / axis_acc[0]
-        if r > best[4]:   # NaN never wins; the first of equal values stays
-            best[4] = r
-            where[4] = k
-        r = abs((vy - vy0) / ts) / axis_acc[1]
-        if r > best[5]:   # NaN never wins; the first of equal values stays
-            best[5] = r
-            where[5] = k
-        r = abs((vz - vz0) / ts) / axis_acc[2]
-        if r > best[6]:   # NaN never wins; the first of equal values stays
-            best[6] = r
-            where[6] = k
+        _keep(abs((vx - vx0) / ts) / axis_acc[0], 4, k, best, where)
+        _keep(abs((vy - vy0) / ts) / axis_acc[1], 5, k, best, where)
+        _keep(abs((vz - vz0) / ts) / axis_acc[2], 6, k, best, where)
         # the tangential acceleration at tick k, the path jerk between ticks k − 1 and k
         acc = (f - f_prev) / ts
         if k >= 1 and not skip[k - 1]:
