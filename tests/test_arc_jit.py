@@ -160,7 +160,7 @@ def test_chord_exact_terms_compiled_bit_for_bit(name, machine, monkeypatch):
 
 
 # the corner adjustment as main had it (whole-path arrays), the reference of the one that evaluates only the
-# points near corners
+# points near corners; with a 2-D curve's points in two columns, as the fix of its NaN third coordinate has them
 def _old_beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.ndarray,
                     rounds: int = 60) -> np.ndarray:
     """``u`` with the chords beside a corner's chord in the ratio to their ``steps`` of the smooth
@@ -182,9 +182,9 @@ def _old_beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np
     # the ratio chord / step the fixed point reached on the smooth chord beyond (μ up to its own
     # last digits) is the wanted one of the chord beside the corner's; points near corners only
     near = np.unique(np.concatenate([before - 1, before, before + 1, after, after + 1, after + 2]))
-    pts = np.full((u.size, 3), np.nan)
+    pts = np.full((u.size, curve.dim), np.nan)   # (main had 3 columns: a 2-D curve's z NaN, nothing moved)
     if near.size:
-        pts[near, :curve.dim] = curve.evaluate(u[near], order=0)[0]
+        pts[near] = curve.evaluate(u[near], order=0)[0]
     chord = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(steps > 0, chord / steps, 1.0)
@@ -202,7 +202,7 @@ def _old_beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np
         k_at = np.searchsorted(hard, u[moving], side="left" if sign > 0 else "right") - (sign < 0)
         end = hard[np.clip(k_at, 0, hard.size - 1)]
         a, b = u[anchor], end - sign * 1e-12 * (curve.domain[1] - curve.domain[0])
-        p0 = pts[anchor, :curve.dim]
+        p0 = pts[anchor]
         length = lambda x: np.linalg.norm(curve.evaluate(x, order=0)[0] - p0, axis=1)  # noqa: E731
         ok = (length(b) >= want[chords]) & (sign * (b - a) > 0)
         a, b, chords, moving, p0 = a[ok], b[ok], chords[ok], moving[ok], p0[ok]
@@ -251,6 +251,6 @@ def test_beside_corners_as_main(case):
     knot = I._holds_knot(hard, u)
     want = _old_beside_corners(curve, u, steps, hard)
     moved = int((want != u).sum())
-    assert moved > 0 or curve.dim == 2         # a 2-D curve's points kept a NaN z on main: none moved
+    assert moved > 0                           # 2-D too (main kept a 2-D curve's z NaN: none moved)
     assert np.array_equal(I._beside_corners(curve, u, steps, hard), want)
     assert np.array_equal(I._beside_corners(curve, u, steps, hard, knot=knot), want)

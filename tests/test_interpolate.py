@@ -130,3 +130,42 @@ def test_best_keeps_the_chords_before_a_true_corner_exact(feed):
         assert abs(mu - 1) < 0.02  # the zig-zag's deficit, spread over the path
         worst = max(worst, float(np.max(np.abs(chords[straight] - mu * np.diff(s)[straight]))))
     assert worst < 1e-12
+
+
+@pytest.mark.parametrize("dim_pts", [
+    [[0, 0], [40, 0], [40, 25], [0, 25], [0, 0]],                        # a rectangle: right angles
+    [[0, 0], [10, 3], [14, 12], [3, 20], [-6, 9], [2, 4]],               # a zigzag: sharp and wide corners
+])
+def test_beside_corners_2d_as_3d(dim_pts):
+    """The corner adjustment (interpolate._beside_corners) puts the ticks beside a 2-D path's
+    corners where it puts those of the same path in 3-D (z = 0): the chord beside each corner's
+    at the ratio to its step of the smooth chord beyond it. (It read a 2-D curve's points with a
+    NaN third coordinate, so every chord was NaN and no tick moved.)"""
+    from fuzzyfeed.geometry import interpolate as I
+
+    pts2 = np.asarray(dim_pts, dtype=float)
+    n = len(pts2)
+    knots = np.concatenate([[0.0], np.arange(n), [n - 1.0]])
+    flat = Nurbs(1, knots, pts2)
+    space = Nurbs(1, knots, np.column_stack([pts2, np.zeros(n)]))
+    s = ramp_targets(flat.length, 4001)
+    hard = I._c0_knots(flat)
+    assert hard.size == n - 2 and np.array_equal(hard, I._c0_knots(space))
+    u0 = interpolate_u(space, s, "best")
+    steps = np.diff(s)
+    knot = I._holds_knot(hard, u0)
+    beside = np.flatnonzero(knot[1:] & ~knot[:-1])          # the tick before each corner's chord
+    assert beside.size == n - 2
+    # ticks moved off the fixed point next to corners (a stalled pass), as test_arc_jit does
+    u = u0.copy()
+    u[beside] -= np.linspace(0.05, 0.3, beside.size) * (u0[beside] - u0[beside - 1])
+    want = I._beside_corners(space, u, steps, hard)
+    got = I._beside_corners(flat, u, steps, hard)
+    assert (want != u).sum() >= beside.size                 # the 3-D case moves them back
+    span = flat.domain[1] - flat.domain[0]
+    assert np.abs(got - want).max() <= 1e-13 * span
+    # and the chord beside each corner's has the smooth chord's ratio to its step again
+    xy = flat.evaluate(got, order=0)[0]
+    ch = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    k = beside
+    assert np.allclose(ch[k] / steps[k], ch[k - 1] / steps[k - 1], rtol=0.0, atol=1e-9)

@@ -262,9 +262,9 @@ def _beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.nda
     # the ratio chord / step the fixed point reached on the smooth chord beyond (μ up to its own
     # last digits) is the wanted one of the chord beside the corner's; points near corners only
     near = np.unique(np.concatenate([before - 1, before, before + 1, after, after + 1, after + 2]))
-    pts = np.full((near.size, 3), np.nan)   # a 2-D curve's third coordinate stays NaN (as on main)
-    if near.size:
-        pts[:, :curve.dim] = curve.evaluate(u[near], order=0)[0]
+    # the curve's own coordinates (a 2-D curve's points had a NaN third one: every chord NaN, and
+    # no tick beside a 2-D path's corner was ever moved)
+    pts = curve.evaluate(u[near], order=0)[0] if near.size else np.empty((0, curve.dim))
 
     def point(k):
         return pts[np.searchsorted(near, k)]
@@ -293,7 +293,7 @@ def _beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np.nda
         k_at = np.searchsorted(hard, u[moving], side="left" if sign > 0 else "right") - (sign < 0)
         end = hard[np.clip(k_at, 0, hard.size - 1)]
         a, b = u[anchor], end - sign * 1e-12 * (curve.domain[1] - curve.domain[0])
-        p0 = point(anchor)[:, :curve.dim]
+        p0 = point(anchor)
         length = lambda x: np.linalg.norm(curve.evaluate(x, order=0)[0] - p0, axis=1)  # noqa: E731
         ok = (length(b) >= want) & (sign * (b - a) > 0)
         a, b, want, moving, p0 = a[ok], b[ok], want[ok], moving[ok], p0[ok]

@@ -23,6 +23,7 @@ axes one per block, as seed 000.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Iterable, Iterator
 
 import numpy as np
@@ -46,6 +47,18 @@ MAX_SETTLE = 100_000
 FRONT_BLOCKS = 3
 #: Look-ahead length as a multiple of the full-stop distance from the command feed.
 WINDOW_STOPS = 1.5
+
+
+def _first_beyond(blocks: list, reach: float, lo: int) -> int:
+    """The first index ≥ ``lo`` of a block starting beyond ``reach`` (len(blocks) if none): the
+    blocks are in path order (s0 increasing), so a bisection, not a scan of the window."""
+    if lo >= len(blocks):
+        return len(blocks)
+    return bisect_right(blocks, reach, lo, key=_start)
+
+
+def _start(block) -> float:
+    return block.s0
 
 
 class SlidingWindow(WindowContent, BlockCheck):
@@ -139,8 +152,7 @@ class SlidingWindow(WindowContent, BlockCheck):
         reach = self.blocks[0].s1 + 1.05 * self.stop if self.blocks and not full else math.inf
         for _ in range(MAX_SETTLE):
             self._plan(end_feed)
-            n = len(self.blocks)
-            last = next((i for i in range(FRONT_BLOCKS + 1, n) if self.blocks[i].s0 > reach), n)
+            last = _first_beyond(self.blocks, reach, FRONT_BLOCKS + 1)
             if self._check_all(range(last)):
                 return
         self.stats.unresolved += 1
@@ -215,8 +227,8 @@ class SlidingWindow(WindowContent, BlockCheck):
         # acceleration) could otherwise need a lower feed than the released one can reach
         reach = self.juncs[n_final].s + 1.05 * self.stop
         n = len(self.blocks)
-        last = n_final if self._front_checks >= MAX_REPAIRS else next(
-            (i for i in range(n_final + FRONT_BLOCKS, n) if self.blocks[i].s0 > reach), n)
+        last = n_final if self._front_checks >= MAX_REPAIRS else _first_beyond(self.blocks, reach,
+                                                                               n_final + FRONT_BLOCKS)
         if not self._check_all(range(min(max(last, n_final), n))):
             self._front_checks += 1
             return False
