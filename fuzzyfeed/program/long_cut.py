@@ -31,6 +31,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from fuzzyfeed.base.spill import Spill, scratch_folder
 from fuzzyfeed.fuzzy.advisor import point_sequence_table
 from fuzzyfeed.fuzzy.engine import compile_table
 from fuzzyfeed.fuzzy.features import features
@@ -105,12 +106,16 @@ class _Pass:
     """One pass over the cut: a buffer of its moves [b0, b1) and vertices [b0, b1] with the fit's κ
     and corners, the cumulative sample counts and lengths (as the stream's plan sums them) and s."""
 
-    def __init__(self, blocks: Iterator[dict], fit):
+    def __init__(self, blocks: Iterator[dict], n: int, fit=None, keep=None, vertices: Iterator | None = None):
         self._blocks = blocks
-        self.n = fit.n - 1                       # the cut's moves
+        self.n = n                               # the cut's moves
         self._moves: deque = deque()            # blocks read, not yet in the buffer
         self._first = True
-        self._pieces = fit.pieces(self._points)
+        # κ and corners: from the fit, which pulls the blocks as it reads the points (each piece
+        # also to ``keep(κ, corner)``), or read back (``vertices``: (κ, corner) chunks) with the
+        # blocks pulled here
+        self._pull = vertices is not None
+        self._pieces = vertices if self._pull else self._fitted(fit, keep)
         self.done = False
         self.b0 = 0
         self.f = {name: None for name in _MOVE_FIELDS}
@@ -121,6 +126,12 @@ class _Pass:
         self.sv = np.full(1, np.nan)
         self.sv[0] = 0.0
         self.n_moves = 0                         # moves in the buffer (b1 - b0)
+
+    def _fitted(self, fit, keep):
+        for kappa, _, corner in fit.pieces(self._points):
+            if keep is not None:
+                keep(kappa, corner)
+            yield kappa, corner
 
     def _points(self):
         for blk in self._blocks:
@@ -136,7 +147,7 @@ class _Pass:
         if self.done:
             return False
         try:
-            kappa, _, corner = next(self._pieces)
+            kappa, corner = next(self._pieces)
         except StopIteration:
             self.done = True
             return False
@@ -145,6 +156,12 @@ class _Pass:
         want = self.b0 + self.vk.size - 1 - (self.b0 + self.n_moves)   # moves whose both ends are known
         parts = []
         while want > 0:
+            if self._pull and not self._moves:
+                blk = next(self._blocks, None)
+                if blk is None:
+                    raise RuntimeError(f"the cut's moves read back end before its vertices ({self.b1 + want - 1})")
+                self._moves.append(blk)
+                continue
             blk = self._moves[0]
             take = min(want, len(blk["end"]))
             parts.append({k: (None if v is None else v[:take]) for k, v in blk.items()})
@@ -219,24 +236,45 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
                     min_piece_mm: float, piece_points: int, tools, window_lines: int) -> Iterator[AdvicePiece]:
     """The pieces of the cut starting as cut ``k`` of window ``first`` (module docstring), with
     the file's cut number and lines; ``piece_move`` holds ordinals of the cut's sampled moves."""
+    with scratch_folder("fuzzyfeed-longcut-") as folder:
+        moves = _store_moves(path, first, k, tools, window_lines, step_mm, folder)
+        yield from _advise_stored(moves, folder, first.cut0 + k, table, step_mm=step_mm, cap_mm_min=cap_mm_min,
+                                  feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm,
+                                  piece_points=piece_points, rows=max(2, int(window_lines) // PASS_SPLIT))
+
+
+def _store_moves(path, first: Window, k: int, tools, window_lines: int, step_mm: float, folder) -> Spill:
+    """The one read of the cut from its file: its moves (the fields :class:`_Pass` reads, ~80 B a
+    move) written to ``folder`` window after window as :func:`_blocks` checks them."""
+    moves = Spill(folder, "moves")
+    for blk in _blocks(path, first, k, tools, window_lines, step_mm):
+        if len(blk["end"]):
+            comp = blk["comp_unknown"]      # None: no move waits on compensation (False everywhere)
+            moves.append(dict(blk, comp_unknown=np.zeros(len(blk["end"]), bool) if comp is None else comp))
+    return moves
+
+
+def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, cap_mm_min, feed_step_mm_min: float,
+                   min_piece_mm: float, piece_points: int, rows: int) -> Iterator[AdvicePiece]:
+    """:func:`advise_long_cut` from the cut's stored moves, read back ``rows`` at a time."""
     from fuzzyfeed.geometry.polyline_stream import fit_chunks
 
-    cut_no = first.cut0 + k
     engine = compile_table(table)
     seq = point_sequence_table(table)
 
     def blocks():
-        return _blocks(path, first, k, tools, window_lines, step_mm)
+        return moves.chunks(rows)
 
     def chunks():
         first_block = True
-        for blk in blocks():
-            if len(blk["end"]):
-                yield np.vstack([blk["start"][:1], blk["end"]]) if first_block else blk["end"]
-                first_block = False
+        for blk in moves.chunks(rows, fields=("start", "end")):
+            yield np.vstack([blk["start"][:1], blk["end"]]) if first_block else blk["end"]
+            first_block = False
 
     fit = fit_chunks(chunks, window=FIT_WINDOW)
     n = fit.n - 1                                   # moves: the vertices less one
+    if n != len(moves):
+        raise RuntimeError(f"the cut's fit has {fit.n} points for {len(moves)} moves")
     margin = margin_mm(seq)
     pp = min(int(piece_points), MAX_POINTS)
 
@@ -246,9 +284,10 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
         kinds = prog.kind
         return prog, sample_moves(prog, moves, kinds, prog.chord, step_mm, lo - ps.b0, hi - ps.b0, geo)
 
-    # pass 0: the plan and s
+    # pass 0: the plan and s (the fit's κ and corners kept for the later passes)
     plan = []
-    ps = _Pass(blocks(), fit)
+    vertices = Spill(folder, "vertices")
+    ps = _Pass(blocks(), n, fit=fit, keep=lambda kappa, corner: vertices.append({"kappa": kappa, "corner": corner}))
     ps.until(lambda: ps.n_moves >= 1)
 
     def bound_after(a):
@@ -293,14 +332,17 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
             break
         ps.release(min(a, lo))
         a, b = b, nb
+    ps.until(lambda: False)                      # the fit to its end: every vertex kept
     ps.close()
+    if len(vertices) != n + 1:
+        raise RuntimeError(f"the cut's fit kept {len(vertices)} vertices of {n + 1}")
     span = (0.0, length)
     total = length if length > 0 else 1.0
     clip = seq.dk_clip_1_mm
     corner = seq.filter == "corner-mean"
 
     def pieces_of_pass():
-        ps = _Pass(blocks(), fit)
+        ps = _Pass(blocks(), n, vertices=((v["kappa"], v["corner"]) for v in vertices.chunks(rows)))
         try:
             for p, (a, b, lo, hi, anchor, g_lo) in enumerate(plan):
                 ps.until(lambda: ps.b1 >= hi)
