@@ -3,18 +3,23 @@ a window and a few pieces, not by the cut.
 
 The windowed read (:mod:`fuzzyfeed.program.windows`) splits such a cut between windows
 (:attr:`~fuzzyfeed.program.windows.Window.continues`). :func:`advise_long_cut` gives the pieces
-:func:`fuzzyfeed.program.stream.stream_program_advice` gives for the whole cut, bit for bit, reading
-the cut's windows again from the first one's start state for every pass:
+:func:`fuzzyfeed.program.stream.stream_program_advice` gives for the whole cut, bit for bit. The
+cut is read from its file once, from the first window's start state in windows of a quarter of the
+windows' lines, and its moves as the passes read them (end points, chord, sample count, F, line,
+the split flags: ~80 B a move) are written to a scratch folder (:class:`~fuzzyfeed.base.spill.Spill`,
+removed on every exit, error included); every pass then reads them back a chunk at a time:
 
 1. the G1-run fit's two scans (:func:`fuzzyfeed.geometry.polyline_stream.fit_chunks`: the rounding
    quantum's counts, the extent, the tiny moves' clusters — exact integers and the same sums);
 2. pass 0 of the stream: the pieces' plan and s at every core vertex, s at each piece's anchor kept
    (one float a piece) and the cut's length;
 3. pass 1: the clipped Dκ's range and the curvature peaks' κ and Dκ;
-4. pass 2: the advice of each piece, the filter's sums handed on.
+4. pass 2: the advice of each piece (:func:`~fuzzyfeed.program.stream.piece_advice`, the stream's),
+   the filter's sums handed on.
 
-Passes 2–4 run the fit's last pass (per-vertex κ and corners) in step with the moves, from the same
-read. A pass holds the moves from the piece before's core to the piece after's margin (the plan is
+Pass 0 runs the fit's last pass (per-vertex κ and corners) in step with the moves and writes its κ
+and corners to the scratch folder too (9 B a vertex); passes 1 and 2 read them back with the moves.
+A pass holds the moves from the piece before's core to the piece after's margin (the plan is
 made greedily from the cut's start as the stream makes it: the cumulative sample counts and lengths
 carried, the last piece merged where the stream merges it). Pieces carry their moves as ordinals
 of the cut's sampled moves (``ordinals``).
@@ -34,14 +39,12 @@ import numpy as np
 from fuzzyfeed.base.spill import Spill, scratch_folder
 from fuzzyfeed.fuzzy.advisor import point_sequence_table
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.features import features
-from fuzzyfeed.fuzzy.filters import filter_terms
 from fuzzyfeed.geometry.polyline_chords import WINDOW_VERTICES
 from fuzzyfeed.geometry.sampling import MAX_POINTS, segment_pieces
 from fuzzyfeed.program.cuts import RunGeometry, cut_moves, path_length, sample_moves
-from fuzzyfeed.program.feeds import move_pieces
 from fuzzyfeed.program.model import LINE
-from fuzzyfeed.program.stream import MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, dk_range, margin_mm
+from fuzzyfeed.program.stream import (MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, dk_range, margin_mm,
+                                      piece_advice)
 from fuzzyfeed.program.windows import Fallback, Window, read_windows
 
 #: The passes read the cut in windows of this fraction of the windows' lines.
@@ -337,7 +340,6 @@ def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, 
     if len(vertices) != n + 1:
         raise RuntimeError(f"the cut's fit kept {len(vertices)} vertices of {n + 1}")
     span = (0.0, length)
-    total = length if length > 0 else 1.0
     clip = seq.dk_clip_1_mm
     corner = seq.filter == "corner-mean"
 
@@ -362,35 +364,7 @@ def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, 
     # pass 2: the advice, piece by piece
     carry = CarriedSums()
     for p, a, b, lo, hi, g_lo, prog, ms, s, b0 in pieces_of_pass():
-        feats = features(ms.curvature, seq.window_points, clip, s, seq.window_mm, span=span, bounds=(dk_lo, dk_hi))
-        ctrl = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
-        v, wlo, whi, w = filter_terms(ctrl, seq.filter, seq.filter_points, s, seq.filter_mm,
-                                      feats.curvature_1_mm, span=span, lowest=lowest)
-        c0 = int(ms.vertex_sample[a - lo])
-        c1 = int(ms.vertex_sample[b - lo])
         nxt = plan[p + 1][5] if p + 1 < len(plan) else None
-        smooth = carry.smooth(v, wlo, whi, w, g_lo, c0, c1, nxt)
-        pct = np.clip(smooth, seq.feed_floor_pct, 100.0)
-        r0 = c0 if a == 0 else c0 + 1
-        rows = slice(r0, c1 + 1)
-        sample_move = np.concatenate([[ms.seg_move[0]], ms.seg_move])[rows]
-        ceil = prog.feed_mm_min[sample_move]
-        if cap_mm_min is not None:
-            ceil = np.minimum(ceil, cap_mm_min)
-        columns = {"cut": np.full(c1 + 1 - r0, cut_no + 1), "source_line": prog.move_line[sample_move] + 1,
-                   "u": s[rows] / total, "x_mm": ms.xyz[rows, 0], "y_mm": ms.xyz[rows, 1],
-                   "z_mm": ms.xyz[rows, 2], "s_mm": s[rows], "curvature_1_mm": ms.curvature[rows],
-                   "curvature_window_max_1_mm": feats.window_max_1_mm[rows],
-                   "curvature_variation": feats.curvature_variation[rows],
-                   "feed_pct_controller": ctrl[rows], "feed_pct": pct[rows],
-                   "programmed_feed_mm_min": ceil, "feed_mm_min": pct[rows] / 100.0 * ceil}
-        segs = slice(c0, c1)
-        phi = pct / 100.0
-        seg_phi = np.minimum(phi[:-1], phi[1:])[segs]
-        seg_move = ms.seg_move[segs]
-        ceiling_seg = prog.feed_mm_min[seg_move]
-        if cap_mm_min is not None:
-            ceiling_seg = np.minimum(ceiling_seg, cap_mm_min)
-        pm, pe, pf = move_pieces(prog, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
-                                 ceiling_seg, feed_step_mm_min, min_piece_mm)
-        yield AdvicePiece(cut=cut_no, columns=columns, piece_move=pm + b0, piece_end=pe, piece_feed_mm_min=pf)
+        yield piece_advice(prog, ms, s, a, b, lo, cut=cut_no, table=seq, engine=engine, span=span,
+                           bounds=(dk_lo, dk_hi), lowest=lowest, carry=carry, g_lo=g_lo, nxt=nxt, cap=cap_mm_min,
+                           feed_step=feed_step_mm_min, min_piece=min_piece_mm, move0=b0)
