@@ -3,18 +3,23 @@ a window and a few pieces, not by the cut.
 
 The windowed read (:mod:`fuzzyfeed.program.windows`) splits such a cut between windows
 (:attr:`~fuzzyfeed.program.windows.Window.continues`). :func:`advise_long_cut` gives the pieces
-:func:`fuzzyfeed.program.stream.stream_program_advice` gives for the whole cut, bit for bit, reading
-the cut's windows again from the first one's start state for every pass:
+:func:`fuzzyfeed.program.stream.stream_program_advice` gives for the whole cut, bit for bit. The
+cut is read from its file once, from the first window's start state in windows of a quarter of the
+windows' lines, and its moves as the passes read them (end points, chord, sample count, F, line,
+the split flags: ~80 B a move) are written to a scratch folder (:class:`~fuzzyfeed.base.spill.Spill`,
+removed on every exit, error included); every pass then reads them back a chunk at a time:
 
 1. the G1-run fit's two scans (:func:`fuzzyfeed.geometry.polyline_stream.fit_chunks`: the rounding
    quantum's counts, the extent, the tiny moves' clusters — exact integers and the same sums);
 2. pass 0 of the stream: the pieces' plan and s at every core vertex, s at each piece's anchor kept
    (one float a piece) and the cut's length;
 3. pass 1: the clipped Dκ's range and the curvature peaks' κ and Dκ;
-4. pass 2: the advice of each piece, the filter's sums handed on.
+4. pass 2: the advice of each piece (:func:`~fuzzyfeed.program.stream.piece_advice`, the stream's),
+   the filter's sums handed on.
 
-Passes 2–4 run the fit's last pass (per-vertex κ and corners) in step with the moves, from the same
-read. A pass holds the moves from the piece before's core to the piece after's margin (the plan is
+Pass 0 runs the fit's last pass (per-vertex κ and corners) in step with the moves and writes its κ
+and corners to the scratch folder too (9 B a vertex); passes 1 and 2 read them back with the moves.
+A pass holds the moves from the piece before's core to the piece after's margin (the plan is
 made greedily from the cut's start as the stream makes it: the cumulative sample counts and lengths
 carried, the last piece merged where the stream merges it). Pieces carry their moves as ordinals
 of the cut's sampled moves (``ordinals``).
@@ -31,16 +36,15 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from fuzzyfeed.base.spill import Spill, scratch_folder
 from fuzzyfeed.fuzzy.advisor import point_sequence_table
 from fuzzyfeed.fuzzy.engine import compile_table
-from fuzzyfeed.fuzzy.features import features
-from fuzzyfeed.fuzzy.filters import filter_terms
 from fuzzyfeed.geometry.polyline_chords import WINDOW_VERTICES
 from fuzzyfeed.geometry.sampling import MAX_POINTS, segment_pieces
 from fuzzyfeed.program.cuts import RunGeometry, cut_moves, path_length, sample_moves
-from fuzzyfeed.program.feeds import move_pieces
 from fuzzyfeed.program.model import LINE
-from fuzzyfeed.program.stream import MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, dk_range, margin_mm
+from fuzzyfeed.program.stream import (MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, dk_range, margin_mm,
+                                      piece_advice)
 from fuzzyfeed.program.windows import Fallback, Window, read_windows
 
 #: The passes read the cut in windows of this fraction of the windows' lines.
@@ -105,12 +109,16 @@ class _Pass:
     """One pass over the cut: a buffer of its moves [b0, b1) and vertices [b0, b1] with the fit's κ
     and corners, the cumulative sample counts and lengths (as the stream's plan sums them) and s."""
 
-    def __init__(self, blocks: Iterator[dict], fit):
+    def __init__(self, blocks: Iterator[dict], n: int, fit=None, keep=None, vertices: Iterator | None = None):
         self._blocks = blocks
-        self.n = fit.n - 1                       # the cut's moves
+        self.n = n                               # the cut's moves
         self._moves: deque = deque()            # blocks read, not yet in the buffer
         self._first = True
-        self._pieces = fit.pieces(self._points)
+        # κ and corners: from the fit, which pulls the blocks as it reads the points (each piece
+        # also to ``keep(κ, corner)``), or read back (``vertices``: (κ, corner) chunks) with the
+        # blocks pulled here
+        self._pull = vertices is not None
+        self._pieces = vertices if self._pull else self._fitted(fit, keep)
         self.done = False
         self.b0 = 0
         self.f = {name: None for name in _MOVE_FIELDS}
@@ -121,6 +129,12 @@ class _Pass:
         self.sv = np.full(1, np.nan)
         self.sv[0] = 0.0
         self.n_moves = 0                         # moves in the buffer (b1 - b0)
+
+    def _fitted(self, fit, keep):
+        for kappa, _, corner in fit.pieces(self._points):
+            if keep is not None:
+                keep(kappa, corner)
+            yield kappa, corner
 
     def _points(self):
         for blk in self._blocks:
@@ -136,7 +150,7 @@ class _Pass:
         if self.done:
             return False
         try:
-            kappa, _, corner = next(self._pieces)
+            kappa, corner = next(self._pieces)
         except StopIteration:
             self.done = True
             return False
@@ -145,6 +159,12 @@ class _Pass:
         want = self.b0 + self.vk.size - 1 - (self.b0 + self.n_moves)   # moves whose both ends are known
         parts = []
         while want > 0:
+            if self._pull and not self._moves:
+                blk = next(self._blocks, None)
+                if blk is None:
+                    raise RuntimeError(f"the cut's moves read back end before its vertices ({self.b1 + want - 1})")
+                self._moves.append(blk)
+                continue
             blk = self._moves[0]
             take = min(want, len(blk["end"]))
             parts.append({k: (None if v is None else v[:take]) for k, v in blk.items()})
@@ -219,24 +239,45 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
                     min_piece_mm: float, piece_points: int, tools, window_lines: int) -> Iterator[AdvicePiece]:
     """The pieces of the cut starting as cut ``k`` of window ``first`` (module docstring), with
     the file's cut number and lines; ``piece_move`` holds ordinals of the cut's sampled moves."""
+    with scratch_folder("fuzzyfeed-longcut-") as folder:
+        moves = _store_moves(path, first, k, tools, window_lines, step_mm, folder)
+        yield from _advise_stored(moves, folder, first.cut0 + k, table, step_mm=step_mm, cap_mm_min=cap_mm_min,
+                                  feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm,
+                                  piece_points=piece_points, rows=max(2, int(window_lines) // PASS_SPLIT))
+
+
+def _store_moves(path, first: Window, k: int, tools, window_lines: int, step_mm: float, folder) -> Spill:
+    """The one read of the cut from its file: its moves (the fields :class:`_Pass` reads, ~80 B a
+    move) written to ``folder`` window after window as :func:`_blocks` checks them."""
+    moves = Spill(folder, "moves")
+    for blk in _blocks(path, first, k, tools, window_lines, step_mm):
+        if len(blk["end"]):
+            comp = blk["comp_unknown"]      # None: no move waits on compensation (False everywhere)
+            moves.append(dict(blk, comp_unknown=np.zeros(len(blk["end"]), bool) if comp is None else comp))
+    return moves
+
+
+def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, cap_mm_min, feed_step_mm_min: float,
+                   min_piece_mm: float, piece_points: int, rows: int) -> Iterator[AdvicePiece]:
+    """:func:`advise_long_cut` from the cut's stored moves, read back ``rows`` at a time."""
     from fuzzyfeed.geometry.polyline_stream import fit_chunks
 
-    cut_no = first.cut0 + k
     engine = compile_table(table)
     seq = point_sequence_table(table)
 
     def blocks():
-        return _blocks(path, first, k, tools, window_lines, step_mm)
+        return moves.chunks(rows)
 
     def chunks():
         first_block = True
-        for blk in blocks():
-            if len(blk["end"]):
-                yield np.vstack([blk["start"][:1], blk["end"]]) if first_block else blk["end"]
-                first_block = False
+        for blk in moves.chunks(rows, fields=("start", "end")):
+            yield np.vstack([blk["start"][:1], blk["end"]]) if first_block else blk["end"]
+            first_block = False
 
     fit = fit_chunks(chunks, window=FIT_WINDOW)
     n = fit.n - 1                                   # moves: the vertices less one
+    if n != len(moves):
+        raise RuntimeError(f"the cut's fit has {fit.n} points for {len(moves)} moves")
     margin = margin_mm(seq)
     pp = min(int(piece_points), MAX_POINTS)
 
@@ -246,9 +287,10 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
         kinds = prog.kind
         return prog, sample_moves(prog, moves, kinds, prog.chord, step_mm, lo - ps.b0, hi - ps.b0, geo)
 
-    # pass 0: the plan and s
+    # pass 0: the plan and s (the fit's κ and corners kept for the later passes)
     plan = []
-    ps = _Pass(blocks(), fit)
+    vertices = Spill(folder, "vertices")
+    ps = _Pass(blocks(), n, fit=fit, keep=lambda kappa, corner: vertices.append({"kappa": kappa, "corner": corner}))
     ps.until(lambda: ps.n_moves >= 1)
 
     def bound_after(a):
@@ -293,14 +335,16 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
             break
         ps.release(min(a, lo))
         a, b = b, nb
+    ps.until(lambda: False)                      # the fit to its end: every vertex kept
     ps.close()
+    if len(vertices) != n + 1:
+        raise RuntimeError(f"the cut's fit kept {len(vertices)} vertices of {n + 1}")
     span = (0.0, length)
-    total = length if length > 0 else 1.0
     clip = seq.dk_clip_1_mm
     corner = seq.filter == "corner-mean"
 
     def pieces_of_pass():
-        ps = _Pass(blocks(), fit)
+        ps = _Pass(blocks(), n, vertices=((v["kappa"], v["corner"]) for v in vertices.chunks(rows)))
         try:
             for p, (a, b, lo, hi, anchor, g_lo) in enumerate(plan):
                 ps.until(lambda: ps.b1 >= hi)
@@ -320,35 +364,7 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
     # pass 2: the advice, piece by piece
     carry = CarriedSums()
     for p, a, b, lo, hi, g_lo, prog, ms, s, b0 in pieces_of_pass():
-        feats = features(ms.curvature, seq.window_points, clip, s, seq.window_mm, span=span, bounds=(dk_lo, dk_hi))
-        ctrl = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
-        v, wlo, whi, w = filter_terms(ctrl, seq.filter, seq.filter_points, s, seq.filter_mm,
-                                      feats.curvature_1_mm, span=span, lowest=lowest)
-        c0 = int(ms.vertex_sample[a - lo])
-        c1 = int(ms.vertex_sample[b - lo])
         nxt = plan[p + 1][5] if p + 1 < len(plan) else None
-        smooth = carry.smooth(v, wlo, whi, w, g_lo, c0, c1, nxt)
-        pct = np.clip(smooth, seq.feed_floor_pct, 100.0)
-        r0 = c0 if a == 0 else c0 + 1
-        rows = slice(r0, c1 + 1)
-        sample_move = np.concatenate([[ms.seg_move[0]], ms.seg_move])[rows]
-        ceil = prog.feed_mm_min[sample_move]
-        if cap_mm_min is not None:
-            ceil = np.minimum(ceil, cap_mm_min)
-        columns = {"cut": np.full(c1 + 1 - r0, cut_no + 1), "source_line": prog.move_line[sample_move] + 1,
-                   "u": s[rows] / total, "x_mm": ms.xyz[rows, 0], "y_mm": ms.xyz[rows, 1],
-                   "z_mm": ms.xyz[rows, 2], "s_mm": s[rows], "curvature_1_mm": ms.curvature[rows],
-                   "curvature_window_max_1_mm": feats.window_max_1_mm[rows],
-                   "curvature_variation": feats.curvature_variation[rows],
-                   "feed_pct_controller": ctrl[rows], "feed_pct": pct[rows],
-                   "programmed_feed_mm_min": ceil, "feed_mm_min": pct[rows] / 100.0 * ceil}
-        segs = slice(c0, c1)
-        phi = pct / 100.0
-        seg_phi = np.minimum(phi[:-1], phi[1:])[segs]
-        seg_move = ms.seg_move[segs]
-        ceiling_seg = prog.feed_mm_min[seg_move]
-        if cap_mm_min is not None:
-            ceiling_seg = np.minimum(ceiling_seg, cap_mm_min)
-        pm, pe, pf = move_pieces(prog, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
-                                 ceiling_seg, feed_step_mm_min, min_piece_mm)
-        yield AdvicePiece(cut=cut_no, columns=columns, piece_move=pm + b0, piece_end=pe, piece_feed_mm_min=pf)
+        yield piece_advice(prog, ms, s, a, b, lo, cut=cut_no, table=seq, engine=engine, span=span,
+                           bounds=(dk_lo, dk_hi), lowest=lowest, carry=carry, g_lo=g_lo, nxt=nxt, cap=cap_mm_min,
+                           feed_step=feed_step_mm_min, min_piece=min_piece_mm, move0=b0)

@@ -29,6 +29,8 @@ from fuzzyfeed.program.lines import (edit_line, feed_units_inch, format_feed_dow
 from fuzzyfeed.program.model import NO_F_KINDS, Program
 
 _F_WORD = re.compile(r"[Ff]\s*[-+]?(?:\d+\.?\d*|\.\d+)")
+#: A comment, parameter or expression on a line: its F is placed by :func:`~fuzzyfeed.program.lines.edit_line`.
+_SPECIAL = re.compile(r"[(;#\[]")
 
 
 def rewrite_program(program: Program, piece_move: np.ndarray, piece_end: np.ndarray,
@@ -104,40 +106,57 @@ def _rewrite_parts(program: Program, piece_move: np.ndarray, piece_end: np.ndarr
     out_lines = []
     f_in_force = None if carry is None else carry["f"]   # mm/min
     end = min(program.end_line + 1, n_lines)
-    change_lines = set(np.flatnonzero(mode_change[:end]).tolist())
-    f_lines = has_f.tolist()
-    for li, raw in zip(range(end), lines):    # in order: a LineStore decodes a block at a time
-        if li in change_lines:
-            f_in_force = 0.0
-        m = int(want_move[li])
-        if m < 0:
-            if f_lines[li]:
-                f_in_force = float(feed_value[li]) * f_scale[li]
-            out_lines.append(raw)
-            if len(out_lines) >= CHUNK_LINES:
-                yield out_lines
-                out_lines = []
-            continue
-        want = want_text[li]
-        split = piece_lo[m] >= 0 and piece_hi[m] - piece_lo[m] > 1
-        if split:
-            lo, hi = piece_lo[m], piece_hi[m]
-            out_lines.extend(split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
-        else:
-            want_v = float(want)
-            if f_lines[li]:
-                if abs(float(feed_value[li]) - want_v) > 1e-9:
-                    if any(c in raw for c in "(;#["):
+    # the loop reads Python lists, a block of lines at a time (a numpy scalar per line and field
+    # cost ~half its time on a 10⁶-line program); the same IEEE doubles, so the same decisions and
+    # F texts
+    number: dict = {}                       # float() of each F text met
+    special = _SPECIAL.search
+    source = iter(lines)                    # in order: a LineStore decodes a block at a time
+    for b0 in range(0, end, CHUNK_LINES):
+        b1 = min(b0 + CHUNK_LINES, end)
+        moves_of = want_move[b0:b1]
+        some = np.maximum(moves_of, 0)
+        plo = np.where(moves_of >= 0, piece_lo[some], -1).tolist() if piece_lo.size else [-1] * (b1 - b0)
+        phi = np.where(moves_of >= 0, piece_hi[some], -1).tolist() if piece_hi.size else [-1] * (b1 - b0)
+        moves_of = moves_of.tolist()
+        change_lines, f_lines = mode_change[b0:b1].tolist(), has_f[b0:b1].tolist()
+        fv, fs, sc = feed_value[b0:b1].tolist(), f_scale[b0:b1].tolist(), scale[b0:b1].tolist()
+        for i, raw in zip(range(b1 - b0), source):
+            li = b0 + i
+            if change_lines[i]:
+                f_in_force = 0.0
+            m = moves_of[i]
+            if m < 0:
+                if f_lines[i]:
+                    f_in_force = fv[i] * fs[i]
+                out_lines.append(raw)
+                continue
+            want = want_text[li]
+            split = plo[i] >= 0 and phi[i] - plo[i] > 1
+            if split:
+                lo, hi = plo[i], phi[i]
+                out_lines.extend(split_lines(program, m, raw, piece_end[lo:hi], p_text[lo:hi]))
+            else:
+                want_v = number.get(want)
+                if want_v is None:
+                    want_v = number[want] = float(want)
+                if f_lines[i]:
+                    if abs(fv[i] - want_v) > 1e-9:
+                        if special(raw):
+                            raw = edit_line(raw, [("F", want)])
+                        else:
+                            raw = _F_WORD.sub("F" + want, raw, count=1)
+                elif f_in_force is None or abs(f_in_force - want_v * fs[i]) > 1e-9 * max(f_in_force, 1.0):
+                    if special(raw):
                         raw = edit_line(raw, [("F", want)])
                     else:
-                        raw = _F_WORD.sub("F" + want, raw, count=1)
-            elif f_in_force is None or abs(f_in_force - want_v * f_scale[li]) > 1e-9 * max(f_in_force, 1.0):
-                if any(c in raw for c in "(;#["):
-                    raw = edit_line(raw, [("F", want)])
-                else:
-                    raw = raw.rstrip() + " F" + want
-            out_lines.append(raw)
-        f_in_force = float(want_last[li]) * (scale[li] if split else f_scale[li])
+                        raw = raw.rstrip() + " F" + want
+                out_lines.append(raw)
+            last = want_last[li]
+            last_v = number.get(last)
+            if last_v is None:
+                last_v = number[last] = float(last)
+            f_in_force = last_v * (sc[i] if split else fs[i])
         if len(out_lines) >= CHUNK_LINES:
             yield out_lines
             out_lines = []

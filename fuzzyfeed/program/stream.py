@@ -194,7 +194,6 @@ def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, p
     sv = cut_arc_lengths(plan, n, piece)      # pass 0
     length = float(sv[-1])
     span = (0.0, length)
-    total = length if length > 0 else 1.0
     # pass 1: the range of the clipped Dκ over the cut (and κ, Dκ at the curvature peaks)
     clip = table.dk_clip_1_mm
     corner = table.filter == "corner-mean"
@@ -205,44 +204,61 @@ def _advise_cut(program, k, table, engine, step_mm, cap, feed_step, min_piece, p
 
     dk_lo, dk_hi, lowest = dk_range(cores(), engine, clip, table.window_mm, span, corner)
     # pass 2: the advice, piece by piece, the filter's cumulative sums handed on
-    feed = program.feed_mm_min
     carry = CarriedSums()
     for p in range(n_pieces):
         a, b = int(plan.cores[p]), int(plan.cores[p + 1])
         lo, hi, ms, s = piece(p, sv)
-        feats = features(ms.curvature, table.window_points, clip, s, table.window_mm, span=span,
-                         bounds=(dk_lo, dk_hi))
-        ctrl = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
-        v, wlo, whi, w = filter_terms(ctrl, table.filter, table.filter_points, s, table.filter_mm,
-                                      feats.curvature_1_mm, span=span, lowest=lowest)
-        c0 = int(ms.vertex_sample[a - lo])    # the core's first sample
-        c1 = int(ms.vertex_sample[b - lo])    # ... and last
         nxt = int(gstart[plan.lo[p + 1]]) if p + 1 < n_pieces else None
-        smooth = carry.smooth(v, wlo, whi, w, int(gstart[lo]), c0, c1, nxt)
-        pct = np.clip(smooth, table.feed_floor_pct, 100.0)
-        r0 = c0 if a == 0 else c0 + 1
-        rows = slice(r0, c1 + 1)
-        sample_move = np.concatenate([[ms.seg_move[0]], ms.seg_move])[rows]
-        ceil = feed[sample_move]
-        if cap is not None:
-            ceil = np.minimum(ceil, cap)
-        columns = {"cut": np.full(c1 + 1 - r0, k + 1), "source_line": program.move_line[sample_move] + 1,
-                   "u": s[rows] / total, "x_mm": ms.xyz[rows, 0], "y_mm": ms.xyz[rows, 1],
-                   "z_mm": ms.xyz[rows, 2], "s_mm": s[rows], "curvature_1_mm": ms.curvature[rows],
-                   "curvature_window_max_1_mm": feats.window_max_1_mm[rows],
-                   "curvature_variation": feats.curvature_variation[rows],
-                   "feed_pct_controller": ctrl[rows], "feed_pct": pct[rows],
-                   "programmed_feed_mm_min": ceil, "feed_mm_min": pct[rows] / 100.0 * ceil}
-        segs = slice(c0, c1)
-        phi = pct / 100.0
-        seg_phi = np.minimum(phi[:-1], phi[1:])[segs]
-        seg_move = ms.seg_move[segs]
-        ceiling_seg = feed[seg_move]
-        if cap is not None:
-            ceiling_seg = np.minimum(ceiling_seg, cap)
-        pm, pe, pf = move_pieces(program, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
-                                 ceiling_seg, feed_step, min_piece)
-        yield AdvicePiece(cut=k, columns=columns, piece_move=pm, piece_end=pe, piece_feed_mm_min=pf)
+        yield piece_advice(program, ms, s, a, b, lo, cut=k, table=table, engine=engine, span=span,
+                           bounds=(dk_lo, dk_hi), lowest=lowest, carry=carry, g_lo=int(gstart[lo]), nxt=nxt,
+                           cap=cap, feed_step=feed_step, min_piece=min_piece)
+
+
+def piece_advice(program, ms, s: np.ndarray, a: int, b: int, lo: int, *, cut: int, table: RuleTable, engine,
+                 span: tuple, bounds: tuple, lowest: float | None, carry: CarriedSums, g_lo: int,
+                 nxt: int | None, cap: float | None, feed_step: float, min_piece: float,
+                 move0: int = 0) -> AdvicePiece:
+    """Pass 2 of a cut advised in pieces, one piece: features (seed 002 eqs. 9–10, Dκ normalised by
+    the cut's ``bounds``), the controller, the filter with ``carry``'s sums (the piece's first
+    sample is the cut's ``g_lo``, the next piece's ``nxt``), the floor, and the core's CSV rows and
+    written pieces (:func:`~fuzzyfeed.program.feeds.move_pieces`). ``program``: what holds the
+    moves ``ms.seg_move`` numbers (F, lines, no_split, kind; their ``piece_move`` + ``move0``);
+    ``ms``, ``s``: the piece's samples from move ``lo`` and their arc length; ``a``, ``b``: the
+    core's first and last vertex; ``cut``: the cut's number (0-based)."""
+    clip = table.dk_clip_1_mm
+    total = span[1] if span[1] > 0 else 1.0
+    feats = features(ms.curvature, table.window_points, clip, s, table.window_mm, span=span, bounds=bounds)
+    ctrl = engine.feed_pct(feats.curvature_1_mm, feats.curvature_variation)
+    v, wlo, whi, w = filter_terms(ctrl, table.filter, table.filter_points, s, table.filter_mm,
+                                  feats.curvature_1_mm, span=span, lowest=lowest)
+    c0 = int(ms.vertex_sample[a - lo])    # the core's first sample
+    c1 = int(ms.vertex_sample[b - lo])    # ... and last
+    smooth = carry.smooth(v, wlo, whi, w, g_lo, c0, c1, nxt)
+    pct = np.clip(smooth, table.feed_floor_pct, 100.0)
+    r0 = c0 if a == 0 else c0 + 1
+    rows = slice(r0, c1 + 1)
+    feed = program.feed_mm_min
+    sample_move = np.concatenate([[ms.seg_move[0]], ms.seg_move])[rows]
+    ceil = feed[sample_move]
+    if cap is not None:
+        ceil = np.minimum(ceil, cap)
+    columns = {"cut": np.full(c1 + 1 - r0, cut + 1), "source_line": program.move_line[sample_move] + 1,
+               "u": s[rows] / total, "x_mm": ms.xyz[rows, 0], "y_mm": ms.xyz[rows, 1],
+               "z_mm": ms.xyz[rows, 2], "s_mm": s[rows], "curvature_1_mm": ms.curvature[rows],
+               "curvature_window_max_1_mm": feats.window_max_1_mm[rows],
+               "curvature_variation": feats.curvature_variation[rows],
+               "feed_pct_controller": ctrl[rows], "feed_pct": pct[rows],
+               "programmed_feed_mm_min": ceil, "feed_mm_min": pct[rows] / 100.0 * ceil}
+    segs = slice(c0, c1)
+    phi = pct / 100.0
+    seg_phi = np.minimum(phi[:-1], phi[1:])[segs]
+    seg_move = ms.seg_move[segs]
+    ceiling_seg = feed[seg_move]
+    if cap is not None:
+        ceiling_seg = np.minimum(ceiling_seg, cap)
+    pm, pe, pf = move_pieces(program, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
+                             ceiling_seg, feed_step, min_piece)
+    return AdvicePiece(cut=cut, columns=columns, piece_move=pm + move0, piece_end=pe, piece_feed_mm_min=pf)
 
 
 class CarriedSums:

@@ -146,6 +146,9 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
                 write(newline.join(block) + newline)
     except FuzzyfeedError as exc:
         raise Fallback(str(exc)) from None
+    finally:
+        if long is not None:            # a long cut left unfinished: its scratch folder goes now
+            long.close()
     if long is not None:
         raise Fallback("a cut split between windows without its end")
     if totals.cuts == 0:
@@ -161,6 +164,10 @@ class _LongCut:
         self._pieces = pieces
         self._ordinal = 0                 # the cut's sampled moves before the window
         self._pending = None              # (move, end, feed) of a piece beyond the window before
+
+    def close(self) -> None:
+        """Stop the cut's advice (its scratch folder is removed)."""
+        self._pieces.close()
 
     def take(self, win, k: int, taken, last: bool):
         """The pieces of the cut's moves in window ``win`` (its cut ``k``), window-local moves;
