@@ -138,7 +138,9 @@ def plan_groups(motion: Motion, machine: Machine, sw: Sweep, groups, size: int =
     ``what``, the windows shared with the group before planned once."""
     if not groups:
         return
-    coord_max = float(np.abs(motion.points).max())
+    # a motion read from a scratch file a slice at a time (program/chain_store.py) knows its own
+    coord_max = getattr(motion, "coordinate_max", None)
+    coord_max = float(np.abs(motion.points).max()) if coord_max is None else float(coord_max)
     kept: dict[int, PlanWindow] = {}          # the last part's windows the next one shares
     for w0, w1, sp in groups:
         kept = {w: pw for w, pw in kept.items() if w0 <= w < w1}
@@ -181,7 +183,7 @@ def stream_parts(motion: Motion, machine: Machine, measured: np.ndarray, sw: Swe
     """The run of ``motion`` (every F times ``feed_scale``) over the tick windows ``spans``, part by
     part (:func:`plan_parts`), bit for bit :func:`~fuzzyfeed.machine.stream.stream_plan` on the
     whole plan with those windows (the fast path's re-run tick by tick included)."""
-    measured = np.asarray(measured, dtype=bool)
+    measured = measured if getattr(measured, "stored", False) else np.asarray(measured, dtype=bool)
 
     def once(skip: float) -> PartsRun:
         tp = TickPass(machine, keep_mm, True, BOX_BLOCK, skip, 1.0)

@@ -49,7 +49,7 @@ def _nurbs_chords(program: Program, m: int, chord_tol_mm: float) -> np.ndarray:
 
 
 class PathBuilder:
-    """Chains built move by move (module docstring). ``on_chunk(program, move0, points, radius,
+    """Chains built move by move (module docstring). ``on_chunk(program, tag, points, radius,
     feed, rapid, seg_move, measured)``: vertices (points (k, 3), radius (k,)) and segments (feed
     mm/s, rapid, the program move — ``program``'s own index — and whether it is measured) of the
     open chain, in order; ``on_close(has_segments)``: the open chain ends (dropped by the caller
@@ -80,7 +80,7 @@ class PathBuilder:
         n = self.n_pool
         return list(range(-n + block.shape[0] - 1, -n - 1, -1))
 
-    def _flush(self, program: Program, move0: int) -> None:
+    def _flush(self, program: Program, tag) -> None:
         if self.rows:
             idx = np.array(self.rows, dtype=np.int64)
             pts = np.empty((idx.size, 3))
@@ -89,24 +89,24 @@ class PathBuilder:
             if self.pool:
                 pts[~own] = np.vstack(self.pool)[-1 - idx[~own]]
             self.segments += len(self.feed)
-            self.on_chunk(program, move0, pts, np.array(self.radius, dtype=float), np.array(self.feed, dtype=float),
+            self.on_chunk(program, tag, pts, np.array(self.radius, dtype=float), np.array(self.feed, dtype=float),
                           np.array(self.rapid, dtype=bool), np.array(self.seg_move, dtype=np.int64),
                           np.array(self.measured, dtype=bool))
         self._reset()
 
-    def _close(self, program: Program, move0: int) -> None:
-        self._flush(program, move0)
+    def _close(self, program: Program, tag) -> None:
+        self._flush(program, tag)
         if self.open:
             self.on_close(self.segments > 0)
         self.open, self.segments, self.last_end = False, 0, None
 
-    def finish(self, program: Program | None = None, move0: int = 0) -> None:
+    def finish(self, program: Program | None = None, tag=None) -> None:
         """The last chain ends."""
-        self._close(program, move0)
+        self._close(program, tag)
 
-    def add(self, program: Program, move0: int = 0) -> None:
-        """The moves of ``program`` (a window's: its moves numbered from ``move0`` in the caller's
-        count, passed back to ``on_chunk``), the chain left open at its end."""
+    def add(self, program: Program, tag=None) -> None:
+        """The moves of ``program`` (a window's; ``tag``, passed back to ``on_chunk`` with its
+        chunks, says which), the chain left open at its end."""
         kinds = program.kind
         feed_mode = program.feed_mode[program.move_line] if program.move_line.size else np.zeros(0)
         runnable = np.isin(kinds, [RAPID, HOME, LINE, ARC, NURBS])
@@ -132,13 +132,13 @@ class PathBuilder:
             for i in range(c1 - c0):
                 m = c0 + i
                 if not run_l[i]:
-                    self._close(program, move0)
+                    self._close(program, tag)
                     rows, radius, feed, rapid = self.rows, self.radius, self.feed, self.rapid
                     seg_move, measured = self.seg_move, self.measured
                     continue
                 start, end = start_l[i], end_l[i]
                 if self.last_end is not None and start != self.last_end:
-                    self._close(program, move0)
+                    self._close(program, tag)
                     rows, radius, feed, rapid = self.rows, self.radius, self.feed, self.rapid
                     seg_move, measured = self.seg_move, self.measured
                 kind = kind_l[i]
@@ -184,7 +184,7 @@ class PathBuilder:
                         measured.append(meas)
                 self.last_end = end
                 if stop_l[i]:
-                    self._close(program, move0)
+                    self._close(program, tag)
                     rows, radius, feed, rapid = self.rows, self.radius, self.feed, self.rapid
                     seg_move, measured = self.seg_move, self.measured
-            self._flush(program, move0)
+            self._flush(program, tag)
