@@ -131,6 +131,10 @@ class _Search:
         return out
 
     def set_apart(self, hot: list[np.ndarray]) -> bool:
+        if self.path.program is None:      # a path in a scratch store (program/chain_store.py)
+            from fuzzyfeed.program.windows import Fallback
+
+            raise Fallback("places the uniform slowdown may set apart are measured on the whole read")
         return set_apart(self.path, self.machine, hot, self.apart, self.floor, self.seen, self.tol_mm)
 
     def top(self) -> tuple[float, float, list[np.ndarray]]:
