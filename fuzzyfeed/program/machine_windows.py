@@ -192,11 +192,21 @@ def advise_windows(path, table, machine: Machine, over, *, cap_mm_min, step_mm: 
             write(newline.join(block) + newline)
 
 
+@dataclass(frozen=True)
+class RunFigures:
+    """What the value report's row takes of a run (:meth:`fuzzyfeed.report.value.ValueRow.of`)."""
+
+    time_s: float
+    max_um: float
+    p99_um: float
+    air_max_um: float
+
+
 @dataclass(frozen=True, eq=False)
 class WindowedRuns:
     """What the value report (:func:`fuzzyfeed.report.value.windowed_report`) takes of a program
-    evaluated in windows: the runs as written and advised (None when no cut is over: the program is
-    left as written) without plans, where the largest errors are (the advised run's, or the written
+    evaluated in windows: the run as written (no plans) and the advised run's figures (None when no
+    cut is over: the program is left as written), where the largest errors are (the advised run's, or the written
     one's), the uniform slowdown (None when no cut is over), the cuts advised, the coverage, the
     program's lines and cuts, and the advised program (a scratch file the caller copies)."""
 
@@ -254,9 +264,12 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             stores.append(adv_store)
             build_store(advised_file, adv_store, tools, window_lines)
             asp = StoredPath.of(adv_store)
-            advised = run_program(asp, machine, keep_plans=False)
-            worst = where(asp, advised, "max_mm", "max_segment", "max_xyz")
-            air = where(asp, advised, "air_max_mm", "air_segment", "air_xyz")
+            run = run_program(asp, machine, keep_plans=False)
+            worst = where(asp, run, "max_mm", "max_segment", "max_xyz")
+            air = where(asp, run, "air_max_mm", "air_segment", "air_xyz")
+            # what the report takes of it (its errors per segment go before the uniform slowdown)
+            advised = RunFigures(run.time_s, run.max_um, run.p99_um, run.air_max_um)
+            del run
             step("uniform slowdown")
             u = uniform_slowdown(sp, machine, written, check=False)
     except FuzzyfeedError as exc:
