@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzyfeed.base.memory import release_free_memory
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.program.chain_store import ChainStore, StoredPath
 from fuzzyfeed.program.model import ARC, HOME, LINE, RAPID
@@ -247,6 +248,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
         sp = StoredPath.of(store)
         written = run_program(sp, machine, keep_plans=False)
         over = [int(k) for k in np.flatnonzero(cut_max_um(sp, written, totals.cuts) > tol)]
+        release_free_memory()
         step("advice")
         advised_file = scratch / "advised.ngc"
         with open(advised_file, "w", encoding="utf-8", newline="") as handle:   # as atomic_write writes text
@@ -254,6 +256,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
                            feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm, tools=tools,
                            window_lines=window_lines, sink=sink, write=handle.write)
         cov = WindowTotals(coverages=totals.coverages).coverage()
+        release_free_memory()          # the windows' freed heap, before the runs
         advised, u = None, None
         if not over:
             worst = where(sp, written, "max_mm", "max_segment", "max_xyz")
@@ -270,6 +273,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             # what the report takes of it (its errors per segment go before the uniform slowdown)
             advised = RunFigures(run.time_s, run.max_um, run.p99_um, run.air_max_um)
             del run
+            release_free_memory()
             step("uniform slowdown")
             u = uniform_slowdown(sp, machine, written, check=False)
     except FuzzyfeedError as exc:
