@@ -181,3 +181,12 @@ def test_the_scratch_directory_is_removed_after_success_and_after_an_error(tmp_p
         main(["advise", str(prog), "-o", "x.csv", "--gcode", "y.ngc", "--machine", "reference"])
     assert made and not any(os.path.exists(d) for d in made)
     assert os.listdir(tmp_path / "err") == []
+
+
+@pytest.mark.parametrize("rel", ["dxf2gcode/erin7.ngc", "linuxcnc/tort.ngc", "linuxcnc/cds.ngc",
+                                 "pcb2gcode/split_config_milldrill.ngc"])
+def test_library_programs_in_windows_are_the_whole_reads(tmp_path, monkeypatch, capsys, rel):
+    """Library programs of several cuts (mm; inch: cds, split_config_milldrill; arcs: tort, cds)
+    read in windows of 100 lines (3 to 6 windows, no cut split) on a machine: byte for byte."""
+    prog = ROOT / "benchmarks" / "library" / "programs" / rel
+    _compare(tmp_path, prog, monkeypatch, capsys, 100, "--machine", "reference")

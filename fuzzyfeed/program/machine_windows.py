@@ -54,10 +54,13 @@ class StoreTotals:
     coverages: list | None = None      # (line0, Coverage) of every window
 
 
-def build_store(path, store: ChainStore, tools, window_lines: int, coverage: bool = False) -> StoreTotals:
+def build_store(path, store: ChainStore, tools, window_lines: int, coverage: bool = False,
+                split_cuts: bool = False) -> StoreTotals:
     """Stage 1 (module docstring) of the program at ``path`` into ``store`` (closed for writing at
     the end). ``coverage``: keep every window's coverage. Raises
-    :class:`~fuzzyfeed.program.windows.Fallback` for a cut split between windows."""
+    :class:`~fuzzyfeed.program.windows.Fallback` for a cut split between windows unless
+    ``split_cuts`` (the advised program's chains: its cuts are not advised again, and the windows'
+    moves are the whole read's however they are cut)."""
     from fuzzyfeed.program.coverage import program_coverage
 
     totals = StoreTotals(coverages=[] if coverage else None)
@@ -65,7 +68,7 @@ def build_store(path, store: ChainStore, tools, window_lines: int, coverage: boo
     rest: list = []
     move0 = 0
     for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
-        if win.continues or win.continued:
+        if (win.continues or win.continued) and not split_cuts:
             raise Fallback("a cut split between windows: its advice on a machine is made whole")
         wp = win.program
         builder.add(wp, (move0, win.line0, win.cut0))
@@ -265,7 +268,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             step("advised run")
             adv_store = ChainStore(scratch / "advised", machine.chord_tol_mm)
             stores.append(adv_store)
-            build_store(advised_file, adv_store, tools, window_lines)
+            build_store(advised_file, adv_store, tools, window_lines, split_cuts=True)
             asp = StoredPath.of(adv_store)
             run = run_program(asp, machine, keep_plans=False)
             worst = where(asp, run, "max_mm", "max_segment", "max_xyz")
