@@ -36,7 +36,7 @@ import numpy as np
 from fuzzyfeed.base.memory import release_free_memory
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.program.chain_store import ChainStore, StoredPath
-from fuzzyfeed.program.model import ARC, HOME, LINE, RAPID
+from fuzzyfeed.program.model import HOME, LINE, RAPID
 from fuzzyfeed.program.windows import WINDOW_LINES, Fallback, read_windows
 
 #: Segments of a stored column read at a time for the run's per-cut summaries.
