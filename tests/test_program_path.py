@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fuzzyfeed.program import run
+from fuzzyfeed.program import path_builder
 from fuzzyfeed.program.model import ARC, HOME, LINE, NURBS, RAPID, Program
 from fuzzyfeed.program.read import parse_program, read_program
 from fuzzyfeed.program.run import Chain, Motion, ProgramPath, program_path
@@ -57,10 +57,10 @@ def reference_program_path(program: Program, chord_tol_mm: float) -> ProgramPath
             close()
         kind = int(kinds[m])
         if kind == ARC:
-            new, r = run._arc_chords(program, m, chord_tol_mm)
+            new, r = path_builder._arc_chords(program, m, chord_tol_mm)
             rads = [r] * (new.shape[0] - 1) + [np.nan]
         elif kind == NURBS:
-            new = run._nurbs_chords(program, m, chord_tol_mm)
+            new = path_builder._nurbs_chords(program, m, chord_tol_mm)
             rads = [np.nan] * new.shape[0]
         else:
             new = end[None, :]
@@ -133,7 +133,7 @@ def test_chains_the_same_in_any_chunk(chunk, monkeypatch):
 
     program = parse_program(raster_text(600, 3), "r.ngc")
     whole = program_path(program, 0.002)
-    monkeypatch.setattr(run, "PATH_CHUNK_MOVES", chunk)
+    monkeypatch.setattr(path_builder, "PATH_CHUNK_MOVES", chunk)
     parts = program_path(program, 0.002)
     assert len(whole.chains) == len(parts.chains) >= 2
     for a, b in zip(whole.chains, parts.chains):

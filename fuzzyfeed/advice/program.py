@@ -77,6 +77,19 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
         windowed = windowed_result(spec, options, path, table, step_mm, step, tools, whole, checks, _feed_note)
         if windowed is not None:       # a long program: read, advised and written in windows
             return windowed
+    if selector is None and machine is not None:
+        from fuzzyfeed.advice.program_windows import windowed_machine_result
+
+        def whole_machine():           # the whole read, where the windows cannot give its result
+            program = read_program(path, tools=tools)
+            if program.n_cuts == 0:
+                return NothingResult(spec, options, path, program)
+            return _machine_result(spec, options, program, table, cap, step, step_mm, None, tools)
+
+        windowed = windowed_machine_result(spec, options, path, table, step_mm, step, tools, whole_machine,
+                                           _check_outputs, _feed_note)
+        if windowed is not None:       # a long program: its chains and advice made in windows
+            return windowed
     program = read_program(path, tools=tools)
     if program.n_cuts == 0:            # nothing to advise: the program as it is, and one notice
         return NothingResult(spec, options, path, program)
@@ -86,26 +99,32 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
                      for k in range(program.n_cuts)]
         cuts = [pick_by_index(program.path, selector, described)]
     if machine is not None:
-        from fuzzyfeed.report.value import evaluate_program
-
-        tty = sys.stderr.isatty()
-
-        def progress(stage: str) -> None:
-            if tty:
-                print(f"fuzzyfeed: {program.path.name}: {stage} ...", file=sys.stderr, flush=True)
-
-        verify = _verifier(options, tools)
-
-        def evaluate(sink=None):
-            return evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
-                                    step_mm=step_mm, cuts=cuts, reference=options.reference,
-                                    progress=progress, verify=verify, tools=tools, check_uniform=False,
-                                    sink=sink)
-        return MachineProgramResult(spec, options, program, evaluate)
+        return _machine_result(spec, options, program, table, cap, step, step_mm, cuts, tools)
     if not options.reference:
         raise MachineLimitsError("--no-reference: the value report needs a machine (--machine FILE, or "
                                  "a machine flag such as --contour-tol-um)")
     return ProgramResult(spec, options, path, program, table, cuts, step_mm, step, _verifier(options, tools))
+
+
+def _machine_result(spec, options, program, table, cap, step, step_mm, cuts, tools):
+    """The :class:`MachineProgramResult` of ``program`` read whole (its evaluation made when needed)."""
+    from fuzzyfeed.report.value import evaluate_program
+
+    machine = options.machine
+    tty = sys.stderr.isatty()
+
+    def progress(stage: str) -> None:
+        if tty:
+            print(f"fuzzyfeed: {program.path.name}: {stage} ...", file=sys.stderr, flush=True)
+
+    verify = _verifier(options, tools)
+
+    def evaluate(sink=None):
+        return evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
+                                step_mm=step_mm, cuts=cuts, reference=options.reference,
+                                progress=progress, verify=verify, tools=tools, check_uniform=False,
+                                sink=sink)
+    return MachineProgramResult(spec, options, program, evaluate)
 
 
 def _verifier(options: AdviceOptions, tools):

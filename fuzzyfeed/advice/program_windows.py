@@ -213,3 +213,134 @@ def _need_gcode(gcode) -> None:
 
     if not gcode:
         raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
+
+
+def windowed_machine_result(spec, options, path: Path, table, step_mm: float, step: float, tools, whole, checks,
+                            feed_note):
+    """A :class:`WindowedMachineResult` for a long program on a machine (None: read it whole).
+    ``whole()`` makes the whole read's :class:`~fuzzyfeed.advice.program.MachineProgramResult`,
+    ``checks(csv, gcode, gcode_g52, plot)`` refuses outputs a program cannot have."""
+    if options.verify_rs274 or windowed_lines(path) is None:
+        return None
+    return WindowedMachineResult(spec, options, path, table, step_mm, step, tools, whole, checks, feed_note)
+
+
+class WindowedMachineResult(AdviceResult):
+    """A long program on a machine, evaluated in windows when written with ``-o`` and/or ``--gcode``
+    (:func:`~fuzzyfeed.program.machine_windows.evaluate_in_windows`: the chains in a scratch store,
+    runs part by part; the scratch directory removed on every exit): the CSV rows written as the
+    advice makes them, the advised program copied from its scratch file, the summary the whole
+    read's, byte for byte. ``--plot``, ``--report``, and whatever else is asked of the result (the
+    text, the columns, the value report) read the program whole (``whole()``), as does any window
+    the machine path cannot join exactly (:class:`~fuzzyfeed.program.windows.Fallback`)."""
+
+    kind = "program on a machine"
+
+    def __init__(self, source, options, path: Path, table, step_mm: float, feed_step_mm_min: float, tools, whole,
+                 checks, feed_note, window_lines: int | None = None):
+        self.source, self.options, self.path, self.table = source, options, path, table
+        self.step_mm, self.feed_step_mm_min, self.tools = step_mm, feed_step_mm_min, tools
+        self._make_whole, self._checks, self._feed_note = whole, checks, feed_note
+        self._whole = None
+        self._runs = None
+        self.report = None
+        self.window_lines = window_lines
+
+    def whole(self):
+        if self._whole is None:
+            self._whole = self._make_whole()
+        return self._whole
+
+    @property
+    def windowed(self) -> bool:
+        """True once the outputs were written window by window."""
+        return self._runs is not None
+
+    @property
+    def text(self) -> str:
+        return self.whole().text
+
+    @property
+    def value(self):
+        return self.whole().value
+
+    def columns(self) -> dict:
+        return self.whole().columns()
+
+    def figures(self) -> dict:
+        return self.whole().figures()
+
+    def _plot(self, output) -> None:
+        return self.whole()._plot(output)
+
+    def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
+        from fuzzyfeed.errors import FuzzyfeedError
+        from fuzzyfeed.program.windows import Fallback
+
+        if self._whole is None:
+            self._checks(csv, gcode, gcode_g52, plot)
+        if (csv is None and gcode is None) or plot is not None or report is not None or self._whole is not None:
+            return self.whole()._write(csv, gcode, gcode_g52, plot, report)
+        fallback = False
+        try:
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always")
+                lines = self._write_windows(csv, gcode)
+        except (Fallback, FuzzyfeedError):
+            fallback = True
+        if fallback:     # outside the except: its traceback would keep the windows' arrays alive
+            self._runs = self.report = None
+            return self.whole()._write(csv, gcode, gcode_g52, plot, report)
+        for w in said:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return lines
+
+    def _write_windows(self, csv, gcode) -> list[str]:
+        import shutil
+        import sys
+        import tempfile
+
+        from fuzzyfeed.base.atomic import atomic_write
+        from fuzzyfeed.fuzzy.provenance import provenance
+        from fuzzyfeed.io.csv import ColumnStream, write_metadata
+        from fuzzyfeed.program.machine_windows import evaluate_in_windows
+        from fuzzyfeed.program.windows import WINDOW_LINES
+        from fuzzyfeed.report.value import windowed_report
+
+        cap, machine = self.options.feed_mm_min, self.options.machine
+        tty = sys.stderr.isatty()
+
+        def progress(stage: str) -> None:
+            if tty:
+                print(f"fuzzyfeed: {self.path.name}: {stage} ...", file=sys.stderr, flush=True)
+
+        with contextlib.ExitStack() as stack:
+            scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="fuzzyfeed-machine-")))
+            out = None
+            if csv is not None:
+                out = ColumnStream(stack.enter_context(atomic_write(csv, "w", newline="")), csv)
+            runs = evaluate_in_windows(self.path, machine, self.table, scratch, cap_mm_min=cap,
+                                       feed_step_mm_min=self.feed_step_mm_min, step_mm=self.step_mm,
+                                       tools=self.tools, window_lines=self.window_lines or WINDOW_LINES,
+                                       sink=None if out is None else out.write, progress=progress)
+            report = windowed_report(runs, self.path.name, machine, self.table, self.options.reference)
+            if gcode is not None:
+                with atomic_write(gcode, "wb") as handle, open(runs.advised_file, "rb") as src:
+                    shutil.copyfileobj(src, handle)
+        if csv is not None:
+            record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
+            record["F_mm_min"] = self._feed_note(cap)
+            record["machine"] = machine.describe()
+            write_metadata(csv, out.names, record)
+        self._runs, self.report = runs, report
+        written = [p for p in (csv, gcode) if p]
+        return ["wrote " + ", ".join(written)]
+
+    def summary(self) -> list[str]:
+        runs = self._runs
+        if runs is None:
+            return self.whole().summary()
+        left = runs.cuts - len(runs.advised_cuts)
+        return [f"{self.path.name}: {runs.lines} lines, {runs.cuts} cut(s); {self.options.machine.describe()}",
+                f"advised {len(runs.advised_cuts)} cut(s) that break the tolerance as written; {left} left as written",
+                *self.report.lines()]

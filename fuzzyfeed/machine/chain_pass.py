@@ -83,7 +83,9 @@ def stream_chain(motion: Motion, machine: Machine, measured: np.ndarray | None =
     size = WINDOW_SEGMENTS if size is None else size
     part_windows = PART_WINDOWS if part_windows is None else part_windows
     n = motion.n_segments
-    meas = np.ones(n, bool) if measured is None else np.asarray(measured, dtype=bool)
+    # measured: an array, or a column read a slice at a time (program/chain_store.py's)
+    meas = np.ones(n, bool) if measured is None else (measured if getattr(measured, "stored", False)
+                                                      else np.asarray(measured, dtype=bool))
     sw = sweep(motion, machine, np.zeros(0, np.int64), size)
     if before_ticks is not None:
         before_ticks(sw.time_s)

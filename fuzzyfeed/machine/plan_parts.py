@@ -138,7 +138,9 @@ def plan_groups(motion: Motion, machine: Machine, sw: Sweep, groups, size: int =
     ``what``, the windows shared with the group before planned once."""
     if not groups:
         return
-    coord_max = float(np.abs(motion.points).max())
+    # a motion read from a scratch file a slice at a time (program/chain_store.py) knows its own
+    coord_max = getattr(motion, "coordinate_max", None)
+    coord_max = float(np.abs(motion.points).max()) if coord_max is None else float(coord_max)
     kept: dict[int, PlanWindow] = {}          # the last part's windows the next one shares
     for w0, w1, sp in groups:
         kept = {w: pw for w, pw in kept.items() if w0 <= w < w1}
@@ -177,17 +179,21 @@ class PartsRun:
 
 def stream_parts(motion: Motion, machine: Machine, measured: np.ndarray, sw: Sweep, spans: list[tuple[int, int]],
                  keep_mm: float | None = None, fast: bool = True, size: int = WINDOW_SEGMENTS,
-                 feed_scale: float = 1.0) -> PartsRun:
+                 feed_scale: float = 1.0, part_summary=None) -> PartsRun:
     """The run of ``motion`` (every F times ``feed_scale``) over the tick windows ``spans``, part by
     part (:func:`plan_parts`), bit for bit :func:`~fuzzyfeed.machine.stream.stream_plan` on the
-    whole plan with those windows (the fast path's re-run tick by tick included)."""
-    measured = np.asarray(measured, dtype=bool)
+    whole plan with those windows (the fast path's re-run tick by tick included).
+    ``part_summary(first, seg_max)``: what :attr:`PartsRun.parts` keeps of each part instead of its
+    largest error per segment (a caller that needs a few figures of each: the parts of a long chain's
+    hot stretches are not held; :meth:`PartsRun.seg_max_mm` is then not available)."""
+    measured = measured if getattr(measured, "stored", False) else np.asarray(measured, dtype=bool)
 
     def once(skip: float) -> PartsRun:
         tp = TickPass(machine, keep_mm, True, BOX_BLOCK, skip, 1.0)
         parts = []
         for pr, sp in plan_parts(motion, machine, sw, spans, size, feed_scale):
-            parts.append((pr.first, tp.part(pr, pr.first, measured[pr.first:pr.stop], sp)))
+            seg_max = tp.part(pr, pr.first, measured[pr.first:pr.stop], sp)
+            parts.append((pr.first, seg_max) if part_summary is None else part_summary(pr.first, seg_max))
         return PartsRun(tp.result(None, np.zeros(0)), tuple(parts))
 
     run = once(skip_threshold(machine) if fast else 0.0)

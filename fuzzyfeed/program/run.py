@@ -17,7 +17,6 @@ run keeps summaries (largest error per segment, a histogram, the ticks over the 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -26,10 +25,8 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.planner import Motion, Plan, plan_motion
 from fuzzyfeed.machine.stream import StreamRun, percentile_settled, percentile_um, stream_plan
-from fuzzyfeed.program.model import ARC, HOME, LINE, NURBS, RAPID, Program, arc_geometry, arc_points
+from fuzzyfeed.program.model import Program
 
-#: Moves handled per chunk by :func:`program_path` (its per-segment lists become arrays at each).
-PATH_CHUNK_MOVES = 1 << 15
 #: The most servo periods one chain's run may simulate (CPU, not memory: the run keeps no ticks;
 #: 100–300 ns a tick, so a minute or two).
 MAX_STREAM_TICKS = 5e8
@@ -61,149 +58,27 @@ class ProgramPath:
         return sum(c.motion.n_segments for c in self.chains)
 
 
-def _arc_chords(program: Program, m: int, chord_tol_mm: float) -> tuple[np.ndarray, float]:
-    """Points (k, 3) after the start of arc move ``m``, chords within ``chord_tol_mm``, and the radius."""
-    g = arc_geometry(program, m)
-    r = g["radius"]
-    if r > chord_tol_mm:
-        step = 2.0 * np.arccos(1.0 - chord_tol_mm / r)
-    else:
-        step = np.pi / 2
-    k = max(1, int(np.ceil(abs(g["sweep"]) / step)))
-    return arc_points(program, m, np.arange(1, k + 1) / k), r
-
-
-def _nurbs_chords(program: Program, m: int, chord_tol_mm: float) -> np.ndarray:
-    curve = program.nurbs[int(m)]
-    lo, hi = curve.domain
-    probe = np.linspace(lo, hi, max(64, 16 * (curve.span_breaks.size - 1)))
-    kmax = float(np.max(curve.curvature(probe)))
-    step = np.sqrt(8.0 * chord_tol_mm / kmax) if kmax > 0 else curve.length
-    k = max(1, int(np.ceil(curve.length / max(step, 1e-6))))
-    u = curve.param_at_length(np.linspace(0.0, curve.length, k + 1)[1:])
-    pts = curve(u)
-    out = np.column_stack([pts[:, 0], pts[:, 1], np.full(k, program.start[m, 2])]) if pts.shape[1] == 2 else pts
-    out[-1] = program.end[m]
-    return out
-
-
 def program_path(program: Program, chord_tol_mm: float) -> ProgramPath:
-    """The chains of ``program`` (see the module docstring), arcs as chords within ``chord_tol_mm``."""
-    kinds = program.kind
-    feed_mode = program.feed_mode[program.move_line] if program.move_line.size else np.zeros(0)
-    runnable = np.isin(kinds, [RAPID, HOME, LINE, ARC, NURBS])
-    feed_move = np.isin(kinds, [LINE, ARC, NURBS])
-    runnable &= ~feed_move | ((feed_mode == 94) & (program.feed_mm_min > 0))
-    if program.known is not None:
-        # a move from a point the reader cannot place (the machine's position at the start, after
-        # G28/G53, ...) is not run: its start, direction and length are not known, so neither is
-        # the servo's lag it leaves; the chain restarts at its end, from rest
-        runnable &= program.known
-    # a line with a stop code stops the tool after its motion
-    stops = program.stops if program.stops is not None else program.no_split & ~(kinds == ARC)
+    """The chains of ``program`` (see the module docstring), arcs as chords within ``chord_tol_mm``
+    (built move by move by :class:`~fuzzyfeed.program.path_builder.PathBuilder`, which the windowed
+    read shares)."""
+    from fuzzyfeed.program.path_builder import PathBuilder
+
     chains: list[Chain] = []
-    # a line is one point, handled with Python floats (no array per move); a chain's points are
-    # kept as indices (>= 0: the end of that move; < 0: a row of ``pool``, arcs' chords and starts)
-    run_a, stop_a = runnable, np.asarray(stops, bool)
-    rows: list[int] = []
-    pool: list[np.ndarray] = []
-    n_pool = 0
-    feed: list[float] = []
-    rapid: list[bool] = []
-    radius: list[float] = []
-    seg_move: list[int] = []
-    measured: list[bool] = []
-    last_end: list[float] | None = None
-    prev = (0.0, 0.0, 0.0)
+    parts: list[tuple] = []
 
-    def pooled(block: np.ndarray) -> list[int]:
-        nonlocal n_pool
-        pool.append(block)
-        n_pool += block.shape[0]
-        return list(range(-n_pool + block.shape[0] - 1, -n_pool - 1, -1))
+    def chunk(_program, _move0, pts, radius, feed, rapid, seg_move, measured) -> None:
+        parts.append((pts, radius, feed, rapid, seg_move, measured))
 
-    done: list[tuple] = []     # the open chain's lists so far as arrays (Python lists: ~100 B a segment)
-
-    def flush() -> None:
-        nonlocal rows, feed, rapid, radius, seg_move, measured
-        if rows:
-            done.append((np.array(rows, dtype=np.int64), np.array(feed, dtype=float), np.array(rapid, dtype=bool),
-                         np.array(radius, dtype=float), np.array(seg_move, dtype=np.int64),
-                         np.array(measured, dtype=bool)))
-        rows, feed, rapid, radius, seg_move, measured = [], [], [], [], [], []
-
-    def close() -> None:
-        nonlocal pool, n_pool, last_end
-        has_feed = bool(feed) or any(part[1].size for part in done)
-        flush()
-        if has_feed:
-            idx, f, r, rad, sm, ms = (np.concatenate(c) for c in zip(*done))
-            pts = np.empty((idx.size, 3))
-            own = idx >= 0
-            pts[own] = program.end[idx[own]]
-            pts[~own] = np.vstack(pool)[-1 - idx[~own]]
+    def close(has_segments: bool) -> None:
+        if has_segments:
+            pts, rad, f, r, sm, ms = (np.concatenate(c) for c in zip(*parts))
             chains.append(Chain(Motion(pts, f, r, rad), sm, ms))
-        done.clear()
-        pool, n_pool, last_end = [], 0, None
+        parts.clear()
 
-    chunk = PATH_CHUNK_MOVES
-    for c0 in range(0, kinds.size, chunk):
-        c1 = min(c0 + chunk, kinds.size)
-        run_l, kind_l, stop_l = run_a[c0:c1].tolist(), kinds[c0:c1].tolist(), stop_a[c0:c1].tolist()
-        start_l, end_l = program.start[c0:c1].tolist(), program.end[c0:c1].tolist()
-        feed_l, cut_l = program.feed_mm_min[c0:c1].tolist(), program.cut[c0:c1].tolist()
-        for i in range(c1 - c0):
-            m = c0 + i
-            if not run_l[i]:
-                close()
-                continue
-            start, end = start_l[i], end_l[i]
-            if last_end is not None and start != last_end:
-                close()
-            kind = kind_l[i]
-            if not rows and not done:          # a new chain: its start point
-                rows.extend(pooled(program.start[m][None, :]))
-                radius.append(np.nan)
-                prev = tuple(start)
-            is_rapid = kind in (RAPID, HOME)
-            f = np.nan if is_rapid else feed_l[i] / 60.0
-            meas = (not is_rapid) and cut_l[i] >= 0
-            if kind == ARC or kind == NURBS:
-                if kind == ARC:
-                    new, r = _arc_chords(program, m, chord_tol_mm)
-                    rads = [r] * (new.shape[0] - 1) + [np.nan]
-                else:
-                    new = _nurbs_chords(program, m, chord_tol_mm)
-                    rads = [np.nan] * new.shape[0]
-                steps = np.linalg.norm(np.diff(np.vstack([np.array(prev)[None, :], new]), axis=0), axis=1)
-                keep = steps > 1e-9
-                if keep.any():
-                    new = new[keep]
-                    rads = [r for r, k in zip(rads, keep) if k]
-                    rads[-1] = np.nan
-                    n = new.shape[0]
-                    rows.extend(pooled(new))
-                    prev = tuple(new[-1].tolist())
-                    radius.extend(rads)
-                    feed.extend([f] * n)
-                    rapid.extend([is_rapid] * n)
-                    seg_move.extend([m] * n)
-                    measured.extend([meas] * n)
-            else:
-                dx, dy, dz = end[0] - prev[0], end[1] - prev[1], end[2] - prev[2]
-                if math.sqrt(dx * dx + dy * dy + dz * dz) > 1e-9:
-                    rows.append(m)
-                    prev = (end[0], end[1], end[2])
-                    radius.append(np.nan)
-                    feed.append(f)
-                    rapid.append(is_rapid)
-                    seg_move.append(m)
-                    measured.append(meas)
-            last_end = end
-            if stop_l[i]:
-                close()
-        flush()
-    close()
+    builder = PathBuilder(chord_tol_mm, chunk, close)
+    builder.add(program)
+    builder.finish()
     return ProgramPath(program=program, chains=tuple(chains), chord_tol_mm=chord_tol_mm)
 
 

@@ -73,12 +73,15 @@ def stream_machine_advice(program: Program, table: RuleTable, machine: Machine, 
                           feed_step_mm_min: float = DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
                           min_piece_mm: float = DEFAULT_MIN_PIECE_MM,
                           piece_points: int = DEFAULT_PIECE_POINTS,
-                          geometry: dict | None = None) -> Iterator[AdvicePiece]:
+                          geometry: dict | None = None, entries: dict | None = None) -> Iterator[AdvicePiece]:
     """:func:`fuzzyfeed.program.feeds.advise_program` with a machine table, piece by piece (module
     docstring): the same CSV rows and pieces, in order. Arguments and the cuts' F are checked at the
     call; the pieces are made as the iterator is consumed. ``geometry``: a dict kept between runs
     of the same advice, cut -> its :func:`~fuzzyfeed.program.cuts.run_geometry` (17 bytes a move;
-    its fit runs window by window, :data:`~fuzzyfeed.geometry.polyline.WINDOW_VERTICES`)."""
+    its fit runs window by window, :data:`~fuzzyfeed.geometry.polyline.WINDOW_VERTICES`).
+    ``entries``: cut -> the direction of the rapid leading into it, for cuts whose rapid lies
+    before ``program``'s first move (a window of lines: :mod:`fuzzyfeed.program.machine_windows`);
+    the others' is read from ``program``."""
     if isinstance(piece_points, bool) or not isinstance(piece_points, (int, np.integer)) or piece_points < 1:
         raise InputError(f"piece_points = {piece_points!r}; must be an integer >= 1")
     if table.inputs != MACHINE:
@@ -91,10 +94,12 @@ def stream_machine_advice(program: Program, table: RuleTable, machine: Machine, 
     engine = compile_table(table)
     return (piece for k in chosen for piece in _advise_cut(program, k, table, machine, engine, step_mm,
                                                            cap_mm_min, feed_step_mm_min, min_piece_mm,
-                                                           int(piece_points), geometry))
+                                                           int(piece_points), geometry,
+                                                           None if entries is None else entries.get(k)))
 
 
-def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min_piece, piece_points, cache):
+def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min_piece, piece_points, cache,
+                entry_given=None):
     moves, kinds, chord = cut_moves(program, k)
     n = moves.size
     counts = move_sample_counts(program, moves, kinds, chord, step_mm)
@@ -117,7 +122,7 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
             cache[k] = geo
     gstart = np.concatenate([[0], np.cumsum(counts)])
     n_pieces = plan.lo.size
-    entry = _entry_direction(program, int(moves[0]))
+    entry = _entry_direction(program, int(moves[0])) if entry_given is None else entry_given
     settle = settle_time_s(machine)
 
     def piece(p, sv):

@@ -114,13 +114,18 @@ class _Search:
             if h.size == 0:
                 out.append(h)
                 continue
-            r = stream_parts(chain.motion, machine, chain.seg_measured, sw, w, keep_mm=np.inf, feed_scale=scale)
-            over = []
-            for first, seg_max in r.parts:
+            def summary(first: int, seg_max: np.ndarray, a=a) -> tuple[float, np.ndarray]:
+                """A part's largest error (the places apart left out) and its segments over the tolerance
+                (kept instead of its errors per segment: a long chain's hot stretches are not held)."""
                 local = a[(a >= first) & (a < first + seg_max.size)] - first
                 seg_max = masked(seg_max, local)
-                worst = max(worst, float(seg_max.max(initial=0.0)) * 1e3)
-                over.append(first + np.flatnonzero(seg_max > self.tol_mm))
+                return float(seg_max.max(initial=0.0)) * 1e3, first + np.flatnonzero(seg_max > self.tol_mm)
+            r = stream_parts(chain.motion, machine, chain.seg_measured, sw, w, keep_mm=np.inf, feed_scale=scale,
+                             part_summary=summary)
+            over = []
+            for part_max, part_over in r.parts:
+                worst = max(worst, part_max)
+                over.append(part_over)
             out.append(np.unique(np.concatenate(over)) if over else np.zeros(0, np.int64))
         return worst, out
 
@@ -131,6 +136,10 @@ class _Search:
         return out
 
     def set_apart(self, hot: list[np.ndarray]) -> bool:
+        if self.path.program is None:      # a path in a scratch store (program/chain_store.py)
+            from fuzzyfeed.program.windows import Fallback
+
+            raise Fallback("places the uniform slowdown may set apart are measured on the whole read")
         return set_apart(self.path, self.machine, hot, self.apart, self.floor, self.seen, self.tol_mm)
 
     def top(self) -> tuple[float, float, list[np.ndarray]]:

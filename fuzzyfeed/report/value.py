@@ -377,3 +377,29 @@ def _advised_model(program: Program, text: str, tools, plain: bool, *pieces) -> 
 def _factor(c: float) -> str:
     """A uniform factor as printed: three decimals, or three significant digits below 0.01."""
     return f"{c:.3f}" if c >= 0.01 else f"{c:.3g}"
+
+
+def windowed_report(runs, name: str, machine: Machine, table: RuleTable, reference: bool = True) -> ValueReport:
+    """The value report :func:`evaluate_program` (``check_uniform=False``) makes, of a program
+    evaluated in windows (``runs``: :class:`~fuzzyfeed.program.machine_windows.WindowedRuns`; no
+    feed trace: the plot and ``--report`` read the program whole)."""
+    written, over, u = runs.written, runs.advised_cuts, runs.uniform
+    if not over:
+        uniform_factor, u_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
+        ref_row = ValueRow.of("limit reference", written) if reference else None
+        advised_row = ValueRow.of("advised", written)
+    else:
+        advised_row = ValueRow.of("advised", runs.advised)
+        uniform_factor, u_row = u.factor, uniform_row(u)
+        ref_row = None
+    worst, air = runs.worst, runs.air
+    return ValueReport(
+        name=name, machine=machine, table=table.name,
+        written=ValueRow.of("as written", written), advised=advised_row, uniform=u_row,
+        uniform_factor=uniform_factor, reference=ref_row, reference_converged=True,
+        holds_as_written=not over, advised_cuts=tuple(over),
+        worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
+        trace=None, coverage=runs.coverage, verification=None,
+        worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
+        reference_deferred=bool(over) and reference,
+        uniform_apart=() if u is None else u.apart, reference_apart=False)
