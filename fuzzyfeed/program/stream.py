@@ -250,12 +250,7 @@ def piece_advice(program, ms, s: np.ndarray, a: int, b: int, lo: int, *, cut: in
                "feed_pct_controller": ctrl[rows], "feed_pct": pct[rows],
                "programmed_feed_mm_min": ceil, "feed_mm_min": pct[rows] / 100.0 * ceil}
     segs = slice(c0, c1)
-    phi = pct / 100.0
-    seg_phi = np.minimum(phi[:-1], phi[1:])[segs]
-    seg_move = ms.seg_move[segs]
-    ceiling_seg = feed[seg_move]
-    if cap is not None:
-        ceiling_seg = np.minimum(ceiling_seg, cap)
+    seg_move, seg_phi, ceiling_seg = segment_ceilings(program, ms, pct, segs, cap)
     pm, pe, pf = move_pieces(program, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
                              ceiling_seg, feed_step, min_piece)
     return AdvicePiece(cut=cut, columns=columns, piece_move=pm + move0, piece_end=pe, piece_feed_mm_min=pf)
@@ -289,6 +284,18 @@ class CarriedSums:
             self.cv = cv[nxt - g_lo:c1 + 1].copy()
         return smooth
 
+
+
+def segment_ceilings(program, ms, pct: np.ndarray, segs: slice, cap: float | None):
+    """Per sampling segment of ``segs``: its program move, the advised fraction (the lower of its
+    two samples' ``pct`` / 100, so no point of the segment runs above its advice) and the feed
+    ceiling (the move's F, capped at ``cap``), for :func:`~fuzzyfeed.program.feeds.move_pieces`."""
+    phi = pct / 100.0
+    seg_move = ms.seg_move[segs]
+    ceiling_seg = program.feed_mm_min[seg_move]
+    if cap is not None:
+        ceiling_seg = np.minimum(ceiling_seg, cap)
+    return seg_move, np.minimum(phi[:-1], phi[1:])[segs], ceiling_seg
 
 def concat_pieces(pieces: list[AdvicePiece]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pieces' (move, end, feed) arrays end to end (per move: a program's worth is small)."""

@@ -46,7 +46,8 @@ from fuzzyfeed.program.cuts import (DEFAULT_STEP_MM, _entry_direction, cut_moves
 from fuzzyfeed.program.feeds import (DEFAULT_MIN_PIECE_MM, DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
                                      checked_cuts, move_pieces)
 from fuzzyfeed.program.model import Program
-from fuzzyfeed.program.stream import DEFAULT_PIECE_POINTS, AdvicePiece, CarriedSums, cut_arc_lengths, plan_pieces
+from fuzzyfeed.program.stream import (DEFAULT_PIECE_POINTS, AdvicePiece, CarriedSums, cut_arc_lengths, plan_pieces,
+                                      segment_ceilings)
 
 
 def streams(table: RuleTable) -> bool:
@@ -202,7 +203,6 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
 def _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, cap, feed_step, min_piece,
            sv, span, total, levels, lowest):
     """The advice of every piece of cut ``k`` given what the passes before carried."""
-    feed = program.feed_mm_min
     n_pieces = plan.lo.size
     carry = CarriedSums()
     for p in range(n_pieces):
@@ -225,12 +225,7 @@ def _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, ca
                    "safe_feed_ratio_near": near_r[rows], "feed_pct_controller": raw[rows],
                    "feed_pct": pct[rows], "programmed_feed_mm_min": ce, "feed_mm_min": pct[rows] / 100.0 * ce}
         segs = slice(c0, c1)
-        phi = pct / 100.0
-        seg_phi = np.minimum(phi[:-1], phi[1:])[segs]
-        seg_move = ms.seg_move[segs]
-        ceiling_seg = feed[seg_move]
-        if cap is not None:
-            ceiling_seg = np.minimum(ceiling_seg, cap)
+        seg_move, seg_phi, ceiling_seg = segment_ceilings(program, ms, pct, segs, cap)
         reachable = np.minimum(ceiling_seg, 60.0 * machine.speed_along(ms.xyz)[segs])
         pm, pe, pf = move_pieces(program, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
                                  reachable, feed_step, min_piece)
