@@ -126,6 +126,34 @@ def test_a_shape_and_the_overrides(tmp_path, capsys):
         result.value_table()
 
 
+def _polygon_program(path: Path) -> Path:
+    """A polygonal circle of 1 mm chords and a square corner: G1 moves whose curvature comes from
+    the point-sequence fit, so --point-tolerance and --path-tolerance change the advice."""
+    a = np.linspace(0.0, 1.5 * np.pi, 48)
+    pts = [(20 * np.cos(t), 20 * np.sin(t)) for t in a] + [(0.0, -20.0), (0.0, -40.0), (30.0, -40.0)]
+    lines = ["G21 G90 G17 G94", "G0 X20 Y0 Z2", "G1 Z-1 F300", "G1 X20 Y0 F1500"]
+    lines += [f"X{x:.4f} Y{y:.4f}" for x, y in pts[1:]] + ["G0 Z5", "M2"]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("flags, fields", [(["--path-tolerance", "0.5"], {"path_tolerance": 0.5}),
+                                           (["--point-tolerance", "0.3"], {"point_tolerance": 0.3})])
+def test_the_tolerances_reach_a_result_asked_later(flags, fields, tmp_path, capsys):
+    """A program's result advises when asked (``write``), after advise_file returned: it still
+    advises with the tolerances it was given, as the command does (the API wrote the defaults')."""
+    program = _polygon_program(tmp_path / "poly.ngc")
+    code, _, _ = cli(capsys, program, "-o", tmp_path / "cli.csv", "--gcode", tmp_path / "cli.ngc", *flags)
+    assert code == 0
+    ff.advise_file(program, **fields).write(csv=tmp_path / "api.csv", gcode=tmp_path / "api.ngc")
+    ff.advise_file(program).write(csv=tmp_path / "default.csv")
+    assert (tmp_path / "api.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    assert (tmp_path / "api.ngc").read_bytes() == (tmp_path / "cli.ngc").read_bytes()
+    assert (tmp_path / "api.csv").read_bytes() != (tmp_path / "default.csv").read_bytes()
+    result = ff.advise_file(program, **fields)
+    np.testing.assert_array_equal(result.frame()["feed_mm_min"], pd.read_csv(tmp_path / "cli.csv")["feed_mm_min"])
+
+
 def test_write_is_one_transaction(tmp_path):
     result = ff.advise_file(INCH)
     with pytest.raises(FuzzyfeedError, match="--gcode"):

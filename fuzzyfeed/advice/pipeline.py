@@ -33,14 +33,18 @@ def advise_file(path: str | os.PathLike, options: AdviceOptions | None = None, *
     :class:`~fuzzyfeed.errors.FuzzyfeedNotice` warnings."""
     options = make_options(options, **overrides)
     spec = os.fspath(path)
-    with shape_settings(spec, options.units, options.point_tolerance, options.path_tolerance):
+    settings = (spec, options.units, options.point_tolerance, options.path_tolerance)
+    with shape_settings(*settings):
         if is_program(spec):
             from fuzzyfeed.advice.program import advise_program_file
 
-            return advise_program_file(spec, options)
-        from fuzzyfeed.advice.shape import advise_shape_file
+            result = advise_program_file(spec, options)
+        else:
+            from fuzzyfeed.advice.shape import advise_shape_file
 
-        return advise_shape_file(spec, options)
+            result = advise_shape_file(spec, options)
+    result.settings = settings      # what it computes later (columns, text, files) uses them too
+    return result
 
 
 @contextlib.contextmanager

@@ -8,6 +8,7 @@ output transaction of :mod:`fuzzyfeed.base.outputs`), :meth:`~AdviceResult.plot`
 
 from __future__ import annotations
 
+import functools
 import html
 import os
 from dataclasses import dataclass
@@ -31,13 +32,50 @@ class PNG:
         return self.data
 
 
+def _in_settings(member):
+    """``member`` (a method or a property) run inside the shape settings its result was made with
+    (:attr:`AdviceResult.settings`): a result computes when it is asked (its columns, text, files),
+    after :func:`~fuzzyfeed.advice.pipeline.advise_file` has returned, and must compute what the
+    command line computes with the same options (``--point-tolerance``, ``--path-tolerance``,
+    ``--units``)."""
+    if isinstance(member, property):
+        return property(_in_settings(member.fget), member.fset, member.fdel, member.__doc__)
+    if not callable(member) or isinstance(member, (staticmethod, classmethod, type)):
+        return member
+
+    @functools.wraps(member)
+    def run(self, *args, **kwargs):
+        settings = self.__dict__.get("settings")
+        if settings is None:
+            return member(self, *args, **kwargs)
+        from fuzzyfeed.advice.options import shape_settings
+
+        with shape_settings(*settings):
+            return member(self, *args, **kwargs)
+    return run
+
+
+def _wrap_public(cls) -> None:
+    for name, member in list(vars(cls).items()):
+        if (not name.startswith("_") or name == "_repr_html_") and (callable(member) or isinstance(member, property)):
+            setattr(cls, name, _in_settings(member))
+
+
 class AdviceResult:
-    """Base of the results; the subclasses fill in :meth:`columns`, :meth:`_write` and the rest."""
+    """Base of the results; the subclasses fill in :meth:`columns`, :meth:`_write` and the rest.
+    Every public method and property of a result runs inside the shape settings it was made with
+    (``settings``: ``(source, units, point_tolerance, path_tolerance)``, set by
+    :func:`~fuzzyfeed.advice.pipeline.advise_file`), so a result asked later gives what the command
+    gives."""
 
     #: "program", "program on a machine", "program, nothing to advise", "drawing", "shape"
     kind: str = ""
     source: str = ""
     options = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        _wrap_public(cls)
 
     # -- what it holds ----------------------------------------------------------------------
     @property
@@ -149,3 +187,6 @@ class AdviceResult:
             parts.append(f"</table><p>{html.escape(report.verdict())}</p>")
         parts.append("</div>")
         return "\n".join(parts)
+
+
+_wrap_public(AdviceResult)
