@@ -46,11 +46,9 @@ def windowed_result(spec, options, path: Path, table, step_mm: float, step: floa
     return WindowedProgramResult(spec, options, path, table, step_mm, step, tools, whole, checks, feed_note)
 
 
-class WindowedProgramResult(AdviceResult):
-    """A long program advised in windows when written (module docstring); ``whole()`` makes the
-    whole read's :class:`~fuzzyfeed.advice.program.ProgramResult` when it is needed."""
-
-    kind = "program"
+class _WindowedResult(AdviceResult):
+    """A long program's result written window by window; ``whole()`` makes the whole read's result
+    where the windows cannot give it, and for whatever else is asked of the result."""
 
     def __init__(self, source, options, path: Path, table, step_mm: float, feed_step_mm_min: float,
                  tools, whole, checks, feed_note, window_lines: int | None = None):
@@ -58,20 +56,12 @@ class WindowedProgramResult(AdviceResult):
         self.step_mm, self.feed_step_mm_min, self.tools = step_mm, feed_step_mm_min, tools
         self._make_whole, self._checks, self._feed_note = whole, checks, feed_note
         self._whole = None
-        self._totals = None
         self.window_lines = window_lines
-        self.verification = None     # what rs274 said of the rewrite (verify_rs274), once written
-        self._trace = None           # the plot's thinned trace (report/plot_trace.py), once written
 
     def whole(self):
         if self._whole is None:
             self._whole = self._make_whole()
         return self._whole
-
-    @property
-    def windowed(self) -> bool:
-        """True once the outputs were written window by window."""
-        return self._totals is not None
 
     @property
     def text(self) -> str:
@@ -80,33 +70,61 @@ class WindowedProgramResult(AdviceResult):
     def columns(self) -> dict:
         return self.whole().columns()
 
+    def _in_windows(self, write_windows, forget, csv, gcode, gcode_g52, plot, report) -> list[str]:
+        """``write_windows()``'s lines, the reader's notices said once; where a window cannot be
+        joined exactly (:class:`~fuzzyfeed.program.windows.Fallback`) or the windows refuse, what
+        the windows kept is dropped (``forget()``) and the whole read writes."""
+        from fuzzyfeed.errors import FuzzyfeedError
+        from fuzzyfeed.program.windows import Fallback
+
+        fallback = False
+        try:
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always")
+                lines = write_windows()
+        except (Fallback, FuzzyfeedError):
+            fallback = True
+        if fallback:     # outside the except: its traceback would keep the windows' arrays alive
+            forget()
+            return self.whole()._write(csv, gcode, gcode_g52, plot, report)
+        for w in said:           # the reader's notices, once (none when the whole read took over)
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return lines
+
+
+class WindowedProgramResult(_WindowedResult):
+    """A long program advised in windows when written (module docstring); ``whole()`` makes the
+    whole read's :class:`~fuzzyfeed.advice.program.ProgramResult` when it is needed."""
+
+    kind = "program"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._totals = None
+        self.verification = None     # what rs274 said of the rewrite (verify_rs274), once written
+        self._trace = None           # the plot's thinned trace (report/plot_trace.py), once written
+
+    @property
+    def windowed(self) -> bool:
+        """True once the outputs were written window by window."""
+        return self._totals is not None
+
     @property
     def advice(self):
         return self.whole().advice
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
-        from fuzzyfeed.errors import FuzzyfeedError
-        from fuzzyfeed.program.windows import Fallback
-
         if self._whole is None:          # refused before anything is read (as the whole read refuses them)
             self._checks(csv, gcode, gcode_g52, plot, report)
             if self.options.verify_rs274:
                 _need_gcode(gcode)
         if (csv is None and gcode is None and plot is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
-        fallback = False
-        try:
-            with warnings.catch_warnings(record=True) as said:
-                warnings.simplefilter("always")
-                lines = self._write_windows(csv, gcode, plot)
-        except (Fallback, FuzzyfeedError):
-            fallback = True
-        if fallback:     # outside the except: its traceback would keep the window read alive (~40 MB)
+
+        def forget():
             self._totals = self.verification = self._trace = None
-            return self.whole()._write(csv, gcode, gcode_g52, plot, report)
-        for w in said:           # the reader's notices, once (none when the whole read took over)
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-        return lines
+        return self._in_windows(lambda: self._write_windows(csv, gcode, plot), forget,
+                                csv, gcode, gcode_g52, plot, report)
 
     def _write_windows(self, csv, gcode, plot=None) -> list[str]:
         from fuzzyfeed.base.atomic import atomic_write
@@ -225,7 +243,7 @@ def windowed_machine_result(spec, options, path: Path, table, step_mm: float, st
     return WindowedMachineResult(spec, options, path, table, step_mm, step, tools, whole, checks, feed_note)
 
 
-class WindowedMachineResult(AdviceResult):
+class WindowedMachineResult(_WindowedResult):
     """A long program on a machine, evaluated in windows when written with ``-o`` and/or ``--gcode``
     (:func:`~fuzzyfeed.program.machine_windows.evaluate_in_windows`: the chains in a scratch store,
     runs part by part; the scratch directory removed on every exit): the CSV rows written as the
@@ -236,20 +254,10 @@ class WindowedMachineResult(AdviceResult):
 
     kind = "program on a machine"
 
-    def __init__(self, source, options, path: Path, table, step_mm: float, feed_step_mm_min: float, tools, whole,
-                 checks, feed_note, window_lines: int | None = None):
-        self.source, self.options, self.path, self.table = source, options, path, table
-        self.step_mm, self.feed_step_mm_min, self.tools = step_mm, feed_step_mm_min, tools
-        self._make_whole, self._checks, self._feed_note = whole, checks, feed_note
-        self._whole = None
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
         self._runs = None
         self.report = None
-        self.window_lines = window_lines
-
-    def whole(self):
-        if self._whole is None:
-            self._whole = self._make_whole()
-        return self._whole
 
     @property
     def windowed(self) -> bool:
@@ -257,15 +265,8 @@ class WindowedMachineResult(AdviceResult):
         return self._runs is not None
 
     @property
-    def text(self) -> str:
-        return self.whole().text
-
-    @property
     def value(self):
         return self.whole().value
-
-    def columns(self) -> dict:
-        return self.whole().columns()
 
     def figures(self) -> dict:
         return self.whole().figures()
@@ -274,26 +275,14 @@ class WindowedMachineResult(AdviceResult):
         return self.whole()._plot(output)
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
-        from fuzzyfeed.errors import FuzzyfeedError
-        from fuzzyfeed.program.windows import Fallback
-
         if self._whole is None:
             self._checks(csv, gcode, gcode_g52, plot)
         if (csv is None and gcode is None) or plot is not None or report is not None or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
-        fallback = False
-        try:
-            with warnings.catch_warnings(record=True) as said:
-                warnings.simplefilter("always")
-                lines = self._write_windows(csv, gcode)
-        except (Fallback, FuzzyfeedError):
-            fallback = True
-        if fallback:     # outside the except: its traceback would keep the windows' arrays alive
+
+        def forget():
             self._runs = self.report = None
-            return self.whole()._write(csv, gcode, gcode_g52, plot, report)
-        for w in said:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-        return lines
+        return self._in_windows(lambda: self._write_windows(csv, gcode), forget, csv, gcode, gcode_g52, plot, report)
 
     def _write_windows(self, csv, gcode) -> list[str]:
         import shutil
