@@ -150,3 +150,28 @@ def test_a_result_left_for_later_is_checked_the_same_twice(tmp_path):
     two = reference.check_uniform(path, machine, hot)
     assert one.factor == two.factor and one.runs == two.runs and one.apart == two.apart
     assert one.apart[0].factor_um > machine.contour_tol_um
+
+
+def test_the_place_over_the_tolerance_is_named_by_the_advised_programs_line(tmp_path, monkeypatch, capsys):
+    """The advised run's worst place is a line of the advised program (the rewrite inserts lines:
+    line 14 does not exist in the 13-line input); the summary says so, and that line of the written
+    G-code is the move whose span holds the point."""
+    import re
+
+    from fuzzyfeed.cli import main
+
+    (tmp_path / "p.ngc").write_text(PLUNGE_FROM_RAPIDS)
+    monkeypatch.chdir(tmp_path)
+    assert main(["advise", "p.ngc", "--machine", "reference", "-o", "x.csv", "--gcode", "y.ngc"]) == 0
+    out = capsys.readouterr().out
+    found = re.search(r"um at line (\d+) of the advised program \(([^)]*)\) is over the tolerance", out)
+    assert found, out
+    line = int(found.group(1))
+    xyz = np.array([float(c) for c in found.group(2).split(",")])
+    assert line > len(PLUNGE_FROM_RAPIDS.splitlines())
+    advised = read_program(tmp_path / "y.ngc")
+    at = np.flatnonzero(advised.move_line == line - 1)
+    assert at.size
+    a, b = advised.start[at[0]], advised.end[at[-1]]
+    t = float(np.dot(xyz - a, b - a) / np.dot(b - a, b - a))
+    assert -1e-6 <= t <= 1 + 1e-6 and np.linalg.norm(a + t * (b - a) - xyz) < 1e-3

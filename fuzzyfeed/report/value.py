@@ -132,9 +132,14 @@ class ValueReport:
         text = (f"in the air (tool still nearest a rapid when a feed move starts; not in the part, no F changes "
                 f"it): as written {w.air_um:.1f} um, advised {a.air_um:.1f} um")
         if self.worst_air is not None:
-            line, xyz = self.worst_air
-            text += f", largest at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)})"
+            text += f", largest at {self._where(*self.worst_air)}"
         return text
+
+    def _where(self, line: int, xyz) -> str:
+        """'line N (x, y, z)' of a place in the run the figures are of: the advised program's line
+        once the program is advised (the rewrite inserts lines: the input's numbers would mislead)."""
+        of = "" if self.holds_as_written else " of the advised program"
+        return f"line {line + 1}{of} ({', '.join(f'{c:g}' for c in xyz)})"
 
     def verdict(self) -> str:
         tol = self.tol_um
@@ -158,9 +163,7 @@ class ValueReport:
         elif a.max_um <= tol * (1 + 1e-9):
             text += "; holds the tolerance"
         elif self.worst_advised is not None:
-            line, xyz = self.worst_advised
-            text += (f"; {a.max_um:.1f} um at line {line + 1} ({', '.join(f'{c:g}' for c in xyz)}) is "
-                     "over the tolerance")
+            text += f"; {a.max_um:.1f} um at {self._where(*self.worst_advised)} is over the tolerance"
         if self.reference is not None and not self.reference_converged:
             if self.reference_apart:
                 text += (f"; the limit reference ends at {self.reference.max_um:.1f} um at a place the uniform "
