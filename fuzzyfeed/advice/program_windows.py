@@ -277,14 +277,15 @@ class WindowedMachineResult(_WindowedResult):
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
         if self._whole is None:
             self._checks(csv, gcode, gcode_g52, plot)
-        if (csv is None and gcode is None) or plot is not None or report is not None or self._whole is not None:
+        if (csv is None and gcode is None) or plot is not None or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
 
         def forget():
             self._runs = self.report = None
-        return self._in_windows(lambda: self._write_windows(csv, gcode), forget, csv, gcode, gcode_g52, plot, report)
+        return self._in_windows(lambda: self._write_windows(csv, gcode, report), forget, csv, gcode, gcode_g52,
+                                plot, report)
 
-    def _write_windows(self, csv, gcode) -> list[str]:
+    def _write_windows(self, csv, gcode, report_file=None) -> list[str]:
         import shutil
         import sys
         import tempfile
@@ -294,7 +295,10 @@ class WindowedMachineResult(_WindowedResult):
         from fuzzyfeed.io.csv import ColumnStream, write_metadata
         from fuzzyfeed.program.machine_windows import evaluate_in_windows
         from fuzzyfeed.program.windows import WINDOW_LINES
+        from functools import partial
+
         from fuzzyfeed.report.value import windowed_report
+        from fuzzyfeed.report.value_trace import feed_trace
 
         cap, machine = self.options.feed_mm_min, self.options.machine
         tty = sys.stderr.isatty()
@@ -311,18 +315,25 @@ class WindowedMachineResult(_WindowedResult):
             runs = evaluate_in_windows(self.path, machine, self.table, scratch, cap_mm_min=cap,
                                        feed_step_mm_min=self.feed_step_mm_min, step_mm=self.step_mm,
                                        tools=self.tools, window_lines=self.window_lines or WINDOW_LINES,
-                                       sink=None if out is None else out.write, progress=progress)
+                                       sink=None if out is None else out.write, progress=progress,
+                                       check=report_file is not None, reference=self.options.reference,
+                                       trace=None if report_file is None else partial(feed_trace,
+                                                                                      tol_um=machine.contour_tol_um))
             report = windowed_report(runs, self.path.name, machine, self.table, self.options.reference)
             if gcode is not None:
                 with atomic_write(gcode, "wb") as handle, open(runs.advised_file, "rb") as src:
                     shutil.copyfileobj(src, handle)
+            if report_file is not None:
+                from fuzzyfeed.report.value_files import write_value_report
+
+                write_value_report([report], report_file)
         if csv is not None:
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
             record["F_mm_min"] = self._feed_note(cap)
             record["machine"] = machine.describe()
             write_metadata(csv, out.names, record)
         self._runs, self.report = runs, report
-        written = [p for p in (csv, gcode) if p]
+        written = [p for p in (csv, gcode, report_file) if p]
         return ["wrote " + ", ".join(written)]
 
     def summary(self) -> list[str]:

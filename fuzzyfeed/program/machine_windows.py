@@ -205,6 +205,19 @@ class RunFigures:
     p99_um: float
     air_max_um: float
 
+    @classmethod
+    def of(cls, run) -> RunFigures:
+        return cls(run.time_s, run.max_um, run.p99_um, run.air_max_um)
+
+
+@dataclass(frozen=True)
+class ReferenceFigures:
+    """What the value report takes of the limit reference (:func:`~fuzzyfeed.program.reference.limit_reference`)
+    run on the store: its run's figures and whether it holds the tolerance."""
+
+    run: RunFigures
+    converged: bool
+
 
 @dataclass(frozen=True, eq=False)
 class WindowedRuns:
@@ -224,14 +237,22 @@ class WindowedRuns:
     lines: int
     cuts: int
     advised_file: Path
+    trace: object = None                        # the value plot's feed trace (``trace``), when asked
+    reference: ReferenceFigures | None = None   # the limit reference (``check`` with ``reference``)
 
 
 def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_min=None,
                         feed_step_mm_min: float = 10.0, step_mm: float = 0.25, min_piece_mm: float = 1.0,
-                        tools=None, window_lines: int = WINDOW_LINES, sink=None, progress=None) -> WindowedRuns:
+                        tools=None, window_lines: int = WINDOW_LINES, sink=None, progress=None,
+                        check: bool = False, reference: bool = True, trace=None) -> WindowedRuns:
     """The runs and advice of :func:`~fuzzyfeed.report.value.evaluate_program` (``check_uniform=False``,
     no ``cuts``, no ``verify``) of the program at ``path`` in windows (module docstring), its scratch
-    files in ``scratch`` (the caller's, removed by it). ``sink(columns)``: the CSV rows as they come."""
+    files in ``scratch`` (the caller's, removed by it). ``sink(columns)``: the CSV rows as they come.
+    ``check``: what :meth:`~fuzzyfeed.report.value.Evaluation.checked` adds for ``--report``, on the
+    store: the uniform slowdown checked by a whole run (:func:`~fuzzyfeed.program.uniform.check_uniform`)
+    and, with ``reference``, the limit reference. ``trace(written_path, written_run, advised_path)``:
+    the value plot's trace, made while the stores are open (the advised path is the written one
+    when no cut is over)."""
     from fuzzyfeed.errors import FuzzyfeedError
     from fuzzyfeed.program.run import run_program
     from fuzzyfeed.program.uniform import uniform_slowdown
@@ -260,10 +281,11 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
                            window_lines=window_lines, sink=sink, write=handle.write)
         cov = WindowTotals(coverages=totals.coverages).coverage()
         release_free_memory()          # the windows' freed heap, before the runs
-        advised, u = None, None
+        advised, u, drawn, ref = None, None, None, None
         if not over:
             worst = where(sp, written, "max_mm", "max_segment", "max_xyz")
             air = where(sp, written, "air_max_mm", "air_segment", "air_xyz")
+            drawn = None if trace is None else trace(sp, written, sp)
         else:
             step("advised run")
             adv_store = ChainStore(scratch / "advised", machine.chord_tol_mm)
@@ -274,14 +296,45 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             worst = where(asp, run, "max_mm", "max_segment", "max_xyz")
             air = where(asp, run, "air_max_mm", "air_segment", "air_xyz")
             # what the report takes of it (its errors per segment go before the uniform slowdown)
-            advised = RunFigures(run.time_s, run.max_um, run.p99_um, run.air_max_um)
+            advised = RunFigures.of(run)
+            drawn = None if trace is None else trace(sp, written, asp)
             del run
             release_free_memory()
             step("uniform slowdown")
             u = uniform_slowdown(sp, machine, written, check=False)
+            if check:
+                u, ref = _checked(sp, machine, u, reference, step)
     except FuzzyfeedError as exc:
         raise Fallback(str(exc)) from None
     finally:
         for s in stores:
             s.close()
-    return WindowedRuns(written, advised, worst, air, u, tuple(over), cov, totals.lines, totals.cuts, advised_file)
+    return WindowedRuns(written, advised, worst, air, u, tuple(over), cov, totals.lines, totals.cuts, advised_file,
+                        drawn, ref)
+
+
+def _checked(sp: StoredPath, machine: Machine, u, reference: bool, step):
+    """The uniform slowdown ``u`` checked by a whole run on the store (its run's figures kept, not
+    its rows) and, with ``reference``, the limit reference on the store
+    (:meth:`~fuzzyfeed.report.value.Evaluation.checked`'s stages, in its order)."""
+    from dataclasses import replace
+
+    from fuzzyfeed.program.reference import limit_reference
+    from fuzzyfeed.program.uniform import check_uniform
+
+    if not u.checked:
+        step("uniform check")
+        u = check_uniform(sp, machine, u)
+        if u.run is not None:
+            u = replace(u, run=RunFigures.of(u.run))
+        release_free_memory()
+    if not reference:
+        return u, None
+    if u.apart:          # where its largest error is, on a place set apart, is read on the whole program
+        raise Fallback("the limit reference beside places set apart is judged on the whole read")
+    step("limit reference")
+    ref = limit_reference(sp, machine)
+    out = ReferenceFigures(RunFigures.of(ref.run), ref.converged)
+    del ref
+    release_free_memory()
+    return u, out

@@ -155,7 +155,7 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     first and last runs are whole runs (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`;
     a long chain's made part by part: :func:`_whole_run`)."""
     tol = (machine.contour_tol_um if tol_um is None else tol_um) * 1e-3
-    chains = tuple(refine_chain(c, piece_mm) for c in path.chains)
+    chains = tuple(refine_chain(c, piece_mm) for c in _in_memory(path))
     refined = ProgramPath(program=path.program, chains=chains, chord_tol_mm=path.chord_tol_mm)
     feeds = [c.motion.feed_mm_s.copy() for c in chains]
     reachable = [_reachable_feed(c.motion, machine) for c in chains]
@@ -208,6 +208,16 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     final = settle_p99(refined, machine, runs, lambda i: feeds[i], keep_mm=tol, keep_plans=False)
     return Reference(path=refined, feeds=tuple(feeds), run=final, passes=passes,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
+
+
+def _in_memory(path: ProgramPath):
+    """The chains of ``path``, each read whole into memory when it is in a scratch store
+    (:class:`~fuzzyfeed.program.chain_store.StoredPath`: the passes hold every chain's feeds and
+    speed profile anyway)."""
+    store = getattr(path, "store", None)
+    if store is None:
+        return path.chains
+    return [store.chain(i, whole_below=store.n_segments + 1) for i in range(len(store.entries))]
 
 
 def _whole_run(chain: Chain, machine: Machine, feed: np.ndarray | None, tol: float) -> tuple[_Measured, ChainRun]:

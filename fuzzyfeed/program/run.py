@@ -223,6 +223,8 @@ class ProgramRun:
 def chain_motion(chain: Chain, feed_mm_s: np.ndarray | None = None) -> Motion:
     """The chain's motion, with ``feed_mm_s`` per segment instead of its own if given."""
     motion = chain.motion
+    if feed_mm_s is not None and getattr(motion.points, "stored", False):   # a chain in a scratch store
+        return replace(motion, feed_mm_s=feed_mm_s)
     if feed_mm_s is not None:
         motion = Motion(motion.points, feed_mm_s, motion.rapid, motion.arc_radius_mm)
     return motion
@@ -282,7 +284,10 @@ def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | N
     def feed(i: int) -> np.ndarray | None:
         if feeds is not None:
             return feeds[i]
-        return path.chains[i].motion.feed_mm_s * feed_scale if feed_scale != 1.0 else None
+        if feed_scale == 1.0:
+            return None
+        feed_mm_s = path.chains[i].motion.feed_mm_s
+        return feed_mm_s.scaled(feed_scale) if getattr(feed_mm_s, "stored", False) else feed_mm_s * feed_scale
 
     runs = [run_chain(chain, machine, feed(i), keep_plan=keep_plans, fast=fast) for i, chain in enumerate(path.chains)]
     return settle_p99(path, machine, runs, feed, keep_plans=keep_plans, fast=fast)

@@ -384,9 +384,12 @@ def _factor(c: float) -> str:
 
 def windowed_report(runs, name: str, machine: Machine, table: RuleTable, reference: bool = True) -> ValueReport:
     """The value report :func:`evaluate_program` (``check_uniform=False``) makes, of a program
-    evaluated in windows (``runs``: :class:`~fuzzyfeed.program.machine_windows.WindowedRuns`; no
-    feed trace: the plot and ``--report`` read the program whole)."""
+    evaluated in windows (``runs``: :class:`~fuzzyfeed.program.machine_windows.WindowedRuns`), or,
+    when the windows checked the uniform slowdown and ran the limit reference on the store
+    (``evaluate_in_windows(check=True)``), the one :meth:`Evaluation.checked` makes; the feed
+    trace when the windows drew it (:func:`~fuzzyfeed.report.value_trace.feed_trace` on the store)."""
     written, over, u = runs.written, runs.advised_cuts, runs.uniform
+    ref_row, converged = None, True
     if not over:
         uniform_factor, u_row = 1.0, ValueRow.of(f"uniform x{_factor(1.0)}", written)
         ref_row = ValueRow.of("limit reference", written) if reference else None
@@ -394,15 +397,16 @@ def windowed_report(runs, name: str, machine: Machine, table: RuleTable, referen
     else:
         advised_row = ValueRow.of("advised", runs.advised)
         uniform_factor, u_row = u.factor, uniform_row(u)
-        ref_row = None
+        if runs.reference is not None:
+            ref_row, converged = ValueRow.of("limit reference", runs.reference.run), runs.reference.converged
     worst, air = runs.worst, runs.air
     return ValueReport(
         name=name, machine=machine, table=table.name,
         written=ValueRow.of("as written", written), advised=advised_row, uniform=u_row,
-        uniform_factor=uniform_factor, reference=ref_row, reference_converged=True,
+        uniform_factor=uniform_factor, reference=ref_row, reference_converged=converged,
         holds_as_written=not over, advised_cuts=tuple(over),
         worst_advised=None if worst is None else (worst[0], tuple(float(c) for c in worst[1])),
-        trace=None, coverage=runs.coverage, verification=None,
+        trace=runs.trace, coverage=runs.coverage, verification=None,
         worst_air=None if air is None else (air[0], tuple(float(c) for c in air[1])),
-        reference_deferred=bool(over) and reference,
+        reference_deferred=bool(over) and reference and runs.reference is None,
         uniform_apart=() if u is None else u.apart, reference_apart=False)

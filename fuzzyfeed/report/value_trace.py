@@ -122,16 +122,23 @@ def _thin_segments(a: np.ndarray, b: np.ndarray, frac: np.ndarray, eps: float):
 def feed_trace(written_path: ProgramPath, written: ProgramRun, advised_path: ProgramPath,
                tol_um: float) -> FeedTrace:
     """The F in force along the measured segments of both programs (for the value plot), made
-    block by block and thinned (:data:`TRACE_BLOCK`, :func:`_thin_steps`, :func:`_thin_segments`)."""
-    blocks = list(_along(written_path, TRACE_BLOCK))
-    ws0 = np.concatenate([blk[0] for blk in blocks]) if blocks else np.zeros(0)
-    wf = np.concatenate([blk[2] for blk in blocks]) if blocks else np.zeros(0)
-    del blocks
+    block by block and thinned (:data:`TRACE_BLOCK`, :func:`_thin_steps`, :func:`_thin_segments`).
+    The paths' chains may be in a scratch store (:class:`~fuzzyfeed.program.chain_store.StoredPath`):
+    they are read a block at a time; nothing per segment of a whole program is held but the
+    thinned trace (the advised F is compared with the written steps thinned: the step a point
+    falls in has the F of the segment it falls in)."""
+    written_steps = [_thin_steps(*blk[:3]) for blk in _along(written_path, TRACE_BLOCK)]
+    cat = (lambda parts, k, shape: np.concatenate([p[k] for p in parts]) if parts else np.zeros(shape))
+    ws0, ws1, wf = cat(written_steps, 0, 0), cat(written_steps, 1, 0), cat(written_steps, 2, 0)
+    del written_steps
     lo_xy, hi_xy = np.full(2, np.inf), np.full(2, -np.inf)
     for chain in advised_path.chains:
-        if chain.motion.points.size:
-            lo_xy = np.minimum(lo_xy, chain.motion.points[:, :2].min(axis=0))
-            hi_xy = np.maximum(hi_xy, chain.motion.points[:, :2].max(axis=0))
+        points = chain.motion.points
+        for a in range(0, len(points), TRACE_BLOCK):
+            pts = points[a:a + TRACE_BLOCK]
+            if pts.size:
+                lo_xy = np.minimum(lo_xy, pts[:, :2].min(axis=0))
+                hi_xy = np.maximum(hi_xy, pts[:, :2].max(axis=0))
     eps = TRACE_THIN_SHARE * (float((hi_xy - lo_xy).max()) if np.isfinite(lo_xy).all() else 0.0)
     parts = []
     for as0, as1, af, pa, pb in _along(advised_path, TRACE_BLOCK):
@@ -139,42 +146,46 @@ def feed_trace(written_path: ProgramPath, written: ProgramRun, advised_path: Pro
         idx = np.clip(np.searchsorted(ws0, mid, side="right") - 1, 0, max(wf.size - 1, 0))
         frac = np.clip(af / wf[idx] if wf.size else np.ones_like(af), 0.0, 1.0)
         parts.append((*_thin_steps(as0, as1, af), *_thin_segments(pa, pb, frac, eps)))
-    cat = (lambda k, shape: np.concatenate([p[k] for p in parts]) if parts else np.zeros(shape))
-    as0, as1, af, pa, pb, frac = cat(0, 0), cat(1, 0), cat(2, 0), cat(3, (0, 3)), cat(4, (0, 3)), cat(5, 0)
-    written_steps = [_thin_steps(*blk[:3]) for blk in _along(written_path, TRACE_BLOCK)]
-    ws0_t = np.concatenate([w[0] for w in written_steps]) if written_steps else np.zeros(0)
-    ws1_t = np.concatenate([w[1] for w in written_steps]) if written_steps else np.zeros(0)
-    wf_t = np.concatenate([w[2] for w in written_steps]) if written_steps else np.zeros(0)
-    offsets = _chain_offsets(written_path)
-    del ws0, wf
-    over_s, over_xyz = [], []
-    for chain, r, off in zip(written_path.chains, written.runs, offsets):
-        bad = r.contour_mm * 1e3 > tol_um
-        if not bad.any():
-            continue
-        seg = r.nearest_segment[bad]
-        pts = chain.motion.points
-        lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1) * chain.seg_measured
-        start = np.concatenate([[0.0], np.cumsum(lengths)])     # measured length before each segment
-        into = np.linalg.norm(r.nearest_xyz[bad] - pts[seg], axis=1) * chain.seg_measured[seg]
-        over_s.append(off + start[seg] + into)
-        over_xyz.append(r.nearest_xyz[bad])
-    os_ = np.concatenate(over_s) if over_s else np.zeros(0)
-    ox = np.concatenate(over_xyz) if over_xyz else np.zeros((0, 3))
+    as0, as1, af, pa, pb, frac = (cat(parts, 0, 0), cat(parts, 1, 0), cat(parts, 2, 0), cat(parts, 3, (0, 3)),
+                                  cat(parts, 4, (0, 3)), cat(parts, 5, 0))
+    os_, ox = _over_points(written_path, written, tol_um)
     if os_.size:
         _, first = np.unique(np.round(os_ / 0.1), return_index=True)
         os_, ox = os_[first], ox[first]
-    return FeedTrace(s_mm={"as written": (ws0_t, ws1_t), "advised": (as0, as1)},
-                     feed_mm_min={"as written": wf_t, "advised": af},
+    return FeedTrace(s_mm={"as written": (ws0, ws1), "advised": (as0, as1)},
+                     feed_mm_min={"as written": wf, "advised": af},
                      segments=np.stack([pa, pb], axis=1) if pa.size else np.zeros((0, 2, 3)),
                      advised_fraction=frac, over_s_mm=os_, over_xyz=ox)
 
 
-def _chain_offsets(path: ProgramPath) -> list[float]:
-    """Measured length before each chain (the offsets of :func:`_along`)."""
-    offsets, offset = [], 0.0
-    for chain in path.chains:
-        offsets.append(offset)
-        lk = np.linalg.norm(np.diff(chain.motion.points, axis=0), axis=1)[chain.seg_measured]
-        offset += float(lk.sum())
-    return offsets
+def _over_points(path: ProgramPath, run: ProgramRun, tol_um: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where the tool passed beyond the tolerance in ``run`` (its ticks kept over it): the arc
+    length along the measured segments end to end (the chains' offsets :func:`_along`'s) and the
+    nearest point. The measured length before a segment is summed block by block as one running
+    sum (``np.cumsum`` carried over: the whole chain's sums, bit for bit)."""
+    over_s, over_xyz = [], []
+    offset = 0.0
+    for chain, r in zip(path.chains, run.runs):
+        bad = r.contour_mm * 1e3 > tol_um
+        seg = r.nearest_segment[bad]
+        points, measured = chain.motion.points, chain.seg_measured
+        before = np.empty(seg.size)
+        carry = total = 0.0
+        for lo in range(0, chain.motion.n_segments, TRACE_BLOCK):
+            hi = min(lo + TRACE_BLOCK, chain.motion.n_segments)
+            keep = measured[lo:hi]
+            norms = np.linalg.norm(np.diff(points[lo:hi + 1], axis=0), axis=1)
+            total += float(norms[keep].sum())
+            if seg.size:
+                sums = np.cumsum(np.concatenate([[carry], norms * keep]))   # measured length before each
+                here = (seg >= lo) & (seg < hi)
+                before[here] = sums[seg[here] - lo]
+                carry = float(sums[-1])
+        if seg.size:
+            xyz = r.nearest_xyz[bad]
+            into = np.linalg.norm(xyz - points[seg], axis=1) * measured[seg]
+            over_s.append(offset + before + into)
+            over_xyz.append(xyz)
+        offset += total
+    return (np.concatenate(over_s) if over_s else np.zeros(0),
+            np.concatenate(over_xyz) if over_xyz else np.zeros((0, 3)))

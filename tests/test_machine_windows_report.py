@@ -1,0 +1,141 @@
+"""``advise --machine --report`` on a long program read in windows of lines (issue 36): the uniform
+slowdown checked by a whole run and the limit reference run on the scratch store
+(program/machine_windows.py ``evaluate_in_windows(check=True)``), the value plot's feed trace drawn
+from the store block by block (report/value_trace.py): the CSV, sidecar, program, printed summary
+and HTML report are the whole read's, byte for byte (the whole read's HTML is deterministic: the
+same run twice gives the same bytes)."""
+
+from __future__ import annotations
+
+import filecmp
+
+import pytest
+
+from test_machine_windows import _advise, _compare
+from test_program_windows import _raster
+
+
+def test_the_whole_reads_html_report_is_deterministic(tmp_path, monkeypatch):
+    """What the byte comparisons below rest on."""
+    prog = _raster(tmp_path / "r.ngc", cuts=3, rows=3)
+    for name in ("a", "b"):
+        _advise(tmp_path / name, prog, False, monkeypatch, 400, "--machine", "reference", "--report", "r.html")
+    assert filecmp.cmp(tmp_path / "a" / "r.html", tmp_path / "b" / "r.html", shallow=False)
+
+
+@pytest.mark.parametrize("inch", [False, True])
+@pytest.mark.parametrize("window_lines", [160, 400])
+def test_the_report_in_windows_is_the_whole_reads(tmp_path, monkeypatch, capsys, inch, window_lines):
+    prog = _raster(tmp_path / "r.ngc", inch=inch)
+    out = _compare(tmp_path, prog, monkeypatch, capsys, window_lines, "--machine", "reference",
+                   "--report", "r.html")
+    assert "limit reference" in out and "not run" not in out and "not checked" not in out, out
+
+
+@pytest.mark.parametrize("inch", [False, True])
+def test_a_check_that_breaks_goes_on_below_in_windows(tmp_path, monkeypatch, capsys, inch):
+    """The hot stretches of the program as written cut down to its mildest hot segment: the factor
+    they hold breaks the tolerance elsewhere, the checking run on the store finds it and the search
+    goes on below, as the whole read's does (tests/test_uniform_check.py's device)."""
+    import numpy as np
+
+    import fuzzyfeed.program.uniform as uniform
+    import fuzzyfeed.report.value as value
+
+    real_init, real_check = uniform._Search.__init__, uniform.check_uniform
+    factors = []
+
+    def mildest_only(self, *a, **k):
+        real_init(self, *a, **k)
+        i, j = min(((i, j) for i, h in enumerate(self.hot0) for j in range(h.size)),
+                   key=lambda ij: self.hot0_mm[ij[0]][ij[1]])
+        self.hot0 = [h[j:j + 1] if k == i else h[:0] for k, h in enumerate(self.hot0)]
+        self.hot0_mm = [e[j:j + 1] if k == i else e[:0] for k, e in enumerate(self.hot0_mm)]
+
+    def check(path, machine, u, *a, **k):
+        out = real_check(path, machine, u, *a, **k)
+        factors.append((u.factor, out.factor))
+        return out
+    monkeypatch.setattr(uniform._Search, "__init__", mildest_only)
+    monkeypatch.setattr(uniform, "check_uniform", check)
+    monkeypatch.setattr(value, "check_uniform", check)            # the whole read's name for it
+    prog = _raster(tmp_path / "r.ngc", inch=inch)
+    _compare(tmp_path, prog, monkeypatch, capsys, 160, "--machine", "reference", "--report", "r.html")
+    assert len(factors) == 2 and factors[0] == factors[1]         # the whole read's, then the windows'
+    assert factors[0][1] < factors[0][0]                          # the check went below
+    assert np.isfinite(factors[0][1])
+
+
+@pytest.mark.parametrize("window_lines", [160, 400])
+def test_the_report_of_long_chains_read_from_the_store(tmp_path, monkeypatch, capsys, window_lines):
+    """Every chain over a few dozen segments read from the store's columns a slice at a time (plan
+    windows of 16 segments, parts of 2 windows; the uniform check's feeds a scaled column) and the
+    feed trace made in blocks of 7 segments (the arc length carried from block to block): the whole
+    read's report, byte for byte."""
+    import fuzzyfeed.machine.chain_pass as chain_pass
+    import fuzzyfeed.machine.plan_parts as plan_parts
+    import fuzzyfeed.program.run as run
+    import fuzzyfeed.report.value_trace as value_trace
+
+    monkeypatch.setattr(run, "CARRIED_MIN_SEGMENTS", 40)
+    monkeypatch.setattr(plan_parts, "WINDOW_SEGMENTS", 16)
+    monkeypatch.setattr(chain_pass, "PART_WINDOWS", 2)
+    monkeypatch.setattr(value_trace, "TRACE_BLOCK", 7)
+    prog = _raster(tmp_path / "r.ngc", cuts=5, rows=4)
+    _compare(tmp_path, prog, monkeypatch, capsys, window_lines, "--machine", "reference", "--report", "r.html")
+
+
+def test_the_report_of_a_program_that_holds_as_written(tmp_path, monkeypatch, capsys):
+    """No cut over the tolerance (a tolerance of 2 mm): no advised run, the trace of the program as
+    written against itself, the limit reference row the run as written's."""
+    prog = _raster(tmp_path / "r.ngc", cuts=3, rows=3)
+    out = _compare(tmp_path, prog, monkeypatch, capsys, 160, "--machine", "reference", "--contour-tol-um", "2000",
+                   "--report", "r.html")
+    assert "holds the tolerance" in out, out
+
+
+def test_a_place_set_apart_with_report_falls_back_to_the_whole_read(tmp_path, monkeypatch, capsys):
+    """Places the uniform slowdown sets apart are measured on the whole read: with ``--report`` the
+    windows fall back too, and the outputs are the whole read's."""
+    from test_uniform_apart import PLUNGE_FROM_RAPIDS
+
+    prog = tmp_path / "p.ngc"
+    prog.write_text(PLUNGE_FROM_RAPIDS)
+    out = _compare(tmp_path, prog, monkeypatch, capsys, 400, "--machine", "reference", "--report", "r.html",
+                   windowed=False)
+    assert "place(s) set apart" in out
+
+
+def test_the_scratch_directory_is_removed_after_a_report_and_after_an_error(tmp_path, monkeypatch, capsys):
+    import os
+    import tempfile
+
+    import fuzzyfeed.program.reference as reference
+    import fuzzyfeed.program.windows as windows
+    from fuzzyfeed.cli import main
+
+    made = []
+    real_mkdtemp = tempfile.mkdtemp
+
+    def mkdtemp(*a, **k):
+        d = real_mkdtemp(*a, **k)
+        if "fuzzyfeed-machine-" in os.path.basename(d):
+            made.append(d)
+        return d
+    monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp)
+    prog = _raster(tmp_path / "r.ngc")
+    _compare(tmp_path, prog, monkeypatch, capsys, 400, "--machine", "reference", "--report", "r.html")
+    assert made and not any(os.path.exists(d) for d in made)
+    made.clear()
+
+    def broken(*a, **k):
+        raise RuntimeError("a failure halfway")
+    monkeypatch.setattr(reference, "limit_reference", broken)
+    monkeypatch.setattr(windows, "MIN_LINES", 1)
+    monkeypatch.setattr(windows, "WINDOW_LINES", 400)
+    (tmp_path / "err").mkdir()
+    monkeypatch.chdir(tmp_path / "err")
+    with pytest.raises(RuntimeError):
+        main(["advise", str(prog), "-o", "x.csv", "--gcode", "y.ngc", "--machine", "reference", "--report", "r.html"])
+    assert made and not any(os.path.exists(d) for d in made)
+    assert os.listdir(tmp_path / "err") == []
