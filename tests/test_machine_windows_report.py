@@ -139,3 +139,35 @@ def test_the_scratch_directory_is_removed_after_a_report_and_after_an_error(tmp_
         main(["advise", str(prog), "-o", "x.csv", "--gcode", "y.ngc", "--machine", "reference", "--report", "r.html"])
     assert made and not any(os.path.exists(d) for d in made)
     assert os.listdir(tmp_path / "err") == []
+
+
+def test_where_the_tool_passed_the_tolerance_summed_in_blocks_is_the_sum_in_one(tmp_path, monkeypatch):
+    """The trace's marks beyond the tolerance (arc length along the feed moves) made from the store
+    in blocks of 7 segments (the running sum carried from block to block) against the chain's sums in
+    one block of the whole read: the same points, the same arc lengths to rounding."""
+    import numpy as np
+
+    import fuzzyfeed.program.run as run
+    import fuzzyfeed.report.value_trace as value_trace
+    from fuzzyfeed.machine.description import load_machine
+    from fuzzyfeed.program.chain_store import ChainStore, StoredPath
+    from fuzzyfeed.program.machine_windows import build_store
+    from fuzzyfeed.program.read import read_program
+    from fuzzyfeed.program.run import program_path, run_program
+
+    monkeypatch.setattr(run, "CARRIED_MIN_SEGMENTS", 40)
+    machine = load_machine("reference")
+    prog = _raster(tmp_path / "r.ngc", cuts=4, rows=4)
+    whole = program_path(read_program(prog), machine.chord_tol_mm)
+    one = value_trace.feed_trace(whole, run_program(whole, machine), whole, machine.contour_tol_um)
+    store = ChainStore(tmp_path / "s", machine.chord_tol_mm)
+    build_store(prog, store, None, 150)
+    try:
+        sp = StoredPath.of(store)
+        monkeypatch.setattr(value_trace, "TRACE_BLOCK", 7)
+        blocks = value_trace.feed_trace(sp, run_program(sp, machine), sp, machine.contour_tol_um)
+    finally:
+        store.close()
+    assert one.over_s_mm.size > 10 and one.over_s_mm.max() > 100.0
+    assert np.array_equal(one.over_xyz, blocks.over_xyz)
+    assert np.allclose(one.over_s_mm, blocks.over_s_mm, rtol=1e-12, atol=0.0)

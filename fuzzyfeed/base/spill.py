@@ -101,3 +101,53 @@ class Spill:
         finally:
             for handle in handles.values():
                 handle.close()
+
+
+class SpilledValues:
+    """One array of float64 written once from the front in consecutive pieces (:meth:`open`, then
+    the callable it returns, piece after piece), read back by slices like an array's
+    (``values[a:b]``, ``len``): a run's largest error per segment kept out of memory (issue 36).
+    Each :meth:`open` starts the array again (a run made again), in a new :class:`Spill` of the
+    ``folder``; what an earlier one wrote is no longer read."""
+
+    stored = True
+    dtype = np.dtype(np.float64)
+
+    def __init__(self, folder: Path, name: str):
+        self.folder, self.name = Path(folder), str(name)
+        self._spill: Spill | None = None
+        self._opened = 0
+
+    def open(self):
+        """Start the array again: returns ``add(values)``, which appends the next piece."""
+        self._opened += 1
+        spill = self._spill = Spill(self.folder, f"{self.name}.{self._opened}")
+
+        def add(values: np.ndarray) -> None:
+            if np.size(values):
+                spill.append({"v": np.asarray(values, dtype=np.float64)})
+        return add
+
+    @property
+    def size(self) -> int:
+        return 0 if self._spill is None else self._spill.rows
+
+    @property
+    def shape(self) -> tuple[int]:
+        return (self.size,)
+
+    def __len__(self) -> int:
+        return self.size
+
+    def __getitem__(self, key):
+        if not isinstance(key, slice):
+            raise IndexError("spilled values are read in slices")
+        a, b, step = key.indices(self.size)
+        if step != 1:
+            raise IndexError("spilled values are read in slices of step 1")
+        return self._spill.read(a, b)["v"] if b > a else np.zeros(0)
+
+    def blocks(self, rows: int):
+        """(first index, values) of the array in pieces of ``rows``."""
+        for a in range(0, self.size, rows):
+            yield a, self[a:a + rows]

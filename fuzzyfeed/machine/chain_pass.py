@@ -73,13 +73,16 @@ def carried_groups(sw: Sweep, machine: Machine, part_windows: int = PART_WINDOWS
 
 def stream_chain(motion: Motion, machine: Machine, measured: np.ndarray | None = None, keep_mm: float | None = None,
                  fast: bool = True, skip_mm: float | None = None, size: int | None = None,
-                 part_windows: int | None = None, before_ticks=None) -> tuple[StreamRun, float]:
+                 part_windows: int | None = None, before_ticks=None, seg_sink=None) -> tuple[StreamRun, float]:
     """``stream_plan(plan_motion(motion, machine), machine, measured, keep_mm, fast=fast,
     skip_mm=skip_mm)`` (no windows) part by part (module docstring), and the plan's time (s); the
     run holds no plan (``plan`` None). ``size``/``part_windows``: segments per plan window and plan
     windows per part (default :data:`~fuzzyfeed.machine.plan_parts.WINDOW_SEGMENTS`,
     :data:`PART_WINDOWS`). ``before_ticks(time_s)`` is called with the plan's time before any tick
-    is run (a caller's budget check)."""
+    is run (a caller's budget check). ``seg_sink``: where the largest error per segment goes as the
+    parts finish with it (its ``open()`` gives ``add(values)`` for the next segments; the run's
+    ``seg_max_mm`` is then ``seg_sink``, read by slices: :class:`~fuzzyfeed.base.spill.SpilledValues`),
+    nothing per segment of the chain held."""
     size = WINDOW_SEGMENTS if size is None else size
     part_windows = PART_WINDOWS if part_windows is None else part_windows
     n = motion.n_segments
@@ -94,15 +97,46 @@ def stream_chain(motion: Motion, machine: Machine, measured: np.ndarray | None =
         skip = skip_threshold(machine) if skip_mm is None else float(skip_mm)
         if not (np.isfinite(skip) and skip >= 0.0):
             raise ValueError(f"skip_mm = {skip_mm!r}; must be a finite number >= 0")
-        run = _pass(motion, machine, meas, sw, groups, keep_mm, skip, size)
+        run = _pass(motion, machine, meas, sw, groups, keep_mm, skip, size, seg_sink)
         if run.skipped_ticks and run.skip_max_mm >= run.max_mm:
-            again = _pass(motion, machine, meas, sw, groups, keep_mm, 0.0, size)
+            again = _pass(motion, machine, meas, sw, groups, keep_mm, 0.0, size, seg_sink)
             return replace(again, rerun=True), sw.time_s
         return run, sw.time_s
-    return _pass(motion, machine, meas, sw, groups, keep_mm, 0.0, size), sw.time_s
+    return _pass(motion, machine, meas, sw, groups, keep_mm, 0.0, size, seg_sink), sw.time_s
 
 
-def _pass(motion, machine, measured, sw, groups, keep_mm, skip_mm, size) -> StreamRun:
+class _Handed:
+    """The largest error per segment of the segments a part may still reach, the ones before
+    handed to ``add`` in order (the parts' first segments never go back: :func:`carried_groups`)."""
+
+    def __init__(self, add, n: int):
+        self.add, self.n = add, n
+        self.done = 0                     # segments handed on
+        self.held = np.zeros(0)           # segments done .. done + held.size
+
+    def _reach(self, end: int) -> None:
+        if self.held.size < end - self.done:
+            self.held = np.concatenate([self.held, np.zeros(end - self.done - self.held.size)])
+
+    def part(self, first: int, part_max: np.ndarray) -> None:
+        if first < self.done:
+            raise AssertionError("a part starts before a segment already handed on")
+        if first > self.done:
+            self._reach(first)
+            k = first - self.done
+            self.add(self.held[:k])
+            self.held, self.done = self.held[k:], first
+        self._reach(first + part_max.size)
+        view = self.held[:part_max.size]
+        np.maximum(view, part_max, out=view)
+
+    def finish(self) -> None:
+        self._reach(self.n)
+        self.add(self.held)
+        self.held, self.done = np.zeros(0), self.n
+
+
+def _pass(motion, machine, measured, sw, groups, keep_mm, skip_mm, size, seg_sink=None) -> StreamRun:
     """One tick pass over the parts (the fast path's threshold ``skip_mm``; 0: every tick searched)."""
     from fuzzyfeed.machine._ticks_jit import (I_AIR_NEAR, I_AIR_SEG, I_EV_N, I_K0, I_K1, I_K2, I_LEAP, I_LEFT,
                                               I_MAX_SEG, I_NEAR, I_RIGHT, I_SEG, S_AIR, S_MAX)
@@ -113,7 +147,8 @@ def _pass(motion, machine, measured, sw, groups, keep_mm, skip_mm, size) -> Stre
     ts = machine.ts_s
     k_end = tick_count(sw, ts)
     lookback = lookback_ticks(machine)
-    seg_max = np.zeros(motion.n_segments)
+    handed = None if seg_sink is None else _Handed(seg_sink.open(), motion.n_segments)
+    seg_max = np.zeros(motion.n_segments if handed is None else 0)
     f64 = lambda a: np.require(a, dtype=np.float64, requirements=["C", "W"])  # noqa: E731
     y_hist, x_hist, prev = np.zeros((3, 2)), np.zeros((3, 2)), np.zeros(3)
     s_ring = np.zeros(lookback + 1)
@@ -162,10 +197,16 @@ def _pass(motion, machine, measured, sw, groups, keep_mm, skip_mm, size) -> Stre
                 tp.parts_f.append(ev_f[:m].copy())
                 tp.parts_i.append(ev_i[:m] + first)
                 istate[I_EV_N] = 0
-        np.maximum(seg_max[first:first + n], part_max, out=seg_max[first:first + n])
+        if handed is None:
+            np.maximum(seg_max[first:first + n], part_max, out=seg_max[first:first + n])
+        else:
+            handed.part(first, part_max)
         if fstate[S_MAX] > max_before:
             tp.max_segment = first + int(istate[I_MAX_SEG])
         if fstate[S_AIR] > air_before:
             tp.air_segment, tp.air_nearest = first + int(istate[I_AIR_SEG]), first + int(istate[I_AIR_NEAR])
         last_first = first
-    return tp.result(None, seg_max)
+    if handed is None:
+        return tp.result(None, seg_max)
+    handed.finish()
+    return tp.result(None, seg_sink)

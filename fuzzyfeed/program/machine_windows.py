@@ -270,7 +270,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
         if totals.cuts == 0:
             raise Fallback("no cut: the whole read says so")
         sp = StoredPath.of(store)
-        written = run_program(sp, machine, keep_plans=False)
+        written = run_program(sp, machine, keep_plans=False, seg_sinks=_spilled(scratch / "seg_max", "written"))
         over = [int(k) for k in np.flatnonzero(cut_max_um(sp, written, totals.cuts) > tol)]
         release_free_memory()
         step("advice")
@@ -292,7 +292,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             stores.append(adv_store)
             build_store(advised_file, adv_store, tools, window_lines, split_cuts=True)
             asp = StoredPath.of(adv_store)
-            run = run_program(asp, machine, keep_plans=False)
+            run = run_program(asp, machine, keep_plans=False, seg_sinks=_spilled(scratch / "seg_max", "advised"))
             worst = where(asp, run, "max_mm", "max_segment", "max_xyz")
             air = where(asp, run, "air_max_mm", "air_segment", "air_xyz")
             # what the report takes of it (its errors per segment go before the uniform slowdown)
@@ -311,6 +311,22 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             s.close()
     return WindowedRuns(written, advised, worst, air, u, tuple(over), cov, totals.lines, totals.cuts, advised_file,
                         drawn, ref)
+
+
+def _spilled(folder: Path, name: str):
+    """``seg_sinks`` for :func:`~fuzzyfeed.program.run.run_program`: chain i's largest error per
+    segment in a scratch file of ``folder`` (:class:`~fuzzyfeed.base.spill.SpilledValues`), read
+    back in blocks by what needs it (:func:`cut_max_um`, the uniform search's hot segments)."""
+    from fuzzyfeed.base.spill import SpilledValues
+
+    folder.mkdir(exist_ok=True)
+    sinks: dict[int, SpilledValues] = {}
+
+    def sink(i: int) -> SpilledValues:
+        if i not in sinks:
+            sinks[i] = SpilledValues(folder, f"{name}{i}")
+        return sinks[i]
+    return sink
 
 
 def _checked(sp: StoredPath, machine: Machine, u, reference: bool, step):

@@ -233,14 +233,16 @@ def chain_motion(chain: Chain, feed_mm_s: np.ndarray | None = None) -> Motion:
 def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = None,
               windows: list[tuple[int, int]] | None = None, plan: Plan | None = None,
               keep_mm: float | None = None, keep_plan: bool = True, fast: bool = True,
-              skip_mm: float | None = None) -> ChainRun:
+              skip_mm: float | None = None, seg_sink=None) -> ChainRun:
     """Plan ``chain`` (with ``feed_mm_s`` per segment instead of its own, if given; or take
     ``plan``) and run it through the servo tick by tick (only the tick ``windows`` if given),
     measuring the contour error of its measured ticks; ticks over ``keep_mm`` (default the
     machine's tolerance) are kept as events. ``fast``, ``skip_mm``: the tick pass's fast path and its
     threshold (:func:`~fuzzyfeed.machine.stream.stream_plan`). A chain of at least
     :data:`CARRIED_MIN_SEGMENTS` run whole without keeping its plan is planned and run part by part
-    (:func:`~fuzzyfeed.machine.chain_pass.stream_chain`, the same floats)."""
+    (:func:`~fuzzyfeed.machine.chain_pass.stream_chain`, the same floats). ``seg_sink``: the run's
+    largest error per segment written there (a long chain's as its parts finish with it; its
+    ``seg_max_mm`` is then the sink, read by slices: :class:`~fuzzyfeed.base.spill.SpilledValues`)."""
     def budget(time_s: float) -> None:
         ticks = time_s / machine.ts_s
         if windows is None and not ticks <= MAX_STREAM_TICKS:
@@ -253,13 +255,16 @@ def run_chain(chain: Chain, machine: Machine, feed_mm_s: np.ndarray | None = Non
         from fuzzyfeed.machine.chain_pass import stream_chain
 
         sr, time_s = stream_chain(chain_motion(chain, feed_mm_s), machine, chain.seg_measured, keep_mm=keep_mm,
-                                  fast=fast, skip_mm=skip_mm, before_ticks=budget)
+                                  fast=fast, skip_mm=skip_mm, before_ticks=budget, seg_sink=seg_sink)
         return ChainRun(plan=None, stream=sr, tick_move=chain.seg_move[sr.tick_segment], time_s=time_s)
     if plan is None:
         plan = plan_motion(chain_motion(chain, feed_mm_s), machine)
     budget(plan.time_s)
     sr = stream_plan(plan, machine, chain.seg_measured, keep_mm=keep_mm, windows=windows, fast=fast,
                      skip_mm=skip_mm)
+    if seg_sink is not None:
+        seg_sink.open()(sr.seg_max_mm)
+        sr = replace(sr, seg_max_mm=seg_sink)
     run = ChainRun(plan=plan, stream=sr, tick_move=chain.seg_move[sr.tick_segment], time_s=float(plan.time_s))
     return run if keep_plan else run.without_plan()
 
@@ -270,14 +275,15 @@ def without_plan(run: ChainRun) -> ChainRun:
 
 
 def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | None = None,
-                feed_scale: float = 1.0, keep_plans: bool = True, fast: bool = True) -> ProgramRun:
+                feed_scale: float = 1.0, keep_plans: bool = True, fast: bool = True, seg_sinks=None) -> ProgramRun:
     """Run every chain of ``path`` on ``machine``: its own feeds times ``feed_scale``, or ``feeds``
     (one array per chain, mm/s per segment). ``keep_plans=False``: the chains' plans (~100 bytes a
     segment) are dropped once run, their times kept (a run only reported, not searched on).
     ``fast``: the tick pass's fast path; where its bounds leave the p99 unsettled
     (:attr:`ProgramRun.p99_settled`: a p99 within the fast path's threshold, ~1 µm), the chains
     with bounded ticks are run again with a quarter of that p99 as the threshold, then, if still
-    unsettled, tick by tick."""
+    unsettled, tick by tick. ``seg_sinks(i)``: where chain i's largest error per segment goes
+    (:func:`run_chain`'s ``seg_sink``; none held in memory)."""
     if not (np.isfinite(feed_scale) and feed_scale > 0):
         raise InputError(f"feed_scale = {feed_scale!r}; must be finite and > 0")
 
@@ -289,18 +295,21 @@ def run_program(path: ProgramPath, machine: Machine, feeds: list[np.ndarray] | N
         feed_mm_s = path.chains[i].motion.feed_mm_s
         return feed_mm_s.scaled(feed_scale) if getattr(feed_mm_s, "stored", False) else feed_mm_s * feed_scale
 
-    runs = [run_chain(chain, machine, feed(i), keep_plan=keep_plans, fast=fast) for i, chain in enumerate(path.chains)]
-    return settle_p99(path, machine, runs, feed, keep_plans=keep_plans, fast=fast)
+    sink = (lambda _i: None) if seg_sinks is None else seg_sinks
+    runs = [run_chain(chain, machine, feed(i), keep_plan=keep_plans, fast=fast, seg_sink=sink(i))
+            for i, chain in enumerate(path.chains)]
+    return settle_p99(path, machine, runs, feed, keep_plans=keep_plans, fast=fast, seg_sinks=seg_sinks)
 
 
 def settle_p99(path: ProgramPath, machine: Machine, runs: list[ChainRun], feed, keep_mm: float | None = None,
-               keep_plans: bool = True, fast: bool = True) -> ProgramRun:
+               keep_plans: bool = True, fast: bool = True, seg_sinks=None) -> ProgramRun:
     """The program run of the whole-chain ``runs`` of ``path`` (``feed(i)``: chain i's feeds, None
     for its own) with its p99 the tick pass's: where the fast path's bounds leave it unsettled
     (:attr:`ProgramRun.p99_settled`: a p99 within the fast path's threshold, ~1 µm), the chains with
     bounded ticks are run again with a quarter of that p99 as the threshold, then, if still
     unsettled (after :data:`P99_RETRIES`), tick by tick (:func:`run_program` and the limit
-    reference's last run share it). ``keep_mm``: the events' threshold of the runs."""
+    reference's last run share it). ``keep_mm``: the events' threshold of the runs; ``seg_sinks``:
+    :func:`run_program`'s."""
     runs = list(runs)
     out = ProgramRun(path=path, machine=machine, runs=tuple(runs))
     for attempt in range(P99_RETRIES + 1):
@@ -310,6 +319,7 @@ def settle_p99(path: ProgramPath, machine: Machine, runs: list[ChainRun], feed, 
         for i, chain in enumerate(path.chains):
             if runs[i].stream.skipped_ticks:
                 runs[i] = run_chain(chain, machine, feed(i), plan=runs[i].plan, keep_mm=keep_mm,
-                                    keep_plan=keep_plans, fast=skip > 0.0, skip_mm=skip)
+                                    keep_plan=keep_plans, fast=skip > 0.0, skip_mm=skip,
+                                    seg_sink=None if seg_sinks is None else seg_sinks(i))
         out = ProgramRun(path=path, machine=machine, runs=tuple(runs))
     return out

@@ -69,7 +69,33 @@ def _planned_time(path: ProgramPath, machine: Machine, scale: float) -> float:
 
 
 def _hot(run: ProgramRun, tol_mm: float) -> list[np.ndarray]:
-    return [np.flatnonzero(r.stream.seg_max_mm > tol_mm) for r in run.runs]
+    return [np.flatnonzero(r.stream.seg_max_mm > tol_mm) if not getattr(r.stream.seg_max_mm, "stored", False)
+            else np.concatenate([a + np.flatnonzero(b > tol_mm) for a, b in _blocks(r.stream.seg_max_mm)]
+                                or [np.zeros(0, np.int64)])
+            for r in run.runs]
+
+
+#: Segments of a run's largest errors read at a time when they are kept out of memory.
+HOT_BLOCK = 1 << 20
+
+
+def _blocks(seg_max_mm):
+    """(first, values) of a run's largest errors per segment kept out of memory
+    (:class:`~fuzzyfeed.base.spill.SpilledValues`), :data:`HOT_BLOCK` at a time."""
+    return seg_max_mm.blocks(HOT_BLOCK)
+
+
+def _at_and_rest(seg_max_mm, hot: np.ndarray) -> tuple[np.ndarray, float]:
+    """The errors of the ``hot`` segments (sorted) and the largest of the others (0 if none): of
+    an array, or block by block of one kept out of memory."""
+    if not getattr(seg_max_mm, "stored", False):
+        return seg_max_mm[hot], float(masked(seg_max_mm, hot).max(initial=0.0))
+    at, rest = [], 0.0
+    for a, block in _blocks(seg_max_mm):
+        here = hot[(hot >= a) & (hot < a + block.size)] - a
+        at.append(block[here])
+        rest = max(rest, float(masked(block, here).max(initial=0.0)))
+    return (np.concatenate(at) if at else np.zeros(0)), rest
 
 
 class _Search:
@@ -84,9 +110,9 @@ class _Search:
         self.floor = [np.zeros(0) for _ in path.chains]
         self.seen = no_places(path)          # segments whose floor error was measured
         self.hot0 = _hot(first, self.tol_mm)
-        self.hot0_mm = [r.stream.seg_max_mm[h] for r, h in zip(first.runs, self.hot0)]
-        self.rest0_mm = max((float(masked(r.stream.seg_max_mm, h).max(initial=0.0))
-                             for r, h in zip(first.runs, self.hot0)), default=0.0)
+        at = [_at_and_rest(r.stream.seg_max_mm, h) for r, h in zip(first.runs, self.hot0)]
+        self.hot0_mm = [e for e, _ in at]
+        self.rest0_mm = max((rest for _, rest in at), default=0.0)
         self.first: ProgramRun | None = first     # dropped when the state is kept for later
         self.runs = 1
         self.checks_left = UNIFORM_CHECKS
