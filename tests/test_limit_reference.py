@@ -179,3 +179,29 @@ def test_the_limit_reference_with_its_whole_runs_made_part_by_part_is_the_same(t
     monkeypatch.setattr(chain_pass, "PART_WINDOWS", 3)
     ref = _check(_raster(tmp_path, 3000), "reference", min_passes=3)
     assert ref.run.max_um > 0 and len(made) >= 2      # the first run and the last
+
+
+def test_the_limit_reference_on_a_scratch_store_is_the_whole_reads(tmp_path):
+    """A program's chains in a scratch store (program/chain_store.py: read back by slices, each
+    chain read whole by the passes) and the whole runs' largest errors per segment in scratch
+    files (``seg_sinks``): the whole read's passes, feeds, time, max, p99 and air (a raster of
+    bands: rapids inside one chain; several passes)."""
+    from fuzzyfeed.program.chain_store import ChainStore, StoredPath
+    from fuzzyfeed.program.machine_windows import _spilled, build_store
+
+    machine = load_machine("reference")
+    program = _raster(tmp_path, 3000)
+    whole = R.limit_reference(program_path(program, machine.chord_tol_mm), machine)
+    store = ChainStore(tmp_path / "s", machine.chord_tol_mm)
+    build_store(tmp_path / "raster.ngc", store, None, 10 ** 6)
+    try:
+        got = R.limit_reference(StoredPath.of(store, whole_below=1), machine,
+                                seg_sinks=_spilled(tmp_path / "m", "reference"))
+    finally:
+        store.close()
+    assert whole.passes >= 3 and got.passes == whole.passes and got.converged == whole.converged
+    assert len(got.feeds) == len(whole.feeds)
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(got.feeds, whole.feeds))
+    assert (got.run.time_s, got.run.max_um, got.run.p99_um, got.run.air_max_um) == \
+        (whole.run.time_s, whole.run.max_um, whole.run.p99_um, whole.run.air_max_um)
+    assert all(getattr(r.stream.seg_max_mm, "stored", False) for r in got.run.runs)

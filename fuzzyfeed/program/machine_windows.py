@@ -303,7 +303,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             step("uniform slowdown")
             u = uniform_slowdown(sp, machine, written, check=False)
             if check:
-                u, ref = _checked(sp, machine, u, reference, step)
+                u, ref = _checked(sp, machine, u, reference, step, scratch / "seg_max")
     except FuzzyfeedError as exc:
         raise Fallback(str(exc)) from None
     finally:
@@ -329,7 +329,7 @@ def _spilled(folder: Path, name: str):
     return sink
 
 
-def _checked(sp: StoredPath, machine: Machine, u, reference: bool, step):
+def _checked(sp: StoredPath, machine: Machine, u, reference: bool, step, seg_max: Path):
     """The uniform slowdown ``u`` checked by a whole run on the store (its run's figures kept, not
     its rows) and, with ``reference``, the limit reference on the store
     (:meth:`~fuzzyfeed.report.value.Evaluation.checked`'s stages, in its order)."""
@@ -349,7 +349,7 @@ def _checked(sp: StoredPath, machine: Machine, u, reference: bool, step):
     if u.apart:          # where its largest error is, on a place set apart, is read on the whole program
         raise Fallback("the limit reference beside places set apart is judged on the whole read")
     step("limit reference")
-    ref = limit_reference(sp, machine)
+    ref = limit_reference(sp, machine, seg_sinks=_spilled(seg_max, "reference"))
     out = ReferenceFigures(RunFigures.of(ref.run), ref.converged)
     del ref
     release_free_memory()

@@ -83,11 +83,10 @@ class _Profile:
 @dataclass
 class _Measured:
     """What a pass of the limit reference needs of a chain's run, spliced from the stretches
-    re-run: its plan's speed profile (:class:`_Profile`, not the plan), the largest error per
-    segment and the events (ticks over the tolerance)."""
+    re-run: its plan's speed profile (:class:`_Profile`, not the plan) and the events (ticks over
+    the tolerance; the passes lower the feeds from them, never from the largest error per segment)."""
 
     profile: _Profile
-    seg_max_mm: np.ndarray
     contour_mm: np.ndarray
     speed_mm_s: np.ndarray
     tick_segment: np.ndarray
@@ -97,8 +96,8 @@ class _Measured:
     @classmethod
     def of(cls, r: ChainRun, plan: Plan | _Profile) -> _Measured:
         s = r.stream
-        return cls(plan if isinstance(plan, _Profile) else _Profile.of(plan), s.seg_max_mm, s.contour_mm, s.speed_mm_s, s.tick_segment,
-                   s.nearest_segment, s.lookback_segment)
+        return cls(plan if isinstance(plan, _Profile) else _Profile.of(plan), s.contour_mm, s.speed_mm_s,
+                   s.tick_segment, s.nearest_segment, s.lookback_segment)
 
     def splice_parts(self, r: PartsRun, redone: np.ndarray) -> _Measured:
         """This run with the segments ``redone`` (bool per segment) taken from ``r``, a run of their
@@ -108,8 +107,7 @@ class _Measured:
         old = ~redone[self.tick_segment]
         new = redone[s.tick_segment]
         cat = lambda a, b: np.concatenate([a[old], b[new]])  # noqa: E731
-        return _Measured(self.profile, np.where(redone, r.seg_max_mm(redone.size), self.seg_max_mm),
-                         cat(self.contour_mm, s.contour_mm), cat(self.speed_mm_s, s.speed_mm_s),
+        return _Measured(self.profile, cat(self.contour_mm, s.contour_mm), cat(self.speed_mm_s, s.speed_mm_s),
                          cat(self.tick_segment, s.tick_segment), cat(self.nearest_segment, s.nearest_segment),
                          cat(self.lookback_segment, s.lookback_segment))
 
@@ -140,20 +138,24 @@ def _changed(old: Plan | _Profile, new: Plan, machine: Machine) -> np.ndarray:
 
 
 def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
-                    tol_um: float | None = None, progress=None) -> Reference:
+                    tol_um: float | None = None, progress=None, seg_sinks=None) -> Reference:
     """Feeds lowered piece by piece where the run breaks the tolerance (module docstring). Each
     pass re-runs only the stretches whose speed profile the new feeds changed (and the servo's
     memory after them); the result is one whole run on the final feeds, its p99 settled as
     :func:`~fuzzyfeed.program.run.run_program`'s (:func:`~fuzzyfeed.program.run.settle_p99`).
 
-    Memory: per chain its rows (the largest error per segment, the events), its feeds and its
-    plan's speed profile (:class:`_Profile`, 32 B a segment); a pass plans the chain window by
-    window against that profile (:func:`~fuzzyfeed.machine.plan_parts.changed_sweep`, overwriting
-    it) and runs the stretches to redo part by part (:func:`~fuzzyfeed.machine.plan_parts.stream_parts`):
-    no plan of a whole chain: 1 B a segment (which to redo) and, while splicing, the new largest
-    error per segment (8 B), besides the feeds' own temporaries (:func:`_lowered`). The
-    first and last runs are whole runs (no run keeps a plan: :func:`~fuzzyfeed.program.run.without_plan`;
-    a long chain's made part by part: :func:`_whole_run`)."""
+    Memory: per chain its rows (the largest error per segment, the events; the passes read the
+    events only), its feeds and its plan's speed profile (:class:`_Profile`, 32 B a segment); a
+    pass plans the chain window by window against that profile
+    (:func:`~fuzzyfeed.machine.plan_parts.changed_sweep`, overwriting it) and runs the stretches to
+    redo part by part (:func:`~fuzzyfeed.machine.plan_parts.stream_parts`, keeping their events):
+    no plan of a whole chain: 1 B a segment (which to redo), besides the feeds' own temporaries
+    (:func:`_lowered`). The first and last runs are whole runs (no run keeps a plan:
+    :func:`~fuzzyfeed.program.run.without_plan`; a long chain's made part by part: :func:`_whole_run`).
+    ``path``'s chains may be in a scratch store (:class:`~fuzzyfeed.program.chain_store.StoredPath`):
+    each is read whole (:func:`_in_memory`). ``seg_sinks``: where the whole runs' largest errors
+    per segment go (:func:`~fuzzyfeed.program.run.run_program`'s; none held in memory)."""
+    sink = (lambda _i: None) if seg_sinks is None else seg_sinks
     tol = (machine.contour_tol_um if tol_um is None else tol_um) * 1e-3
     chains = tuple(refine_chain(c, piece_mm) for c in _in_memory(path))
     refined = ProgramPath(program=path.program, chains=chains, chord_tol_mm=path.chord_tol_mm)
@@ -161,8 +163,8 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
     reachable = [_reachable_feed(c.motion, machine) for c in chains]
     state: list[_Measured] = []
     runs: list[ChainRun] = []        # each chain's last whole run: its rows, without plans
-    for c in chains:
-        m, r = _whole_run(c, machine, None, tol)
+    for i, c in enumerate(chains):
+        m, r = _whole_run(c, machine, None, tol, sink(i))
         state.append(m)
         runs.append(r)
         del m, r
@@ -183,7 +185,8 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
                 # the segments to run again (_changed's), then their stretches part by part
                 p = m.profile
                 sw, seg = changed_sweep(motion, machine, (p.v_entry, p.v_peak, p.v_exit, p.acc), horizon)
-                r = stream_parts(motion, machine, chain.seg_measured, sw, sw.windows(machine), keep_mm=tol)
+                r = stream_parts(motion, machine, chain.seg_measured, sw, sw.windows(machine), keep_mm=tol,
+                                 part_summary=_nothing)
                 redo = np.zeros(motion.n_segments, bool)
                 redo[seg] = True
                 state[i] = m.splice_parts(r, redo)
@@ -197,17 +200,22 @@ def limit_reference(path: ProgramPath, machine: Machine, piece_mm: float = 1.0,
             # a fraction of a µm): the passes end on whole runs, as they began
             stale = [i for i, t in enumerate(touched) if t]
             for i in stale:
-                state[i], runs[i] = _whole_run(chains[i], machine, feeds[i], tol)
+                state[i], runs[i] = _whole_run(chains[i], machine, feeds[i], tol, sink(i))
                 touched[i] = False
             if not any((state[i].contour_mm > tol).any() for i in stale):
                 break
     del state
     for i, t in enumerate(touched):
         if t:
-            runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol, keep_plan=False)
-    final = settle_p99(refined, machine, runs, lambda i: feeds[i], keep_mm=tol, keep_plans=False)
+            runs[i] = run_chain(chains[i], machine, feeds[i], keep_mm=tol, keep_plan=False, seg_sink=sink(i))
+    final = settle_p99(refined, machine, runs, lambda i: feeds[i], keep_mm=tol, keep_plans=False, seg_sinks=seg_sinks)
     return Reference(path=refined, feeds=tuple(feeds), run=final, passes=passes,
                      converged=final.max_um <= tol * 1e3 * (1 + 1e-9))
+
+
+def _nothing(_first: int, _seg_max: np.ndarray) -> None:
+    """What a pass keeps of a re-run part's largest errors per segment: nothing (it reads the events)."""
+    return None
 
 
 def _in_memory(path: ProgramPath):
@@ -220,15 +228,16 @@ def _in_memory(path: ProgramPath):
     return [store.chain(i, whole_below=store.n_segments + 1) for i in range(len(store.entries))]
 
 
-def _whole_run(chain: Chain, machine: Machine, feed: np.ndarray | None, tol: float) -> tuple[_Measured, ChainRun]:
+def _whole_run(chain: Chain, machine: Machine, feed: np.ndarray | None, tol: float,
+               seg_sink=None) -> tuple[_Measured, ChainRun]:
     """A whole run of ``chain`` (its feeds, or ``feed``) for the passes: what they measure and its
     rows without the plan. A chain of at least :data:`~fuzzyfeed.program.run.CARRIED_MIN_SEGMENTS`
     is run part by part (:func:`~fuzzyfeed.machine.chain_pass.stream_chain`) and its speed profile
     taken window by window (:func:`_window_profile`): the same floats, no whole plan held."""
     if chain.motion.n_segments < program_run.CARRIED_MIN_SEGMENTS:
-        r = run_chain(chain, machine, feed, keep_mm=tol)
+        r = run_chain(chain, machine, feed, keep_mm=tol, seg_sink=seg_sink)
         return _Measured.of(r, r.plan), without_plan(r)
-    r = run_chain(chain, machine, feed, keep_mm=tol, keep_plan=False)
+    r = run_chain(chain, machine, feed, keep_mm=tol, keep_plan=False, seg_sink=seg_sink)
     return _Measured.of(r, _window_profile(chain_motion(chain, feed), machine)), r
 
 
