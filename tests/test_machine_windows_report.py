@@ -171,3 +171,9 @@ def test_where_the_tool_passed_the_tolerance_summed_in_blocks_is_the_sum_in_one(
     assert one.over_s_mm.size > 10 and one.over_s_mm.max() > 100.0
     assert np.array_equal(one.over_xyz, blocks.over_xyz)
     assert np.allclose(one.over_s_mm, blocks.over_s_mm, rtol=1e-12, atol=0.0)
+
+
+def test_the_report_as_csv_in_windows_is_the_whole_reads(tmp_path, monkeypatch, capsys):
+    prog = _raster(tmp_path / "r.ngc", cuts=4, rows=4)
+    _compare(tmp_path, prog, monkeypatch, capsys, 160, "--machine", "reference", "--report", "r.csv")
+    assert "reference_time_s" in (tmp_path / "win" / "r.csv").read_text()

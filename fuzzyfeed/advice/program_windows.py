@@ -247,10 +247,11 @@ class WindowedMachineResult(_WindowedResult):
     """A long program on a machine, evaluated in windows when written with ``-o`` and/or ``--gcode``
     (:func:`~fuzzyfeed.program.machine_windows.evaluate_in_windows`: the chains in a scratch store,
     runs part by part; the scratch directory removed on every exit): the CSV rows written as the
-    advice makes them, the advised program copied from its scratch file, the summary the whole
-    read's, byte for byte. ``--plot``, ``--report``, and whatever else is asked of the result (the
-    text, the columns, the value report) read the program whole (``whole()``), as does any window
-    the machine path cannot join exactly (:class:`~fuzzyfeed.program.windows.Fallback`)."""
+    advice makes them, the advised program copied from its scratch file, ``--report`` (the uniform
+    slowdown checked and the limit reference, on the store; the plot's trace drawn from it), the
+    summary the whole read's, byte for byte. ``--plot``, and whatever else is asked of the result
+    (the text, the columns, the value report) read the program whole (``whole()``), as does any
+    window the machine path cannot join exactly (:class:`~fuzzyfeed.program.windows.Fallback`)."""
 
     kind = "program on a machine"
 

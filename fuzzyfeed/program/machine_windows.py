@@ -9,6 +9,8 @@ program): :func:`fuzzyfeed.report.value.evaluate_program`'s stages, in passes ov
 2. The run as written from the store (:func:`~fuzzyfeed.program.run.run_program`: a long chain
    planned and run part by part, the servo's state carried, bit for bit the whole plan's run): its
    rows, the largest error of every cut (the store's cut column), where the largest errors are.
+   Its largest error per segment goes to a scratch file as the run makes it (:func:`_spilled`),
+   read back in blocks for the cuts' maxima and the uniform search's hot segments.
 3. The windows read again: every cut advised (a machine table in pieces,
    :func:`~fuzzyfeed.program.stream_machine.stream_machine_advice`; the entry rapid of a window's
    first cut taken from the windows before), the CSV rows handed on as they come (``advised`` 1 on
@@ -17,11 +19,14 @@ program): :func:`fuzzyfeed.report.value.evaluate_program`'s stages, in passes ov
 4. The advised run: that file read in windows into a second store, run as in 2.
 5. The uniform slowdown on the store (:func:`~fuzzyfeed.program.uniform.uniform_slowdown`,
    ``check=False``: its trials plan and run the hot stretches part by part, the time from the
-   planner window by window); the checking run and the limit reference are left to ``--report``
-   (read whole).
+   planner window by window); with ``check`` (``--report``) its checking run
+   (:func:`~fuzzyfeed.program.uniform.check_uniform`) and the limit reference
+   (:func:`~fuzzyfeed.program.reference.limit_reference`, each chain read whole from the store)
+   on the store too, and the value plot's trace drawn from both stores block by block.
 
 Where a step cannot give the whole read's result — a cut split between windows (its machine advice
-is made whole), a table advised whole, places the uniform slowdown sets apart, any error — it raises
+is made whole), a table advised whole, places the uniform slowdown sets apart (and with them the
+limit reference), any error — it raises
 :class:`~fuzzyfeed.program.windows.Fallback` and the caller reads the program whole. Nothing is
 guessed.
 """
