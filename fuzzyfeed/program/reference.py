@@ -221,11 +221,11 @@ def _nothing(_first: int, _seg_max: np.ndarray) -> None:
 def _in_memory(path: ProgramPath):
     """The chains of ``path``, each read whole into memory when it is in a scratch store
     (:class:`~fuzzyfeed.program.chain_store.StoredPath`: the passes hold every chain's feeds and
-    speed profile anyway)."""
+    speed profile anyway), one at a time as they are refined."""
     store = getattr(path, "store", None)
     if store is None:
-        return path.chains
-    return [store.chain(i, whole_below=store.n_segments + 1) for i in range(len(store.entries))]
+        return iter(path.chains)
+    return (store.chain(i, whole_below=store.n_segments + 1) for i in range(len(store.entries)))
 
 
 def _whole_run(chain: Chain, machine: Machine, feed: np.ndarray | None, tol: float,
