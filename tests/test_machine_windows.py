@@ -74,7 +74,7 @@ def test_machine_advice_in_windows_is_the_whole_reads(tmp_path, monkeypatch, cap
 
 def test_a_cut_split_between_windows_falls_back_to_the_whole_read(tmp_path, monkeypatch, capsys):
     prog = _raster(tmp_path / "r.ngc")
-    _compare(tmp_path, prog, monkeypatch, capsys, 60, "--machine", "reference", windowed=False)
+    _compare(tmp_path, prog, monkeypatch, capsys, 60, "--machine", "reference")
 
 
 def test_the_entry_rapid_of_a_windows_first_cut_is_carried(tmp_path, monkeypatch, capsys):
