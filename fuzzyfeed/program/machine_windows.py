@@ -56,12 +56,16 @@ class StoreTotals:
     coverages: list | None = None      # (line0, Coverage) of every window
 
 
-def build_store(path, store: ChainStore, tools, window_lines: int, coverage: bool = False) -> StoreTotals:
+def build_store(path, store: ChainStore, tools, window_lines: int, coverage: bool = False,
+                advised: bool = False) -> StoreTotals:
     """Stage 1 (module docstring) of the program at ``path`` into ``store`` (closed for writing at
     the end). ``coverage``: keep every window's coverage. A cut split between windows is the whole
     read's: the windows' moves are however they are cut, the open chain is carried across the join
-    and the continued window's cut 0 is the cut of the window before (its ``cut0``), counted once."""
+    and the continued window's cut 0 is the cut of the window before (its ``cut0``), counted once.
+    ``advised``: the program's cuts are to be advised — a split cut with arcs or G5.2 blocks (not
+    advised from its file) raises :class:`~fuzzyfeed.program.windows.Fallback` here, before the run."""
     from fuzzyfeed.program.coverage import program_coverage
+    from fuzzyfeed.program.cuts import cut_moves
 
     totals = StoreTotals(coverages=[] if coverage else None)
     builder = store.builder()
@@ -69,6 +73,9 @@ def build_store(path, store: ChainStore, tools, window_lines: int, coverage: boo
     move0 = 0
     for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
         wp = win.program
+        split = ([0] if win.continued else []) + ([wp.n_cuts - 1] if win.continues else [])
+        if advised and any(np.any(cut_moves(wp, k)[1] != LINE) for k in split):
+            raise Fallback("a cut longer than a window with arcs or G5.2 blocks")
         builder.add(wp, (move0, win.line0, win.cut0))
         move0 += wp.kind.size
         totals.lines += len(wp.lines)
@@ -265,7 +272,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
         step("as written")
         store = ChainStore(scratch / "written", machine.chord_tol_mm)
         stores.append(store)
-        totals = build_store(path, store, tools, window_lines, coverage=True)
+        totals = build_store(path, store, tools, window_lines, coverage=True, advised=True)
         if totals.cuts == 0:
             raise Fallback("no cut: the whole read says so")
         sp = StoredPath.of(store)
