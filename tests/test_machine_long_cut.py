@@ -102,6 +102,23 @@ def test_a_long_cut_among_short_ones(tmp_path, monkeypatch, capsys, long_cuts, w
     assert long_cuts["starts"] == [(0, 2)]
 
 
+def test_long_cuts_one_after_another(tmp_path, monkeypatch, capsys, long_cuts):
+    """Two long cuts with a short one between, with a plain table on the machine too (its long
+    cut: :func:`~fuzzyfeed.program.long_cut.advise_long_cut`)."""
+    prog = _program(tmp_path / "r.ngc", rows=(30, 1, 30))
+    out = _compare(tmp_path, prog, monkeypatch, capsys, 100, "--machine", "reference")
+    assert "3 cut(s)" in out and long_cuts["cuts"] == 2 and long_cuts["ended"] == 2
+    assert [c for _, c in long_cuts["starts"]] == [0, 2]
+    import fuzzyfeed.program.long_cut as long_cut
+
+    plain = []
+    real = long_cut.advise_long_cut
+    monkeypatch.setattr(long_cut, "advise_long_cut", lambda *a, **k: plain.append(1) or real(*a, **k))
+    (tmp_path / "paper").mkdir()
+    _compare(tmp_path / "paper", prog, monkeypatch, capsys, 100, "--machine", "reference", "--rules", "paper")
+    assert len(plain) == 2 and long_cuts["cuts"] == 2
+
+
 @pytest.mark.parametrize("filt", ["corner-mean", "mean", "min-mean"])
 def test_a_long_cut_with_a_filter_in_mm(tmp_path, monkeypatch, capsys, long_cuts, filt):
     """The machine table with a filter over 3 mm (corner-mean: its guard from pass 1b; the
