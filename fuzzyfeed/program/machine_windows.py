@@ -167,7 +167,7 @@ def advise_windows(path, table, machine: Machine, over, *, cap_mm_min, step_mm: 
     from fuzzyfeed.program.rewrite import rewrite_chunks
     from fuzzyfeed.program.stream import stream_program_advice
     from fuzzyfeed.program.stream_machine import stream_machine_advice, streams
-    from fuzzyfeed.program.window_advice import WindowCuts
+    from fuzzyfeed.program.window_advice import WindowCuts, file_columns
 
     if table.inputs == MACHINE and not streams(table):
         raise Fallback(f"rule table {table.name!r} is advised whole")
@@ -201,8 +201,8 @@ def advise_windows(path, table, machine: Machine, over, *, cap_mm_min, step_mm: 
         return advise_long_cut_machine(path, win, k, table, machine, into, **lw)
 
     def taken(cols, offset: bool, win):
-        if offset and (win.line0 or win.cut0):
-            cols = dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
+        if offset:
+            cols = file_columns(cols, win)
         if sink is not None:
             sink(applied_columns(cols, over))
 

@@ -83,8 +83,8 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
     kw = dict(step_mm=step_mm, cap_mm_min=cap_mm_min, feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm)
 
     def taken(cols, offset: bool, win):
-        if offset and (win.line0 or win.cut0):
-            cols = dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
+        if offset:
+            cols = file_columns(cols, win)
         if sink is not None:
             sink(cols)
         pct = cols["feed_pct"]
@@ -135,6 +135,13 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
     if totals.cuts == 0:
         raise Fallback("no cut: the whole read says so")
     return totals
+
+
+def file_columns(cols: dict, win) -> dict:
+    """A piece's CSV columns of window ``win``'s own cut and line numbers with the file's."""
+    if not (win.line0 or win.cut0):
+        return cols
+    return dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
 
 
 class WindowCuts:
