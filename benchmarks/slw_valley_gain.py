@@ -149,7 +149,7 @@ def v_any_at(ref, i, limits, x_mvc, v_other):
     return min(float(np.sqrt(good)), v_other)
 
 
-def valley_gain(traj, limits, cap, left, right, levels: int, max_checks: int):
+def valley_gain(traj, limits, cap, left, right, levels: int, max_checks: int, accs: int = 9):
     """The baseline and best times of one valley between released blocks ``left`` and ``right``,
     whether the baseline passes the tick check, the reason (``gain`` or why not), v_J, the best
     (v', a'), v_any and the room the neighbours leave, min(v_L, v_R)/v_J (a dict)."""
@@ -239,7 +239,7 @@ def valley_gain(traj, limits, cap, left, right, levels: int, max_checks: int):
         lo, hi = max(lo, -a_lim), min(hi, a_lim)
         if lo > hi:
             continue
-        for a1 in np.unique(np.concatenate([np.linspace(lo, hi, 9), [min(max(0.0, lo), hi)]])):
+        for a1 in np.unique(np.concatenate([np.linspace(lo, hi, accs), [min(max(0.0, lo), hi)]])):
             p, why = pieces(float(v1), float(a1))
             cands.append((time_of(p) if p is not None else np.inf, float(v1), float(a1), p, why))
     cands.sort(key=lambda c: c[0])
@@ -267,7 +267,8 @@ def valley_gain(traj, limits, cap, left, right, levels: int, max_checks: int):
                 best_zero = (t_c, v1, a1)
         elif reason in ("none faster", "fit", "dip"):
             reason = name
-    out = dict(base=t_base, base_ok=base_ok, v_j=v_j, v_any=v_any, room=min(top_l, top_r) / v_j)
+    out = dict(base=t_base, base_ok=base_ok, v_j=v_j, v_any=v_any, room=min(top_l, top_r) / v_j,
+               vlim=float(ref.vlim[0]))
     if best is None:
         return dict(out, best=t_base, zero=t_base, reason=reason, v=v_j, a=0.0)
     return dict(out, best=best[0], zero=best_zero[0] if best_zero else t_base, reason="gain", v=best[1], a=best[2])
@@ -279,6 +280,7 @@ def main() -> None:
     ap.add_argument("--stride", type=int, default=7, help="every K-th case only")
     ap.add_argument("--levels", type=int, default=16, help="feed levels from v_J to v_any")
     ap.add_argument("--checks", type=int, default=40, help="tick checks per valley at most")
+    ap.add_argument("--accs", type=int, default=9, help="accelerations per feed level")
     args = ap.parse_args()
     reasons = Counter()
     ratios_old, ratios_new, gains, gains_zero, moved = [], [], [], [], []
@@ -295,14 +297,14 @@ def main() -> None:
         for left, right in zip(traj.blocks[:-1], traj.blocks[1:]):
             if round(left.s1, 9) not in valleys:
                 continue
-            out = valley_gain(traj, lim, cap, left, right, args.levels, args.checks)
+            out = valley_gain(traj, lim, cap, left, right, args.levels, args.checks, args.accs)
             if out is None:
                 case_reasons["base unfit"] += 1
                 continue
             n_valleys += 1
             n_base_bad += not out["base_ok"]
             case_reasons[out["reason"]] += 1
-            rooms.append((out["reason"], out["room"], out["v_any"] / out["v_j"]))
+            rooms.append((out["reason"], out["room"], out["v_any"] / out["v_j"], out["vlim"] / out["v_j"]))
             if out["reason"] == "gain" and out["base_ok"]:
                 saved += out["base"] - out["best"]
                 saved_zero += out["base"] - out["zero"]
@@ -325,10 +327,11 @@ def main() -> None:
               f"junction (a higher junction feed alone) {np.mean(gains_zero):.3f} % (max {np.max(gains_zero):.3f} %)")
     if rooms:
         for label, sel in (("gain", lambda k: k == "gain"), ("no gain", lambda k: k != "gain")):
-            x = np.array([(r, a) for k, r, a in rooms if sel(k)])
+            x = np.array([(r, a, z) for k, r, a, z in rooms if sel(k)])
             if x.size:
                 print(f"{label}: {x.shape[0]} valleys, room min(v_L, v_R)/v_J median {np.median(x[:, 0]):.4f} "
-                      f"(< 1.01: {int((x[:, 0] < 1.01).sum())}), v_any/v_J median {np.median(x[:, 1]):.4f}")
+                      f"(< 1.01: {int((x[:, 0] < 1.01).sum())}), v_any/v_J median {np.median(x[:, 1]):.4f}, "
+                      f"vlim/v_J median {np.median(x[:, 2]):.4f} (vlim: the zero-acceleration limit at J)")
     if moved:
         m = np.array(moved)
         print(f"moved valleys: v'/v_J median {np.median(m[:, 0]):.4f} (max {m[:, 0].max():.4f}), v_any/v_J median "
