@@ -42,6 +42,7 @@ Run: PYTHONPATH=<tree> python benchmarks/slw_valley_gain.py [--stride K] [--leve
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections import Counter
 from pathlib import Path
@@ -106,23 +107,39 @@ def stretch_state(pieces, t):
     return s, v, a, j
 
 
-def tick_check(curve, limits, s_start: float, pieces):
-    """(worst limit name, its ratio) over the stretch's interior ticks (module docstring)."""
+def tick_check(curve, limits, s_start: float, pieces, t_start: float = 0.0, s_before=None, s_after=None):
+    """(worst limit name, its ratio) over the stretch's interior ticks (module docstring). The
+    stretch starts at ``t_start`` on the schedule's clock: its ticks are the schedule's, k·Ts.
+    ``s_before``, ``s_after``: the schedule's tick arc lengths before and after the stretch. The
+    chord-exact interpolator (fuzzyfeed.geometry.interpolate) scales every chord by one factor
+    over the whole path, so the stretch's ticks are interpolated with the rest of the path's
+    (targets jumping from 0 to the stretch and from it to the end put them 1.1 mm off on
+    butterfly, and an axis 6 x over its acceleration where the schedule's own ticks pass)."""
     total = sum(p[1] for p in pieces)
-    t = np.arange(0.0, total, limits.ts_s)
-    t = np.append(t, total)
+    ts = limits.ts_s
+    k0 = math.ceil(t_start / ts - 1e-9)
+    t = np.arange(k0, math.floor((t_start + total) / ts + 1e-9) + 1) * ts - t_start
+    t = t[(t >= 0.0) & (t <= total)]
     s, _, _, j = stretch_state(pieces, t)
     s = np.clip(s_start + s, 0.0, curve.length)
-    # the trajectory's own interpolator (chord-exact: arc-length inversion alone is ~1e-4 mm
-    # off, 100 mm/s² in a second difference), which needs targets from 0 to the length
-    u = interpolate_u(curve, np.concatenate([[0.0], s, [curve.length]]), "best")[1:-1]
+    head = np.zeros(0) if s_before is None else np.asarray(s_before, dtype=float)
+    head = head[head < s[0]]
+    if not head.size or head[0] != 0.0:
+        head = np.concatenate([[0.0], head])
+    tail = np.zeros(0) if s_after is None else np.asarray(s_after, dtype=float)
+    tail = tail[tail > s[-1]]
+    if not tail.size or tail[-1] != curve.length:
+        tail = np.concatenate([tail, [curve.length]])
+    u = interpolate_u(curve, np.concatenate([head, s, tail]), "best")
     xyz = curve.evaluate(u, order=0)[0]
     if xyz.shape[1] < 3:
         xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 3 - xyz.shape[1]))])
-    ratios = tick_ratios(xyz, j, limits, corner_ticks(u, kinks_u(curve)))
+    jerk = np.concatenate([np.zeros(head.size), j, np.zeros(tail.size)])
+    ratios = tick_ratios(xyz, jerk, limits, corner_ticks(u, kinks_u(curve)))
+    lo, hi = head.size + EDGE_TICKS, head.size + s.size - EDGE_TICKS
     worst, name = -np.inf, ""
     for key, r in ratios.items():
-        inner = r[EDGE_TICKS:r.size - EDGE_TICKS]
+        inner = r[lo:hi]
         if inner.size and np.nanmax(inner) > worst:
             worst, name = float(np.nanmax(inner)), key
     return name, worst
@@ -166,6 +183,11 @@ def valley_gain(traj, limits, cap, left, right, levels: int, max_checks: int, ac
     v_l, v_r = left.v_start, right.v_end
     s_j = left.s1
     s_start = left.s0
+    # the stretch on the schedule's clock, and the schedule's ticks before it (tick_check)
+    at = next(i for i, b in enumerate(traj.blocks) if b is left)
+    t_start = float(sum(b.duration_s for b in traj.blocks[:at]))
+    s_before = traj.s_mm[:int(np.searchsorted(traj.t_s, t_start - 1e-12))]
+    s_after = traj.s_mm[int(np.searchsorted(traj.t_s, t_start + left.duration_s + right.duration_s + 1e-12)):]
 
     def side(v1, a1, outer, top, length, acc_outer, acc_inner, into):
         """A block between its outer junction (``outer``, a = 0) and J (v1, a1): outer → peak p (≤
@@ -217,7 +239,7 @@ def valley_gain(traj, limits, cap, left, right, levels: int, max_checks: int, ac
     if base is None:
         return None
     t_base = time_of(base)
-    name, worst = tick_check(traj.curve, limits, s_start, base)
+    name, worst = tick_check(traj.curve, limits, s_start, base, t_start, s_before, s_after)
     base_ok = worst <= 1.0 + TICK_RTOL
     # the axis region at J
     ref = evaluate_reference(traj.curve, limits, np.array([s_j]), cap=cap)
@@ -259,7 +281,7 @@ def valley_gain(traj, limits, cap, left, right, levels: int, max_checks: int, ac
             reason = reason if reason != "none faster" else "checks"
             break
         checks += 1
-        name, worst = tick_check(traj.curve, limits, s_start, p)
+        name, worst = tick_check(traj.curve, limits, s_start, p, t_start, s_before, s_after)
         if worst <= 1.0 + TICK_RTOL:
             if best is None:
                 best = (t_c, v1, a1)

@@ -21,6 +21,7 @@ from fuzzyfeed.machine.limits import MachineLimits  # noqa: E402
 from fuzzyfeed.slw import schedule  # noqa: E402
 from fuzzyfeed.slw.acc_profile import acc_transition  # noqa: E402
 
+EQUAL = MachineLimits()
 SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
 
 
@@ -67,3 +68,21 @@ def test_stretch_is_the_integral_of_its_acceleration():
     assert s[-1] == pytest.approx(2.0 + fall.length_mm + rise.length_mm + 1.5, rel=1e-12)
     assert np.abs(np.diff(v)).max() < 1e-3 and np.abs(np.diff(a)).max() < 1e4 * dt * 1.01
     assert np.abs(j).max() <= 1e4 * (1 + 1e-12)
+
+
+def test_ticks_are_interpolated_with_the_whole_path():
+    """The stretch's ticks are interpolated together with the schedule's ticks before and after it
+    (the chord-exact interpolator scales every chord by one factor over the path): at the
+    schedule's own feeds every valley of random curve 38 on equal axes passes, as the schedule's
+    ticks do (targets jumping from 0 to the stretch and on to the end read one at 3.5 x A_y)."""
+    import slw_cases
+
+    curve, _ = slw_cases.random_nurbs(38)
+    traj = schedule(curve, EQUAL, transition="seven-phase")
+    at = {round(s, 9) for s, kind, _ in junction_kinds(traj, np.empty(0), 0.0) if kind == "valley"}
+    pairs = [(a, b) for a, b in zip(traj.blocks[:-1], traj.blocks[1:]) if round(a.s1, 9) in at]
+    assert len(pairs) >= 3
+    for left, right in pairs:
+        out = vg.valley_gain(traj, EQUAL, None, left, right, levels=1, max_checks=1)
+        assert out["base"] == pytest.approx(left.duration_s + right.duration_s, rel=1e-9, abs=1e-12)
+        assert out["base_ok"], left.s1
