@@ -104,8 +104,9 @@ def _circle_fit_2d(xy: np.ndarray) -> tuple[np.ndarray, float] | None:
 
     Costs ~100 small numpy calls per candidate run, the run search's time: rows x, y (and z = x² + y²,
     then the Jacobian and residuals) share one array so their sums are one reduce, scalars are Python
-    floats; every float is the one of the plain form (``a.dot(b)`` is ``a @ b``'s BLAS call, reduces over the same rows in the
-    same order, the same LAPACK calls), pinned by ``tests/test_polyline_runs_fit.py``."""
+    floats; every float is the one of the plain form (``a.dot(b)`` is ``a @ b``'s BLAS call, reduces
+    run over the same rows in the same order, the same LAPACK calls), pinned by
+    ``tests/test_polyline_runs_fit.py``."""
     n = len(xy)
     c0 = _sum(xy, axis=0) / n
     p = xy - c0
@@ -163,8 +164,8 @@ class _Fit:
 
 def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
     """A line or a circle through every point of ``pts`` within ``tol``, or None. Rounded √, ·², and
-    r − √(r² − c²/4) are monotone, so the largest distance off the line, farthest |dist − r| and largest
-    sagitta are those of the largest (or smallest) square: one √ each, the same floats."""
+    r − √(r² − c²/4) are monotone, so the largest distance off the line, farthest |dist − r| and
+    largest sagitta are those of the largest (or smallest) square: one √ each, the same floats."""
     n = len(pts)
     c0 = _sum(pts, axis=0) / n
     q = pts - c0
