@@ -32,7 +32,12 @@ def compare(a_path: str, b_path: str) -> None:
             print(k, "shape", x.shape, y.shape)
             continue
         scale = max(float(np.abs(x).max()), 1e-300)
-        print(k, "identical" if np.array_equal(x, y) else f"max diff / scale {float(np.abs(x - y).max()) / scale:.3g}")
+        diff = float(np.abs(x - y).max())
+        print(k, "identical" if np.array_equal(x, y) else f"max diff / scale {diff / scale:.3g} (max diff {diff:.3g})")
+    if "xyz" in a.files and a["xyz"].shape == b["xyz"].shape:
+        apart = np.linalg.norm(a["xyz"] - b["xyz"], axis=1)
+        print(f"max |xyz_a - xyz_b| per tick {float(apart.max()):.3g} mm; cycle time T "
+              f"{float(a['t'][-1])!r} / {float(b['t'][-1])!r}")
 
 
 def main() -> None:

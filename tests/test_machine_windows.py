@@ -72,9 +72,9 @@ def test_machine_advice_in_windows_is_the_whole_reads(tmp_path, monkeypatch, cap
     assert "6 cut(s)" in out and "advised 6 cut(s)" in out
 
 
-def test_a_cut_split_between_windows_falls_back_to_the_whole_read(tmp_path, monkeypatch, capsys):
+def test_a_cut_split_between_windows_is_advised_in_windows(tmp_path, monkeypatch, capsys):
     prog = _raster(tmp_path / "r.ngc")
-    _compare(tmp_path, prog, monkeypatch, capsys, 60, "--machine", "reference", windowed=False)
+    _compare(tmp_path, prog, monkeypatch, capsys, 60, "--machine", "reference")
 
 
 def test_the_entry_rapid_of_a_windows_first_cut_is_carried(tmp_path, monkeypatch, capsys):

@@ -79,12 +79,23 @@ def _gl(spans, coeffs, lo, hi, nodes, weights, hint):
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def param_at(spans, coeffs, breaks, cumulative, end_speeds, target, iterations, tol, short_step,
-             eps_span, nodes, weights, nodes3, weights3, out):
-    """u(s) at each ``target`` (already clipped to [0, L]) into ``out``: ArcLengthTable._param_block."""
+             eps_span, nodes, weights, nodes3, weights3, chain, out):
+    """u(s) at each ``target`` (already clipped to [0, L]) into ``out``: ArcLengthTable._param_block.
+
+    ``chain`` > 0 (non-decreasing targets, servo ticks): a point in the same table interval as the
+    last converged one, its first guess at most ``chain`` of the interval away from it, takes its
+    first residual from that point, s(u) = s(u_prev) + ∫_u_prev^u |C′| by the 3-point rule, not
+    from the interval's start by the GAUSS_ORDER rule (3 curve derivatives instead of 8; the chain
+    restarts at each interval's start, so the rule's error adds up over one interval's ticks at
+    most: interpolate.CHAIN_S_BOUND). ``chain`` = 0: every residual from the interval's start."""
     nb = breaks.size
     nc = cumulative.size
     hint = np.zeros(1, dtype=np.int64)
     lo = 0
+    held = False        # the last point converged with its residual known: s(u_held) = base + s_held
+    k_held = -1
+    u_held = 0.0
+    s_held = 0.0        # from the table interval's start: its rounding does not grow with s
     for i in range(target.size):
         tg = target[i]
         # np.searchsorted(cumulative, target, side="right") - 1, clipped to the intervals: lo is
@@ -123,12 +134,21 @@ def param_at(spans, coeffs, breaks, cumulative, end_speeds, target, iterations, 
         short = False
         u_prev = 0.0
         f_prev = 0.0
+        if held and k_held == k and abs(u - u_held) <= chain * width:
+            short = True
+            u_prev = u_held
+            f_prev = s_held - (tg - base)
+        held = False
         for _ in range(iterations):
             if short:
                 f = f_prev + _gl(spans, coeffs, u_prev, u, nodes3, weights3, hint)
             else:
                 f = base + _gl(spans, coeffs, left, u, nodes, weights, hint) - tg
             if abs(f) <= tol:
+                held = chain > 0
+                k_held = k
+                u_held = u
+                s_held = (tg - base) + f
                 break
             if f > 0:
                 b = u

@@ -83,7 +83,7 @@ def nurbs_kernel():
 def arc_kernel():
     """Compiled u(s) (geometry/_arc_jit.py): ``kernel(spans, coeffs, breaks, cumulative,
     end_speeds, target, iterations, tol, short_step, eps_span, nodes, weights, nodes3, weights3,
-    out)``, ArcLengthTable._param_block point by point."""
+    chain, out)``, ArcLengthTable._param_block point by point."""
     import numba
 
     from fuzzyfeed.geometry._arc_jit import param_at
@@ -91,7 +91,7 @@ def arc_kernel():
     ro = lambda ndim: numba.types.Array(numba.float64, ndim, "C", readonly=True)  # noqa: E731
     f8 = numba.float64
     sig = numba.void(ro(1), ro(3), ro(1), ro(1), ro(2), ro(1), numba.int64, f8, f8, f8,
-                     ro(1), ro(1), ro(1), ro(1), numba.float64[::1])
+                     ro(1), ro(1), ro(1), ro(1), f8, numba.float64[::1])
     return compile_once(param_at, sig, "the arc-length kernel", 3)
 
 

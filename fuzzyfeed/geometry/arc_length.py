@@ -109,7 +109,11 @@ class ArcLengthTable:
         s += self.cumulative[k]
         return s.reshape(arr.shape) if arr.ndim else float(s[0])
 
-    def param_at(self, curve: PowerBasisCurve, s: np.ndarray | float, iterations: int = 30) -> np.ndarray:
+    def param_at(self, curve: PowerBasisCurve, s: np.ndarray | float, iterations: int = 30,
+                 chain: float = 0.0) -> np.ndarray:
+        """u(s) by safeguarded Newton (:meth:`_param_block`). ``chain`` > 0, for non-decreasing
+        ``s`` (servo ticks): the first residual from the last point within ``chain`` of its table
+        interval (geometry/_arc_jit.param_at; compiled only; floats within the chain's bound)."""
         arr = np.asarray(s, dtype=float)
         flat = np.atleast_1d(arr).ravel()
         total = self.cumulative[-1]
@@ -123,13 +127,13 @@ class ArcLengthTable:
         compiled = nurbs_compiled(flat.size * (GAUSS_ORDER + 1))
         # once loaded, the compiled u(s) serves calls of any size (the look-ahead's ~10⁴ calls of a
         # few points each spent ~1 ms apiece in the numpy iteration's temporaries); the same floats
-        if compiled or (flat.size and arc_kernel.cache_info().currsize > 0):
+        if compiled or chain > 0 or (flat.size and arc_kernel.cache_info().currsize > 0):
             # the same iteration point by point, compiled (geometry/_arc_jit.py): the same floats
             span = self.breaks[-1] - self.breaks[0]
             arc_kernel()(curve._spans, curve._coeffs, self.breaks, self.cumulative, self.end_speeds,
                          np.ascontiguousarray(np.clip(flat, 0.0, total)), int(iterations),
                          1e-14 * max(total, 1.0), SHORT_STEP, 2 * np.finfo(float).eps * span,
-                         _GL_NODES, _GL_WEIGHTS, _GL3[0], _GL3[1], u)
+                         _GL_NODES, _GL_WEIGHTS, _GL3[0], _GL3[1], float(chain), u)
             return u.reshape(arr.shape) if arr.ndim else float(u[0])
         for start in range(0, flat.size, ARC_BLOCK_INTERVALS):
             block = slice(start, start + ARC_BLOCK_INTERVALS)

@@ -147,9 +147,10 @@ class Nurbs:
         """s(u): arc length from the start of the curve to each parameter."""
         return self._arc_table.length_at(self, u)
 
-    def param_at_length(self, s: np.ndarray | float) -> np.ndarray:
-        """u(s): the parameter at each arc length, by safeguarded Newton iteration on s(u)."""
-        return self._arc_table.param_at(self, s)
+    def param_at_length(self, s: np.ndarray | float, chain: float = 0.0) -> np.ndarray:
+        """u(s): the parameter at each arc length, by safeguarded Newton iteration on s(u);
+        ``chain`` > 0 for non-decreasing ``s``: see :meth:`ArcLengthTable.param_at`."""
+        return self._arc_table.param_at(self, s, chain=chain)
 
 
 # ---------------------------------------------------------------------- validation

@@ -24,11 +24,13 @@ each of its trials is one the whole search makes and the runs are the whole sear
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cache
 from typing import NamedTuple
 
 import numpy as np
+from numpy.linalg import _umath_linalg
 
 from fuzzyfeed.geometry.polyline_chords import Chords
 
@@ -43,43 +45,112 @@ FIT_SLACK = 1.5
 COMPILED_MIN_VERTICES = 4096
 
 
+def _lapack_error(message: str):
+    def raise_it(err, flag):
+        raise np.linalg.LinAlgError(message)
+    return raise_it
+
+
+_sum = np.add.reduce      # ``a.sum(axis)``, ``a.mean(axis)·n`` and ``norm(a, axis)²`` are this reduce
+_LAPACK_STATE = dict(invalid="call", over="ignore", divide="ignore", under="ignore")   # np.linalg's
+
+
+def _lapack_errstate(message: str):
+    """``np.errstate(call=<raise LinAlgError(message)>, **_LAPACK_STATE)`` as np.linalg enters it around
+    its LAPACK gufuncs (the gufunc flags 'invalid' on a singular matrix or no convergence), made once:
+    ``(set, reset)`` of numpy's error-state context variable with that state, which is what entering
+    the errstate does (~4 µs a time on a loaded machine, ~0.3 µs so); np.errstate where numpy lacks them."""
+    try:
+        from numpy._core._ufunc_config import _extobj_contextvar, _make_extobj
+    except ImportError:                                                   # pragma: no cover
+        def enter():
+            state = np.errstate(call=_lapack_error(message), **_LAPACK_STATE)
+            state.__enter__()
+            return state
+        return enter, lambda state: state.__exit__(None, None, None)
+    state = _make_extobj(call=_lapack_error(message), **_LAPACK_STATE)
+    return (lambda: _extobj_contextvar.set(state)), _extobj_contextvar.reset
+
+
+_SINGULAR = _lapack_errstate("Singular matrix")
+_NOT_CONVERGED = _lapack_errstate("Eigenvalues did not converge")
+
+
+def _solve3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(a, b)`` for a 3×3 ``a`` and a 3-vector ``b``: the same LAPACK gufunc under the same
+    error state (LinAlgError when singular), without the wrapper's checks and conversions."""
+    enter, leave = _SINGULAR
+    token = enter()
+    try:
+        return _umath_linalg.solve1(a, b, signature="dd->d")
+    finally:
+        leave(token)
+
+
+def _eigh_vectors(a: np.ndarray) -> np.ndarray:
+    """The eigenvectors of ``np.linalg.eigh(a)`` (columns, ascending eigenvalues) for a real symmetric
+    ``a``: the same LAPACK gufunc under the same error state, without the wrapper."""
+    enter, leave = _NOT_CONVERGED
+    token = enter()
+    try:
+        return _umath_linalg.eigh_lo(a, signature="d->dd")[1]
+    finally:
+        leave(token)
+
+
 def _circle_fit_2d(xy: np.ndarray) -> tuple[np.ndarray, float] | None:
     """Least-squares circle: Kåsa's algebraic fit refined by two Gauss–Newton steps on the
-    geometric distances (3×3 normal equations); None if the points are (numerically) collinear."""
-    c0 = xy.mean(axis=0)
+    geometric distances (3×3 normal equations); None if the points are (numerically) collinear.
+
+    Costs ~100 small numpy calls per candidate run, the run search's time: rows x, y (and z = x² + y²,
+    then the Jacobian and residuals) share one array so their sums are one reduce, scalars are Python
+    floats; every float is the one of the plain form (``a.dot(b)`` is ``a @ b``'s BLAS call, reduces
+    run over the same rows in the same order, the same LAPACK calls), pinned by
+    ``tests/test_polyline_runs_fit.py``."""
+    n = len(xy)
+    c0 = _sum(xy, axis=0) / n
     p = xy - c0
     scale = np.abs(p).max()
     if scale == 0:
         return None
-    x, y = p[:, 0] / scale, p[:, 1] / scale
-    z = x * x + y * y
-    n = float(len(x))
-    sx, sy = x.sum(), y.sum()
-    a = np.array([[x @ x, x @ y, sx], [x @ y, y @ y, sy], [sx, sy, n]])
+    rows = np.empty((3, n))                       # x, y, z
+    np.divide(p.T, scale, out=rows[:2])
+    sq = rows[:2] * rows[:2]
+    np.add(sq[0], sq[1], out=rows[2])
+    x, y, z = rows
+    sx, sy, sz = _sum(rows, axis=1).tolist()
+    xy_ = x.dot(y)
+    a = np.array([[x.dot(x), xy_, sx], [xy_, y.dot(y), sy], [sx, sy, float(n)]])
     try:
-        sol = np.linalg.solve(a, -np.array([x @ z, y @ z, z.sum()]))
+        sol = _solve3(a, -np.array([x.dot(z), y.dot(z), sz]))
     except np.linalg.LinAlgError:
         return None
-    cx, cy = -0.5 * sol[0], -0.5 * sol[1]
-    r2 = cx * cx + cy * cy - sol[2]
-    if not np.isfinite(r2) or r2 <= 0 or r2 > 1e12:
+    s0, s1, s2 = sol.tolist()
+    cx, cy = -0.5 * s0, -0.5 * s1
+    r2 = cx * cx + cy * cy - s2
+    if not math.isfinite(r2) or r2 <= 0 or r2 > 1e12:
         return None
-    radius = np.sqrt(r2)
+    radius = math.sqrt(r2)
+    jac = np.empty((3, n))                        # ∂dist/∂cx, ∂dist/∂cy, residual dist − r
+    jx, jy, res = jac
     for _ in range(2):
-        dx, dy = x - cx, y - cy
-        dist = np.sqrt(dx * dx + dy * dy)
-        if np.any(dist == 0):
+        d = rows[:2] - np.array([[cx], [cy]])
+        dd = d * d
+        dist = np.sqrt(dd[0] + dd[1])
+        if dist.min() == 0:                   # any(dist == 0): dist ≥ 0
             return None
-        jx, jy = -dx / dist, -dy / dist
-        res = dist - radius
-        jtj = np.array([[jx @ jx, jx @ jy, -jx.sum()], [jx @ jy, jy @ jy, -jy.sum()],
-                        [-jx.sum(), -jy.sum(), n]])
+        np.divide(np.negative(d), dist, out=jac[:2])
+        np.subtract(dist, radius, out=res)
+        sjx, sjy, sres = _sum(jac, axis=1).tolist()
+        jxy = jx.dot(jy)
+        jtj = np.array([[jx.dot(jx), jxy, -sjx], [jxy, jy.dot(jy), -sjy], [-sjx, -sjy, float(n)]])
         try:
-            step = np.linalg.solve(jtj, -np.array([jx @ res, jy @ res, -res.sum()]))
+            step = _solve3(jtj, -np.array([jx.dot(res), jy.dot(res), -sres]))
         except np.linalg.LinAlgError:
             break
-        cx, cy, radius = cx + step[0], cy + step[1], radius + step[2]
-    if not np.isfinite(radius) or radius <= 0:
+        t0, t1, t2 = step.tolist()
+        cx, cy, radius = cx + t0, cy + t1, radius + t2
+    if not math.isfinite(radius) or radius <= 0:
         return None
     return np.array([cx, cy]) * scale + c0, float(radius * scale)
 
@@ -92,32 +163,38 @@ class _Fit:
 
 
 def _fit_run(pts: np.ndarray, tol: float, path_tol: float) -> _Fit | None:
-    """A line or a circle through every point of ``pts`` within ``tol``, or None."""
-    c0 = pts.mean(axis=0)
+    """A line or a circle through every point of ``pts`` within ``tol``, or None. Rounded √, ·², and
+    r − √(r² − c²/4) are monotone, so the largest distance off the line, farthest |dist − r| and
+    largest sagitta are those of the largest (or smallest) square: one √ each, the same floats."""
+    n = len(pts)
+    c0 = _sum(pts, axis=0) / n
     q = pts - c0
-    _, vecs = np.linalg.eigh(q.T @ q)          # principal axes, ascending variance
+    vecs = _eigh_vectors(q.T.dot(q))               # principal axes, ascending variance
     axis, second, normal = vecs[:, 2], vecs[:, 1], vecs[:, 0]
-    along = q @ axis
-    off_line = np.linalg.norm(q - along[:, None] * axis, axis=1)
-    if off_line.max() <= tol:
+    along = q.dot(axis)
+    off = q - along[:, None] * axis
+    if math.sqrt(_sum(off * off, axis=1).max()) <= tol:
         return _Fit(0.0, None, axis)
-    if np.abs(q @ normal).max() > tol:
+    if np.abs(q.dot(normal)).max() > tol:
         return None
-    xy = np.column_stack([along, q @ second])
-    vt = (axis, second)
+    xy = np.empty((n, 2))
+    xy[:, 0] = along
+    xy[:, 1] = q.dot(second)
     fit = _circle_fit_2d(xy)
     if fit is None:
         return None
     center, radius = fit
-    if np.abs(np.linalg.norm(xy - center, axis=1) - radius).max() > tol:
+    d = xy - center
+    dist2 = _sum(d * d, axis=1)
+    if max(math.sqrt(dist2.max()) - radius, radius - math.sqrt(dist2.min())) > tol:
         return None
-    chords = np.linalg.norm(np.diff(xy, axis=0), axis=1)
-    if chords.max() >= 2 * radius:
+    e = xy[1:] - xy[:-1]
+    chord = math.sqrt(_sum(e * e, axis=1).max())
+    if chord >= 2 * radius:
         return None
-    sagitta = radius - np.sqrt(radius * radius - 0.25 * chords * chords)
-    if sagitta.max() > path_tol:
+    if radius - math.sqrt(radius * radius - 0.25 * chord * chord) > path_tol:
         return None
-    return _Fit(1.0 / radius, c0 + center[0] * vt[0] + center[1] * vt[1], normal)
+    return _Fit(1.0 / radius, c0 + center[0] * axis + center[1] * second, normal)
 
 
 class Runs(NamedTuple):

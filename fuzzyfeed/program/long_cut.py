@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Iterator
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
@@ -43,7 +44,7 @@ from fuzzyfeed.geometry.polyline_chords import WINDOW_VERTICES
 from fuzzyfeed.geometry.sampling import MAX_POINTS, segment_pieces
 from fuzzyfeed.program.cuts import RunGeometry, cut_moves, path_length, sample_moves
 from fuzzyfeed.program.model import LINE
-from fuzzyfeed.program.stream import (MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, dk_range, margin_mm,
+from fuzzyfeed.program.stream import (MIN_MARGIN_MOVES, AdvicePiece, CarriedSums, CutPiece, dk_range, margin_mm,
                                       piece_advice)
 from fuzzyfeed.program.windows import Fallback, Window, read_windows
 
@@ -240,13 +241,13 @@ def advise_long_cut(path, first: Window, k: int, table, *, step_mm: float, cap_m
     """The pieces of the cut starting as cut ``k`` of window ``first`` (module docstring), with
     the file's cut number and lines; ``piece_move`` holds ordinals of the cut's sampled moves."""
     with scratch_folder("fuzzyfeed-longcut-") as folder:
-        moves = _store_moves(path, first, k, tools, window_lines, step_mm, folder)
+        moves = store_moves(path, first, k, tools, window_lines, step_mm, folder)
         yield from _advise_stored(moves, folder, first.cut0 + k, table, step_mm=step_mm, cap_mm_min=cap_mm_min,
                                   feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm,
                                   piece_points=piece_points, rows=max(2, int(window_lines) // PASS_SPLIT))
 
 
-def _store_moves(path, first: Window, k: int, tools, window_lines: int, step_mm: float, folder) -> Spill:
+def store_moves(path, first: Window, k: int, tools, window_lines: int, step_mm: float, folder) -> Spill:
     """The one read of the cut from its file: its moves (the fields :class:`_Pass` reads, ~80 B a
     move) written to ``folder`` window after window as :func:`_blocks` checks them."""
     moves = Spill(folder, "moves")
@@ -260,13 +261,48 @@ def _store_moves(path, first: Window, k: int, tools, window_lines: int, step_mm:
 def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, cap_mm_min, feed_step_mm_min: float,
                    min_piece_mm: float, piece_points: int, rows: int) -> Iterator[AdvicePiece]:
     """:func:`advise_long_cut` from the cut's stored moves, read back ``rows`` at a time."""
-    from fuzzyfeed.geometry.polyline_stream import fit_chunks
-
     engine = compile_table(table)
     seq = point_sequence_table(table)
+    plan = plan_stored(moves, folder, margin_mm(seq), piece_points, rows, step_mm)
+    # pass 1: the range of the clipped Dκ (and κ, Dκ at the curvature peaks)
+    dk_lo, dk_hi, lowest = dk_range(((pc.a, pc.b, pc.lo, pc.ms, pc.s) for pc in stored_pieces(moves, plan, rows, step_mm)),
+                                    engine, seq.dk_clip_1_mm, seq.window_mm, plan.span, seq.filter == "corner-mean")
+    # pass 2: the advice, piece by piece
+    carry = CarriedSums()
+    for pc in stored_pieces(moves, plan, rows, step_mm):
+        yield piece_advice(pc.program, pc.ms, pc.s, pc.a, pc.b, pc.lo, cut=cut_no, table=seq, engine=engine,
+                           span=plan.span, bounds=(dk_lo, dk_hi), lowest=lowest, carry=carry, g_lo=pc.g_lo,
+                           nxt=pc.nxt, cap=cap_mm_min, feed_step=feed_step_mm_min, min_piece=min_piece_mm,
+                           move0=pc.move0)
 
-    def blocks():
-        return moves.chunks(rows)
+
+@dataclass(frozen=True, eq=False)
+class StoredPlan:
+    """Pass 0 of a stored cut (:func:`plan_stored`): its moves ``n``, its pieces (core ``a..b``,
+    sampled moves ``lo..hi``, s at vertex ``lo + 1`` (0 at 0), the cut's sample at vertex ``lo``),
+    its length and the fit's κ and corners at every vertex (a spill)."""
+
+    n: int
+    pieces: tuple
+    length: float
+    vertices: Spill
+
+    @property
+    def span(self) -> tuple[float, float]:
+        return (0.0, self.length)
+
+
+def _sample(ps: _Pass, lo: int, hi: int, step_mm: float):
+    prog, geo = ps.view()
+    return prog, sample_moves(prog, np.arange(ps.n_moves), prog.kind, prog.chord, step_mm, lo - ps.b0, hi - ps.b0, geo)
+
+
+def plan_stored(moves: Spill, folder, margin: float, piece_points: int, rows: int, step_mm: float) -> StoredPlan:
+    """Pass 0 of a cut from its stored ``moves`` (module docstring): the G1-run fit read in chunks
+    (its κ and corners kept in ``folder``), the pieces planned as
+    :func:`~fuzzyfeed.program.stream.plan_pieces` plans them with ``margin`` mm and
+    ``piece_points``, s carried from piece to piece."""
+    from fuzzyfeed.geometry.polyline_stream import fit_chunks
 
     def chunks():
         first_block = True
@@ -278,19 +314,11 @@ def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, 
     n = fit.n - 1                                   # moves: the vertices less one
     if n != len(moves):
         raise RuntimeError(f"the cut's fit has {fit.n} points for {len(moves)} moves")
-    margin = margin_mm(seq)
     pp = min(int(piece_points), MAX_POINTS)
-
-    def sample(ps: _Pass, lo: int, hi: int):
-        prog, geo = ps.view()
-        moves = np.arange(ps.n_moves)
-        kinds = prog.kind
-        return prog, sample_moves(prog, moves, kinds, prog.chord, step_mm, lo - ps.b0, hi - ps.b0, geo)
-
-    # pass 0: the plan and s (the fit's κ and corners kept for the later passes)
     plan = []
     vertices = Spill(folder, "vertices")
-    ps = _Pass(blocks(), n, fit=fit, keep=lambda kappa, corner: vertices.append({"kappa": kappa, "corner": corner}))
+    ps = _Pass(moves.chunks(rows), n, fit=fit,
+               keep=lambda kappa, corner: vertices.append({"kappa": kappa, "corner": corner}))
     ps.until(lambda: ps.n_moves >= 1)
 
     def bound_after(a):
@@ -326,7 +354,7 @@ def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, 
             raise Fallback("a margin reaching before the buffer")
         va = lo + 1 if lo > 0 else 0
         anchor = float(ps.sv[va - ps.b0])
-        _, ms = sample(ps, lo, hi)
+        _, ms = _sample(ps, lo, hi, step_mm)
         s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), anchor)
         ps.sv[a + 1 - ps.b0:b + 1 - ps.b0] = s[ms.vertex_sample[a + 1 - lo:b + 1 - lo]]
         plan.append((a, b, lo, hi, anchor, int(ps.cum_cnt[lo - ps.b0])))
@@ -339,32 +367,25 @@ def _advise_stored(moves: Spill, folder, cut_no: int, table, *, step_mm: float, 
     ps.close()
     if len(vertices) != n + 1:
         raise RuntimeError(f"the cut's fit kept {len(vertices)} vertices of {n + 1}")
-    span = (0.0, length)
-    clip = seq.dk_clip_1_mm
-    corner = seq.filter == "corner-mean"
+    return StoredPlan(n, tuple(plan), length, vertices)
 
-    def pieces_of_pass():
-        ps = _Pass(blocks(), n, vertices=((v["kappa"], v["corner"]) for v in vertices.chunks(rows)))
-        try:
-            for p, (a, b, lo, hi, anchor, g_lo) in enumerate(plan):
-                ps.until(lambda: ps.b1 >= hi)
-                prog, ms = sample(ps, lo, hi)
-                va = lo + 1 if lo > 0 else 0
-                s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), anchor)
-                yield p, a, b, lo, hi, g_lo, prog, ms, s, ps.b0
-                del prog, ms, s
-                nxt_lo = plan[p + 1][2] if p + 1 < len(plan) else hi
-                ps.release(min(nxt_lo, a))
-        finally:
-            ps.close()
 
-    # pass 1: the range of the clipped Dκ (and κ, Dκ at the curvature peaks)
-    dk_lo, dk_hi, lowest = dk_range(((a, b, lo, ms, s) for _, a, b, lo, _, _, _, ms, s, _ in pieces_of_pass()),
-                                    engine, clip, seq.window_mm, span, corner)
-    # pass 2: the advice, piece by piece
-    carry = CarriedSums()
-    for p, a, b, lo, hi, g_lo, prog, ms, s, b0 in pieces_of_pass():
-        nxt = plan[p + 1][5] if p + 1 < len(plan) else None
-        yield piece_advice(prog, ms, s, a, b, lo, cut=cut_no, table=seq, engine=engine, span=span,
-                           bounds=(dk_lo, dk_hi), lowest=lowest, carry=carry, g_lo=g_lo, nxt=nxt, cap=cap_mm_min,
-                           feed_step=feed_step_mm_min, min_piece=min_piece_mm, move0=b0)
+def stored_pieces(moves: Spill, plan: StoredPlan, rows: int, step_mm: float) -> Iterator[CutPiece]:
+    """One pass over a stored cut: its pieces (:class:`CutPiece`) in order, the moves and the
+    fit's κ and corners read back ``rows`` at a time, the buffer dropped behind each piece."""
+    pieces = plan.pieces
+    ps = _Pass(moves.chunks(rows), plan.n,
+               vertices=((v["kappa"], v["corner"]) for v in plan.vertices.chunks(rows)))
+    try:
+        for p, (a, b, lo, hi, anchor, g_lo) in enumerate(pieces):
+            ps.until(lambda: ps.b1 >= hi)
+            prog, ms = _sample(ps, lo, hi, step_mm)
+            va = lo + 1 if lo > 0 else 0
+            s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), anchor)
+            nxt = pieces[p + 1][5] if p + 1 < len(pieces) else None
+            yield CutPiece(p, a, b, lo, prog, ms, s, g_lo, nxt, ps.b0)
+            del prog, ms, s
+            nxt_lo = pieces[p + 1][2] if p + 1 < len(pieces) else hi
+            ps.release(min(nxt_lo, a))
+    finally:
+        ps.close()

@@ -13,7 +13,9 @@ program): :func:`fuzzyfeed.report.value.evaluate_program`'s stages, in passes ov
    read back in blocks for the cuts' maxima and the uniform search's hot segments.
 3. The windows read again: every cut advised (a machine table in pieces,
    :func:`~fuzzyfeed.program.stream_machine.stream_machine_advice`; the entry rapid of a window's
-   first cut taken from the windows before), the CSV rows handed on as they come (``advised`` 1 on
+   first cut taken from the windows before; a cut split between windows advised from its file in
+   pieces, :func:`~fuzzyfeed.program.long_cut_machine.advise_long_cut_machine`, bit for bit the
+   whole cut's), the CSV rows handed on as they come (``advised`` 1 on
    the cuts over the tolerance), the window's lines rewritten with the pieces of those cuts
    (:func:`~fuzzyfeed.program.rewrite.rewrite_chunks`, the F in force carried) to a scratch file.
 4. The advised run: that file read in windows into a second store, run as in 2.
@@ -24,9 +26,9 @@ program): :func:`fuzzyfeed.report.value.evaluate_program`'s stages, in passes ov
    (:func:`~fuzzyfeed.program.reference.limit_reference`, each chain read whole from the store)
    on the store too, and the value plot's trace drawn from both stores block by block.
 
-Where a step cannot give the whole read's result — a cut split between windows (its machine advice
-is made whole), a table advised whole, places the uniform slowdown sets apart (and with them the
-limit reference), any error — it raises
+Where a step cannot give the whole read's result — a cut split between windows with arcs or G5.2
+blocks, a table advised whole, places the uniform slowdown sets apart (and with them the limit
+reference), any error — it raises
 :class:`~fuzzyfeed.program.windows.Fallback` and the caller reads the program whole. Nothing is
 guessed.
 """
@@ -60,26 +62,29 @@ class StoreTotals:
 
 
 def build_store(path, store: ChainStore, tools, window_lines: int, coverage: bool = False,
-                split_cuts: bool = False) -> StoreTotals:
+                advised: bool = False) -> StoreTotals:
     """Stage 1 (module docstring) of the program at ``path`` into ``store`` (closed for writing at
-    the end). ``coverage``: keep every window's coverage. Raises
-    :class:`~fuzzyfeed.program.windows.Fallback` for a cut split between windows unless
-    ``split_cuts`` (the advised program's chains: its cuts are not advised again, and the windows'
-    moves are the whole read's however they are cut)."""
+    the end). ``coverage``: keep every window's coverage. A cut split between windows is the whole
+    read's: the windows' moves are however they are cut, the open chain is carried across the join
+    and the continued window's cut 0 is the cut of the window before (its ``cut0``), counted once.
+    ``advised``: the program's cuts are to be advised — a split cut with arcs or G5.2 blocks (not
+    advised from its file) raises :class:`~fuzzyfeed.program.windows.Fallback` here, before the run."""
     from fuzzyfeed.program.coverage import program_coverage
+    from fuzzyfeed.program.cuts import cut_moves
 
     totals = StoreTotals(coverages=[] if coverage else None)
     builder = store.builder()
     rest: list = []
     move0 = 0
     for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
-        if (win.continues or win.continued) and not split_cuts:
-            raise Fallback("a cut split between windows: its advice on a machine is made whole")
         wp = win.program
+        split = ([0] if win.continued else []) + ([wp.n_cuts - 1] if win.continues else [])
+        if advised and any(np.any(cut_moves(wp, k)[1] != LINE) for k in split):
+            raise Fallback("a cut longer than a window with arcs or G5.2 blocks")
         builder.add(wp, (move0, win.line0, win.cut0))
         move0 += wp.kind.size
         totals.lines += len(wp.lines)
-        totals.cuts += wp.n_cuts
+        totals.cuts += wp.n_cuts - int(win.continued)
         totals.windows += 1
         if coverage:
             totals.coverages.append((win.line0, program_coverage(wp)))
@@ -155,12 +160,19 @@ def advise_windows(path, table, machine: Machine, over, *, cap_mm_min, step_mm: 
                    min_piece_mm: float, tools, window_lines: int, sink, write) -> None:
     """Stage 3 (module docstring): every cut of the program advised, ``sink(columns)`` each piece's
     CSV rows (the file's cut and line numbers; ``advised`` 1 on the cuts, 0-based, in ``over``),
-    ``write(text)`` the program rewritten with the advice of the cuts in ``over``."""
+    ``write(text)`` the program rewritten with the advice of the cuts in ``over``. A cut split
+    between windows is advised from the file in pieces
+    (:func:`~fuzzyfeed.program.long_cut_machine.advise_long_cut_machine`, its entry carried from the
+    windows before; a plain table's: :func:`~fuzzyfeed.program.long_cut.advise_long_cut`), each
+    window taking the pieces of its own moves (:class:`~fuzzyfeed.program.window_advice.WindowCuts`)."""
     from fuzzyfeed.fuzzy.rules import MACHINE
+    from fuzzyfeed.program import stream as stream_module
     from fuzzyfeed.program.advice_pieces import applied_columns
+    from fuzzyfeed.program.cuts import _entry_direction, cut_moves
     from fuzzyfeed.program.rewrite import rewrite_chunks
-    from fuzzyfeed.program.stream import concat_pieces, stream_program_advice
+    from fuzzyfeed.program.stream import stream_program_advice
     from fuzzyfeed.program.stream_machine import stream_machine_advice, streams
+    from fuzzyfeed.program.window_advice import WindowCuts, file_columns
 
     if table.inputs == MACHINE and not streams(table):
         raise Fallback(f"rule table {table.name!r} is advised whole")
@@ -171,31 +183,46 @@ def advise_windows(path, table, machine: Machine, over, *, cap_mm_min, step_mm: 
     rest: list = []
     newline = None
     entry = _Entry()
-    for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
-        if win.continues or win.continued:
-            raise Fallback("a cut split between windows: its advice on a machine is made whole")
+    cuts = WindowCuts()
+
+    def advise(win, regular):
         wp = win.program
-        newline = wp.newline
-        cuts = list(range(wp.n_cuts))
-        pieces = []
-        if cuts:
-            if table.inputs == MACHINE:
-                stream = stream_machine_advice(wp, table, machine, cuts=cuts, entries={0: entry.first_cut(wp)}, **kw)
-            else:
-                stream = stream_program_advice(wp, table, cuts=cuts, **kw)
-            for piece in stream:
-                cols = piece.columns
-                if win.line0 or win.cut0:
-                    cols = dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
-                if sink is not None:
-                    sink(applied_columns(cols, over))
-                pieces.append(piece)
-        pm, pe, pf = concat_pieces(pieces)
-        del pieces
-        keep = np.isin(wp.cut[pm] + win.cut0, over_a) if pm.size else np.zeros(0, bool)
-        for chunk in rewrite_chunks(wp, pm[keep], pe[keep], pf[keep], carry=carry):
-            write(chunk)
-        entry.after(wp)
+        if table.inputs != MACHINE:
+            return stream_program_advice(wp, table, cuts=regular, **kw)
+        # the window's cut 0 entered by a rapid of the windows before (a continued window's cut 0 is
+        # not advised here)
+        entries = {} if win.continued else {0: entry.first_cut(wp)}
+        return stream_machine_advice(wp, table, machine, cuts=regular, entries=entries, **kw)
+
+    def advise_long(win, k):
+        from fuzzyfeed.program.long_cut import advise_long_cut
+        from fuzzyfeed.program.long_cut_machine import advise_long_cut_machine
+
+        lw = dict(kw, piece_points=stream_module.DEFAULT_PIECE_POINTS, tools=tools, window_lines=window_lines)
+        if table.inputs != MACHINE:
+            return advise_long_cut(path, win, k, table, **lw)
+        wp = win.program
+        into = entry.first_cut(wp) if k == 0 else _entry_direction(wp, int(cut_moves(wp, k)[0][0]))
+        return advise_long_cut_machine(path, win, k, table, machine, into, **lw)
+
+    def taken(cols, offset: bool, win):
+        if offset:
+            cols = file_columns(cols, win)
+        if sink is not None:
+            sink(applied_columns(cols, over))
+
+    try:
+        for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
+            wp = win.program
+            newline = wp.newline
+            pm, pe, pf = cuts.pieces(win, advise, advise_long, taken)
+            keep = np.isin(wp.cut[pm] + win.cut0, over_a) if pm.size else np.zeros(0, bool)
+            for chunk in rewrite_chunks(wp, pm[keep], pe[keep], pf[keep], carry=carry):
+                write(chunk)
+            entry.after(wp)
+    finally:
+        cuts.close()
+    cuts.ended()
     for block in rest:
         if block:
             write(newline.join(block) + newline)
@@ -271,7 +298,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
         step("as written")
         store = ChainStore(scratch / "written", machine.chord_tol_mm)
         stores.append(store)
-        totals = build_store(path, store, tools, window_lines, coverage=True)
+        totals = build_store(path, store, tools, window_lines, coverage=True, advised=True)
         if totals.cuts == 0:
             raise Fallback("no cut: the whole read says so")
         sp = StoredPath.of(store)
@@ -295,7 +322,7 @@ def evaluate_in_windows(path, machine: Machine, table, scratch: Path, *, cap_mm_
             step("advised run")
             adv_store = ChainStore(scratch / "advised", machine.chord_tol_mm)
             stores.append(adv_store)
-            build_store(advised_file, adv_store, tools, window_lines, split_cuts=True)
+            build_store(advised_file, adv_store, tools, window_lines)
             asp = StoredPath.of(adv_store)
             run = run_program(asp, machine, keep_plans=False, seg_sinks=_spilled(scratch / "seg_max", "advised"))
             worst = where(asp, run, "max_mm", "max_segment", "max_xyz")

@@ -66,6 +66,26 @@ class AdvicePiece:
     piece_feed_mm_min: np.ndarray
 
 
+@dataclass(frozen=True, eq=False)
+class CutPiece:
+    """One piece of a cut advised in pieces as a pass reads it: its core's first and last vertex
+    ``a``, ``b`` and first move sampled ``lo`` (the cut's count), what holds its moves
+    (``program``: F, lines, no_split, kind; ``ms.seg_move`` numbers them, ``move0`` + those are
+    the cut's moves), its samples ``ms`` and their s, the cut's sample at vertex ``lo`` (``g_lo``)
+    and at the next piece's (``nxt``, None for the last)."""
+
+    p: int
+    a: int
+    b: int
+    lo: int
+    program: object
+    ms: object
+    s: np.ndarray
+    g_lo: int
+    nxt: int | None
+    move0: int
+
+
 @dataclass(frozen=True)
 class _Plan:
     cores: np.ndarray     # (P + 1,) move bounds of the cores

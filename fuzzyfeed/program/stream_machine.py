@@ -46,8 +46,8 @@ from fuzzyfeed.program.cuts import (DEFAULT_STEP_MM, _entry_direction, cut_moves
 from fuzzyfeed.program.feeds import (DEFAULT_MIN_PIECE_MM, DEFAULT_PROGRAM_FEED_STEP_MM_MIN,
                                      checked_cuts, move_pieces)
 from fuzzyfeed.program.model import Program
-from fuzzyfeed.program.stream import (DEFAULT_PIECE_POINTS, AdvicePiece, CarriedSums, cut_arc_lengths, plan_pieces,
-                                      segment_ceilings)
+from fuzzyfeed.program.stream import (DEFAULT_PIECE_POINTS, AdvicePiece, CarriedSums, CutPiece, cut_arc_lengths,
+                                      plan_pieces, segment_ceilings)
 
 
 def streams(table: RuleTable) -> bool:
@@ -66,6 +66,15 @@ def machine_margin_mm(table: RuleTable, machine: Machine, top_feed_mm_s: float) 
     flat = (table.filter_mm or 0.0) / 2
     filt = 0.0 if table.filter == "none" else flat + flat * (1 + 100.0 / CORNER_RISE_PCT)
     return 2.0 * (inputs + filt) + 1.0
+
+
+def cut_margin_mm(table: RuleTable, machine: Machine, top_f_mm_min: float, cap: float | None) -> float:
+    """:func:`machine_margin_mm` of a cut whose largest F is ``top_f_mm_min``: its fastest ceiling
+    is that F capped at ``cap``, at most what the axes reach along a direction (min over axes of
+    v_i / |u_i| <= sqrt(3) max v_i for a unit u)."""
+    top = min(top_f_mm_min, cap if cap is not None else np.inf,
+              60.0 * np.sqrt(3.0) * float(np.max(machine.axis_vel_mm_s)))
+    return machine_margin_mm(table, machine, top / 60.0)
 
 
 def stream_machine_advice(program: Program, table: RuleTable, machine: Machine, *,
@@ -109,13 +118,9 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
         raise InputError(f"{program.path}:{int(program.move_line[moves[i]]) + 1}: cut {k + 1}: one move "
                          f"sampled every {step_mm:g} mm (--step-mm) needs {counts[i] + 1:.4g} points, more "
                          f"than the budget of {MAX_POINTS:,} (a move is advised whole; raise --step-mm)")
-    feed = program.feed_mm_min
-    # the fastest ceiling of the cut: F (capped), at most what the axes reach along a direction
-    # (min over axes of v_i / |u_i| <= sqrt(3) max v_i for a unit u)
-    top = min(float(feed[moves].max()), cap if cap is not None else np.inf,
-              60.0 * np.sqrt(3.0) * float(np.max(machine.axis_vel_mm_s)))
     lengths = move_lengths(program, moves, kinds, chord)
-    plan = plan_pieces(lengths, counts, min(piece_points, MAX_POINTS), machine_margin_mm(table, machine, top / 60.0))
+    margin = cut_margin_mm(table, machine, float(program.feed_mm_min[moves].max()), cap)
+    plan = plan_pieces(lengths, counts, min(piece_points, MAX_POINTS), margin)
     geo = cache.get(k) if cache is not None else None
     if geo is None:
         geo = run_geometry(program, moves, kinds)
@@ -124,7 +129,6 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
     gstart = np.concatenate([[0], np.cumsum(counts)])
     n_pieces = plan.lo.size
     entry = _entry_direction(program, int(moves[0])) if entry_given is None else entry_given
-    settle = settle_time_s(machine)
 
     def piece(p, sv):
         lo, hi = int(plan.lo[p]), int(plan.hi[p])
@@ -133,10 +137,31 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
         s = path_length(ms.xyz, int(ms.vertex_sample[va - lo]), float(sv[va]))
         return lo, hi, ms, s
 
-    def safe(lo, ms, s):
+    sv = cut_arc_lengths(plan, n, piece)      # pass 0: s at every vertex (the cut's length)
+
+    def pieces():
+        for p in range(n_pieces):
+            lo, _, ms, s = piece(p, sv)
+            nxt = int(gstart[plan.lo[p + 1]]) if p + 1 < n_pieces else None
+            yield CutPiece(p, int(plan.cores[p]), int(plan.cores[p + 1]), lo, program, ms, s, int(gstart[lo]), nxt, 0)
+
+    yield from machine_cut_advice(pieces, n_pieces, float(sv[-1]), k, table, machine, engine, entry, cap, feed_step,
+                                  min_piece)
+
+
+def machine_cut_advice(pieces, n_pieces: int, length: float, k: int, table, machine, engine, entry, cap, feed_step,
+                       min_piece) -> Iterator[AdvicePiece]:
+    """Passes 1, 1b and 2 (module docstring) of cut ``k`` (0-based, the number its rows get) of
+    ``length`` mm in ``n_pieces`` pieces: ``pieces()`` gives a pass over them
+    (:class:`~fuzzyfeed.program.stream.CutPiece`, s already carried by pass 0), ``entry`` the
+    direction of the rapid leading into the cut."""
+    settle = settle_time_s(machine)
+
+    def safe(pc):
         """Ceiling (mm/min, per sample: F capped, and the machine's reach along the path) and safe feed (mm/s)."""
+        ms, s = pc.ms, pc.s
         sample_move = np.concatenate([[ms.seg_move[0]], ms.seg_move])
-        ceil = feed[sample_move]
+        ceil = pc.program.feed_mm_min[sample_move]
         if cap is not None:
             ceil = np.minimum(ceil, cap)
         ceil = np.minimum(ceil, 60.0 * machine.move_velocity(sample_tangents(ms.xyz)))
@@ -145,7 +170,7 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
             raise InputError(f"ceiling_mm_s: needs one finite feed > 0 per sample ({ceiling.size})")
         v_curve = curve_safe_feed(machine, np.where(ms.corner, 0.0, ms.curvature))
         v_safe = np.minimum(v_curve, junction_safe_feed(machine, ms.turn_angle, ms.xyz, s))
-        if lo == 0:     # the cut's entry: its samples reach past the rapid's braking lag
+        if pc.lo == 0:     # the cut's entry: its samples reach past the rapid's braking lag
             v_safe[0] = min(v_safe[0], entry_safe_feed(SimpleNamespace(s=s, xyz=ms.xyz), entry, machine))
         return sample_move, ceil, ceiling, v_safe
 
@@ -156,28 +181,24 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
             near_r = np.nan_to_num(np.clip(near / ceiling, 0.0, RATIO_TOP), nan=RATIO_TOP, posinf=RATIO_TOP)
         return ratio, near_r, engine.feed_pct(ratio, near_r)
 
-    def core_of(ms, a, b, lo):
-        return slice(int(ms.vertex_sample[a - lo]), int(ms.vertex_sample[b - lo]) + 1)
+    def core_of(pc):
+        return slice(int(pc.ms.vertex_sample[pc.a - pc.lo]), int(pc.ms.vertex_sample[pc.b - pc.lo]) + 1)
 
-    def pass2(sv, span, total, levels, lowest):
-        return _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, cap, feed_step,
-                      min_piece, sv, span, total, levels, lowest)
+    def pass2(levels, lowest):
+        return _pass2(pieces(), k, table, machine, safe, controller, cap, feed_step, min_piece, span, total,
+                      levels, lowest)
 
-    sv = cut_arc_lengths(plan, n, piece)      # pass 0: s at every vertex (the cut's length)
-    length = float(sv[-1])
     span = (0.0, length)
     total = length if length > 0 else 1.0
     if n_pieces == 1:        # the cut in one piece: its own levels and guard are the cut's
-        yield from pass2(sv, span, total, None, None)
+        yield from pass2(None, None)
         return
     # pass 1: the settling levels (slowest hot spot, fastest feed around a hot spot) over the cut
     lo_v, hi_v = np.inf, -np.inf
-    for p in range(n_pieces):
-        a, b = int(plan.cores[p]), int(plan.cores[p + 1])
-        lo, _, ms, s = piece(p, sv)
-        _, _, ceiling, v_safe = safe(lo, ms, s)
+    for pc in pieces():
+        _, _, ceiling, v_safe = safe(pc)
         hot, around = hot_spots(v_safe, ceiling)
-        core = core_of(ms, a, b, lo)
+        core = core_of(pc)
         h = hot[core]
         if h.any():
             lo_v = min(lo_v, float(v_safe[core][h].min()))
@@ -187,34 +208,28 @@ def _advise_cut(program, k, table, machine, engine, step_mm, cap, feed_step, min
     lowest = None
     if table.filter == "corner-mean":
         found = []
-        for p in range(n_pieces):
-            a, b = int(plan.cores[p]), int(plan.cores[p + 1])
-            lo, _, ms, s = piece(p, sv)
-            _, _, ceiling, v_safe = safe(lo, ms, s)
-            raw = controller(v_safe, s, ceiling, levels)[2]
-            core = core_of(ms, a, b, lo)
-            at = curvature_peaks(ms.curvature)[core]
+        for pc in pieces():
+            _, _, ceiling, v_safe = safe(pc)
+            raw = controller(v_safe, pc.s, ceiling, levels)[2]
+            core = core_of(pc)
+            at = curvature_peaks(pc.ms.curvature)[core]
             found.append(raw[core][at])
         pk = np.concatenate(found)
         lowest = float(pk.min()) if pk.size else None
-    yield from pass2(sv, span, total, levels, lowest)
+    yield from pass2(levels, lowest)
 
 
-def _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, cap, feed_step, min_piece,
-           sv, span, total, levels, lowest):
+def _pass2(pieces, k, table, machine, safe, controller, cap, feed_step, min_piece, span, total, levels, lowest):
     """The advice of every piece of cut ``k`` given what the passes before carried."""
-    n_pieces = plan.lo.size
     carry = CarriedSums()
-    for p in range(n_pieces):
-        a, b = int(plan.cores[p]), int(plan.cores[p + 1])
-        lo, hi, ms, s = piece(p, sv)
-        sample_move, ceil, ceiling, v_safe = safe(lo, ms, s)
+    for pc in pieces:
+        program, ms, s, a, b, lo = pc.program, pc.ms, pc.s, pc.a, pc.b, pc.lo
+        sample_move, ceil, ceiling, v_safe = safe(pc)
         ratio, near_r, raw = controller(v_safe, s, ceiling, levels)
         v, wlo, whi, w = filter_terms(raw, table.filter, table.filter_points, s, table.filter_mm, ms.curvature,
                                       span=span, lowest=lowest)
         c0, c1 = int(ms.vertex_sample[a - lo]), int(ms.vertex_sample[b - lo])
-        nxt = int(gstart[plan.lo[p + 1]]) if p + 1 < n_pieces else None
-        pct = np.clip(carry.smooth(v, wlo, whi, w, int(gstart[lo]), c0, c1, nxt), table.feed_floor_pct, 100.0)
+        pct = np.clip(carry.smooth(v, wlo, whi, w, pc.g_lo, c0, c1, pc.nxt), table.feed_floor_pct, 100.0)
         r0 = c0 if a == 0 else c0 + 1
         rows = slice(r0, c1 + 1)
         ce = ceil[rows]
@@ -229,4 +244,4 @@ def _pass2(program, k, table, machine, plan, gstart, piece, safe, controller, ca
         reachable = np.minimum(ceiling_seg, 60.0 * machine.speed_along(ms.xyz)[segs])
         pm, pe, pf = move_pieces(program, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
                                  reachable, feed_step, min_piece)
-        yield AdvicePiece(cut=k, columns=columns, piece_move=pm, piece_end=pe, piece_feed_mm_min=pf)
+        yield AdvicePiece(cut=k, columns=columns, piece_move=pm + pc.move0, piece_end=pe, piece_feed_mm_min=pf)

@@ -79,12 +79,12 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
     carry = {"f": None}
     rest: list = []
     newline = None
-    long = None          # the cut going on from window to window: its pieces (moves as the cut's ordinals)
+    cuts = WindowCuts()  # the cut going on from window to window
     kw = dict(step_mm=step_mm, cap_mm_min=cap_mm_min, feed_step_mm_min=feed_step_mm_min, min_piece_mm=min_piece_mm)
 
     def taken(cols, offset: bool, win):
-        if offset and (win.line0 or win.cut0):
-            cols = dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
+        if offset:
+            cols = file_columns(cols, win)
         if sink is not None:
             sink(cols)
         pct = cols["feed_pct"]
@@ -94,6 +94,15 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
             totals.pct_sum += float(np.sum(pct))
             totals.pct_count += pct.size
 
+    def advise(win, regular):
+        return stream_program_advice(win.program, table, cuts=regular, **kw)
+
+    def advise_long(win, k):
+        from fuzzyfeed.program.long_cut import advise_long_cut
+
+        return advise_long_cut(path, win, k, table, tools=tools, window_lines=window_lines,
+                               piece_points=piece_points, **kw)
+
     try:
         for win in read_windows(path, tools=tools, window_lines=window_lines, rest=rest):
             wp = win.program
@@ -101,38 +110,12 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
             totals.windows += 1
             totals.lines += len(wp.lines)
             totals.moves += wp.kind.size
-            parts = []                    # (move, end, feed) of the window's pieces, in move order
-            regular = list(range(wp.n_cuts))
-            if win.continued:             # cut 0 goes on from the window before
-                if long is None:
-                    raise Fallback("a cut split between windows without its start")
-                parts.append(long.take(win, 0, taken, last=not (win.continues and wp.n_cuts == 1)))
-                regular.remove(0)
-                if not (win.continues and wp.n_cuts == 1):
-                    long = None
-            starts_long = win.continues and not (win.continued and wp.n_cuts == 1)
-            if starts_long:
-                regular.remove(wp.n_cuts - 1)
-            if regular:
-                pieces = []
-                for piece in stream_program_advice(wp, table, cuts=regular, **kw):
-                    taken(piece.columns, True, win)
-                    pieces.append(piece)
-                parts.append(concat_pieces(pieces))
-                del pieces
-            if starts_long:
-                from fuzzyfeed.program.long_cut import advise_long_cut
-
-                long = _LongCut(advise_long_cut(path, win, wp.n_cuts - 1, table, tools=tools, window_lines=window_lines,
-                                                piece_points=piece_points, **kw))
-                parts.append(long.take(win, wp.n_cuts - 1, taken, last=False))
-            pm, pe, pf = (np.concatenate(c) for c in zip(*parts)) if parts else concat_pieces([])
+            pm, pe, pf = cuts.pieces(win, advise, advise_long, taken)
             if pm.size:
                 t_prog, t_adv = pieces_times(wp, pm, pe, pf)
                 totals.time_written_s += t_prog
                 totals.time_advised_s += t_adv
                 totals.splits += int(np.sum(np.diff(pm) == 0))
-            del parts
             if on_window is not None:
                 on_window(win, pm, pe, pf)
             totals.cuts += wp.n_cuts - int(win.continued)
@@ -147,13 +130,69 @@ def advise_in_windows(path, table: RuleTable, *, step_mm: float, cap_mm_min: flo
     except FuzzyfeedError as exc:
         raise Fallback(str(exc)) from None
     finally:
-        if long is not None:            # a long cut left unfinished: its scratch folder goes now
-            long.close()
-    if long is not None:
-        raise Fallback("a cut split between windows without its end")
+        cuts.close()                    # a long cut left unfinished: its scratch folder goes now
+    cuts.ended()
     if totals.cuts == 0:
         raise Fallback("no cut: the whole read says so")
     return totals
+
+
+def file_columns(cols: dict, win) -> dict:
+    """A piece's CSV columns of window ``win``'s own cut and line numbers with the file's."""
+    if not (win.line0 or win.cut0):
+        return cols
+    return dict(cols, cut=cols["cut"] + win.cut0, source_line=cols["source_line"] + win.line0)
+
+
+class WindowCuts:
+    """The advice of each window's cuts as the pieces its moves are written as, a cut split between
+    windows (:attr:`~fuzzyfeed.program.windows.Window.continues`) advised from its file in pieces
+    (:class:`_LongCut`) and handed to each window for its own moves."""
+
+    def __init__(self):
+        self._long = None          # the cut going on from window to window
+
+    def pieces(self, win, advise, advise_long, taken):
+        """(move, end, feed) of window ``win``'s cuts in move order: ``advise(cuts)`` the pieces of
+        its cuts that lie in it (window-local cut and move numbers), ``advise_long(k)`` the pieces
+        of a cut that starts as its cut ``k`` and goes on (the file's cut and lines, moves as the
+        cut's ordinals); every piece's rows go to ``taken(columns, offset, win)`` (``offset``: the
+        window's numbers, to be made the file's)."""
+        wp = win.program
+        parts = []
+        regular = list(range(wp.n_cuts))
+        if win.continued:             # cut 0 goes on from the window before
+            if self._long is None:
+                raise Fallback("a cut split between windows without its start")
+            last = not (win.continues and wp.n_cuts == 1)
+            parts.append(self._long.take(win, 0, taken, last=last))
+            regular.remove(0)
+            if last:
+                self._long = None
+        starts_long = win.continues and not (win.continued and wp.n_cuts == 1)
+        if starts_long:
+            regular.remove(wp.n_cuts - 1)
+        if regular:
+            pieces = []
+            for piece in advise(win, regular):
+                taken(piece.columns, True, win)
+                pieces.append(piece)
+            parts.append(concat_pieces(pieces))
+            del pieces
+        if starts_long:
+            self._long = _LongCut(advise_long(win, wp.n_cuts - 1))
+            parts.append(self._long.take(win, wp.n_cuts - 1, taken, last=False))
+        return tuple(np.concatenate(c) for c in zip(*parts)) if parts else concat_pieces([])
+
+    def close(self) -> None:
+        """Stop a long cut's advice left unfinished (its scratch folder is removed)."""
+        if self._long is not None:
+            self._long.close()
+
+    def ended(self) -> None:
+        """Raise :class:`~fuzzyfeed.program.windows.Fallback` if a cut split between windows did not end."""
+        if self._long is not None:
+            raise Fallback("a cut split between windows without its end")
 
 
 class _LongCut:
