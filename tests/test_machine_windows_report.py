@@ -177,3 +177,15 @@ def test_the_report_as_csv_in_windows_is_the_whole_reads(tmp_path, monkeypatch, 
     prog = _raster(tmp_path / "r.ngc", cuts=4, rows=4)
     _compare(tmp_path, prog, monkeypatch, capsys, 160, "--machine", "reference", "--report", "r.csv")
     assert "reference_time_s" in (tmp_path / "win" / "r.csv").read_text()
+
+
+@pytest.mark.parametrize("inch", [False, True])
+def test_the_report_of_a_one_cut_raster_in_windows_is_the_whole_reads(tmp_path, monkeypatch, capsys, inch):
+    """One cut over several windows (advised from its file in pieces: tests/test_machine_long_cut.py)
+    with ``--report``: the checking run, the limit reference and the trace on the store, byte for
+    byte the whole read's."""
+    from test_machine_long_cut import _program
+
+    prog = _program(tmp_path / "r.ngc", inch=inch, fast_row=17)
+    out = _compare(tmp_path, prog, monkeypatch, capsys, 60, "--machine", "reference", "--report", "r.html")
+    assert "1 cut(s)" in out and "limit reference" in out and "not run" not in out
