@@ -91,3 +91,4 @@ def test_a_missed_feed_change_is_caught(monkeypatch):
 def test_cam_shapes_agree(monkeypatch, name):
     lim = slw_cases.random_limits(np.random.default_rng(7))
     _schedules_agree(monkeypatch, getattr(slw_cases, name)(), lim, "cosine")
+
