@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzyfeed.slw.profile import (Segment, block_segments, max_end_speed, max_start_speed,
-                                   min_end_speed, peak_speed, segment_state, stop_distance, transition_distance,
-                                   transition_time)
+                                   min_end_speed, peak_speed, segment_state, segment_table, segments_state,
+                                   stop_distance, transition_distance, transition_time)
 
 A, J = 1000.0, 10_000.0
 
@@ -119,3 +119,25 @@ def test_compiled_block_sampling_is_segment_state(pieces, start):
         offset += g.length_mm
         at += n + 1
     assert at == s.size
+
+
+def test_all_ticks_at_once_are_segment_state_bit_for_bit():
+    """profile.segments_state (the trajectory's ticks sampled at once) against segment_state one
+    segment at a time: cruises, cosines, seven-phase ramps (one rounded short, t_j = T/2), rises and
+    falls, and an AccSegment (read on its own)."""
+    from fuzzyfeed.slw.acc_profile import AccSegment
+
+    rng = np.random.default_rng(5)
+    segs = [AccSegment(10.0, 0.0, 20.0, 0.0, 400.0, 0.01, 0.02, 0.01)]
+    for _ in range(300):
+        v0, v1, dur = rng.uniform(0.0, 200.0), rng.uniform(0.0, 200.0), rng.uniform(1e-3, 0.5)
+        kind = rng.integers(0, 4)
+        jerk = None if kind < 2 else (rng.uniform(1e3, 1e5) if kind == 2 else 4.0 * abs(v1 - v0) / dur ** 2)
+        segs.append(Segment(v0, v0 if kind == 0 else v1, dur, jerk))
+    which = np.sort(rng.integers(0, len(segs), 20_000))
+    tau = np.array([rng.uniform(-0.1, 1.1) * segs[i].duration_s for i in which])
+    got = segments_state(segs, segment_table(segs), which, tau)
+    for i in np.unique(which):
+        sel = which == i
+        for x, y in zip(got, segment_state(segs[i], tau[sel])):
+            assert np.array_equal(x[sel], y), (i, segs[i])

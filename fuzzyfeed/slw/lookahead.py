@@ -125,8 +125,7 @@ class SlidingWindow(WindowContent, BlockCheck):
                                 np.array([j.cap for j in juncs]), float(juncs[0].v), float(end_feed),
                                 float(self.jerk), self.shape == SEVEN_PHASE, BISECTION_STEPS,
                                 np.array([b.acc_down for b in blocks]))
-        for j, vj in zip(juncs, v.tolist()):
-            j.v = vj
+        self._set_feeds(v.tolist())
         return v
 
     def _plan_python(self, end_feed: float) -> None:
@@ -140,8 +139,24 @@ class SlidingWindow(WindowContent, BlockCheck):
                 v[i + 1] = lowest_end_speed(v[i], b.length, v[i + 1], b.acc_down, self.jerk, self.shape)
             else:
                 v[i + 1] = max_end_speed(v[i], b.length, v[i + 1], b.acc, self.jerk, self.shape)
-        for j, vj in zip(self.juncs, v):
-            j.v = vj
+        self._set_feeds(v)
+
+    def _set_feeds(self, feeds: list[float]) -> None:
+        """Set the junction feeds (every assignment of a junction's feed goes through here): a
+        block whose end feed changed value is no longer clean (its check's key changed)."""
+        juncs = self.juncs
+        before = [j.v for j in juncs]
+        for j, v in zip(juncs, feeds):
+            j.v = v  # always assigned, as before (0.0 == -0.0: the sign is the new one's)
+        if before == feeds:  # most plans (one comparison in C)
+            return
+        blocks, n = self.blocks, len(self.blocks)
+        for i, (old, new) in enumerate(zip(before, feeds)):
+            if old != new:
+                if i:
+                    blocks[i - 1].clean = False
+                if i < n:
+                    blocks[i].clean = False
 
     def _settle(self, end_feed: float, full: bool = False) -> None:
         """Plan and repair until every block in the window passes its check. Every repair adds a
@@ -206,8 +221,7 @@ class SlidingWindow(WindowContent, BlockCheck):
         # n: the junctions 1 … n before the first one faster without the stop
         faster = np.flatnonzero(go_on[1:] > np.array(stop[1:]) * (1 + 1e-12) + 1e-12)
         n = int(faster[0]) if faster.size else len(self.juncs) - 1
-        for j, v in zip(self.juncs, stop):
-            j.v = v
+        self._set_feeds(stop)
         # both plans, for _front_holds right after (nothing changes between: the same feeds)
         self._planned = (go_on.tolist(), stop)
         return n
@@ -221,8 +235,7 @@ class SlidingWindow(WindowContent, BlockCheck):
         if planned is None:
             self._plan(math.inf)
         else:   # _final_blocks' plan without the stop (the same window)
-            for j, v in zip(self.juncs, planned[0]):
-                j.v = v
+            self._set_feeds(planned[0])
         # every block a full stop beyond the released ones: a repair there (a junction with zero
         # acceleration) could otherwise need a lower feed than the released one can reach
         reach = self.juncs[n_final].s + 1.05 * self.stop
@@ -236,8 +249,7 @@ class SlidingWindow(WindowContent, BlockCheck):
         if planned is None:
             self._plan(0.0)
         else:   # the plan with the stop that _settle left (a passed check repairs nothing)
-            for j, v in zip(self.juncs, planned[1]):
-                j.v = v
+            self._set_feeds(planned[1])
         return True
 
     def _release(self) -> ScheduledBlock:

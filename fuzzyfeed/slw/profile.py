@@ -314,6 +314,82 @@ def segment_state(seg: Segment, tau):
     return pos, v, a, j
 
 
+def segment_table(segs: list):
+    """Per segment its kind (0 cruise, 1 cosine, 2 seven-phase, 3 other: an AccSegment) and the
+    numbers :func:`segment_state` computes from it, in Python floats as there (for
+    :func:`segments_state`)."""
+    import numpy as np
+
+    n = len(segs)
+    # per segment: 0 cruise, 1 cosine, 2 seven-phase, 3 other (AccSegment); and their numbers
+    kind = np.zeros(n, dtype=np.int8)
+    p = np.zeros((n, 11))   # v0, v1, T, w (t_j), h·w (a_p), h·w·w (jr), h (total), sign·jr, sign·½·jr, v_j, s_j
+    for i, seg in enumerate(segs):
+        if not isinstance(seg, Segment):
+            kind[i] = 3
+            continue
+        T, dv = seg.duration_s, seg.v1 - seg.v0
+        if dv == 0.0 or T == 0.0:
+            p[i, 0] = seg.v0
+        elif seg.jerk_mm_s3 is None:
+            w = math.pi / T
+            kind[i] = 1
+            p[i, :7] = seg.v0, seg.v1, T, w, 0.5 * dv * w, 0.5 * dv * w * w, 0.5 * dv
+        else:
+            sign = 1.0 if dv > 0 else -1.0
+            mag = abs(dv)
+            t_j = 0.5 * (T - math.sqrt(max(T * T - 4.0 * mag / seg.jerk_mm_s3, 0.0)))
+            a_p = mag / (T - t_j)
+            jr = a_p / t_j
+            kind[i] = 2
+            p[i] = (seg.v0, seg.v1, T, t_j, a_p, jr, 0.5 * (seg.v0 + seg.v1) * T, sign * jr,
+                    sign * 0.5 * jr, seg.v0 + sign * 0.5 * a_p * t_j, seg.v0 * t_j + sign * jr * t_j ** 3 / 6.0)
+    return kind, p
+
+
+def segments_state(segs: list, table, which, tau):
+    """s (from each segment's start), v, a, j at times τ_k into segments ``segs[which_k]``
+    (``table`` their :func:`segment_table`): the arithmetic of :func:`segment_state` in the same
+    order on all the times at once, so the floats are its own; an AccSegment is read segment by
+    segment (its own phases)."""
+    import numpy as np
+
+    kind, p = table
+    tau = np.asarray(tau, dtype=float)
+    pos, v, a, j = (np.zeros(tau.size) for _ in range(4))
+    k = kind[which]
+    at = which[k == 0]
+    x, v0 = tau[k == 0], p[at, 0]
+    pos[k == 0], v[k == 0] = v0 * x, v0
+    sel = k == 1
+    if sel.any():
+        at = which[sel]
+        x, v0, w, h = tau[sel], p[at, 0], p[at, 3], p[at, 6]
+        c, s_ = np.cos(w * x), np.sin(w * x)
+        v[sel] = v0 + h * (1.0 - c)
+        pos[sel] = v0 * x + h * (x - s_ / w)
+        a[sel] = p[at, 4] * s_
+        j[sel] = p[at, 5] * c
+    sel = k == 2
+    if sel.any():
+        v0, v1, T, t_j, a_p, jr, total, sjr, shj, v_j, s_j = p[which[sel]].T
+        sign = np.where(v1 - v0 > 0, 1.0, -1.0)
+        x = np.clip(tau[sel], 0.0, T)
+        r = T - x
+        first, last = x < t_j, r < t_j
+        m = x - t_j
+        pos[sel] = np.where(first, v0 * x + sjr * x ** 3 / 6.0,
+                            np.where(last, total - (v1 * r - sjr * r ** 3 / 6.0),
+                                     s_j + v_j * m + sign * 0.5 * a_p * m * m))
+        v[sel] = np.where(first, v0 + shj * x * x, np.where(last, v1 - shj * r * r, v_j + sign * a_p * m))
+        a[sel] = sign * np.where(first, jr * x, np.where(last, jr * r, a_p))
+        j[sel] = sign * np.where(first, jr, np.where(last, -jr, 0.0))
+    for i in np.unique(which[k == 3]).tolist():
+        sel = which == i
+        pos[sel], v[sel], a[sel], j[sel] = segment_state(segs[i], tau[sel])
+    return pos, v, a, j
+
+
 def _seven_phase_state(seg: Segment, tau):
     """s, v, a, j of the seven-phase ramp v0 → v1 over T: jerk ±J' for t_j at either end,
     acceleration a_p between, with Δv = a_p·(T − t_j) and a_p = J'·t_j, so

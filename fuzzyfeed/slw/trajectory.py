@@ -27,7 +27,7 @@ from fuzzyfeed.slw.lookahead import KINK_MIN, LookaheadStats, ScheduledBlock, Sl
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
 from fuzzyfeed.slw.check import breach, breach_error
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, joins, machine_cap
-from fuzzyfeed.slw.profile import COSINE, TRANSITIONS, segment_state
+from fuzzyfeed.slw.profile import COSINE, TRANSITIONS, segment_table, segments_state
 from fuzzyfeed.slw.resume import Recorder, resume
 
 
@@ -123,6 +123,10 @@ def _feed_cap(feed_cap, total: float) -> FeedCap | None:
     return FeedCap(s, v, total)
 
 
+#: Ticks sampled together (a bounded working set: a chunk's segment numbers, 11 floats a tick).
+STATE_CHUNK = 1 << 16
+
+
 def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
     """s, v, a, j at t_k = k·Ts for the concatenated block segments (seed 000, eq. (17)-(19))."""
     segs = [seg for b in blocks for seg in b.segments if seg.duration_s > 0.0]
@@ -141,16 +145,14 @@ def _sample_profile(blocks: list[ScheduledBlock], ts: float, total: float):
     a = np.zeros(t.size)
     j = np.zeros(t.size)
     which = np.clip(np.searchsorted(starts_t, t, side="right") - 1, 0, max(len(segs) - 1, 0))
-    # ticks are in time order, so each segment's ticks are one contiguous run: linear, not
-    # segments × ticks
-    bounds = np.searchsorted(which, np.arange(len(segs) + 1), side="left")
-    for i, seg in enumerate(segs):
-        m = slice(int(bounds[i]), int(bounds[i + 1]))
-        if m.start == m.stop:
-            continue
-        tau = np.minimum(t[m] - starts_t[i], seg.duration_s)
-        pos, vel, acc, jerk = segment_state(seg, tau)
-        s[m], v[m], a[m], j[m] = pos + starts_s[i], vel, acc, jerk
+    table = segment_table(segs)
+    for lo in range(0, t.size if segs else 0, STATE_CHUNK):
+        # the ticks a chunk at a time, each the floats of segment_state on its own segment
+        m = slice(lo, lo + STATE_CHUNK)
+        at = which[m]
+        tau = np.minimum(t[m] - starts_t[at], durations[at])
+        pos, v[m], a[m], j[m] = segments_state(segs, table, at, tau)
+        s[m] = pos + starts_s[at]
     after = t >= t_end
     s[after], v[after], a[after], j[after] = total, 0.0, 0.0, 0.0
     s[0] = 0.0

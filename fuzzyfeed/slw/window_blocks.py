@@ -43,6 +43,10 @@ class _WBlock:
     acc: float
     vmax: float
     checked: tuple | None = None
+    # True only while ``checked`` is the block's current key (its end junctions' feeds, acc,
+    # acc_down, vmax, length): cleared wherever one of them changes (SlidingWindow._set_feeds,
+    # window_check's repairs; a split or merge makes new blocks), so the check skips it unread
+    clean: bool = False
     pending: tuple | None = None  # (key, samples …) of a check not yet judged (_sample)
     # the tangential acceleration of the block's falls (``acc``: of its rises); seed 000's one
     # acceleration per block when equal (the default)

@@ -62,6 +62,9 @@ STRETCH_KEEP = 0.6
 #: time than at the lowered acceleration (a jerk-bound change gains little from a higher
 #: acceleration and loses a junction's zero acceleration: nurbs48 slow-Y cosine, a 16 mm/s rise).
 STRETCH_GAIN = 0.25
+#: Skip the blocks checked at their current key by their ``clean`` flag (False: by comparing the
+#: whole key, :meth:`BlockCheck._checked_at_key`; the same blocks are checked, tests compare).
+FAST_SKIP = True
 #: Samples of a block's profile within this share of a limit (axis acceleration or feed) are
 #: checked against the path evaluated at the samples themselves, not interpolated between points.
 EXACT_NEAR = 0.99
@@ -100,11 +103,11 @@ class BlockCheck:
         if b.pending is not None and b.pending[0] == key:
             return b.pending
         if b.length < SUB_TICK * self.limits.feed_mm_s * self.limits.ts_s:
-            b.checked = key  # crossed within a small part of one servo period: nothing to sample
+            b.checked, b.clean = key, True  # crossed within a small part of one servo period
             return None
         kind, segs = self._segments(i)
         if not segs:
-            b.checked = key
+            b.checked, b.clean = key, True
             return None
         import fuzzyfeed.slw._kernels as kernels
 
@@ -128,18 +131,14 @@ class BlockCheck:
         The samples within reach of a limit of every block still to judge are read from the path
         in one evaluation (one call instead of one per block: the calls' overhead was half of
         a long program's scheduling), compiled (slw/exact.py)."""
-        blocks, juncs = self.blocks, self.juncs
-        data = []
-        for i in indices:
-            b = blocks[i]
-            c = b.checked
-            # checked with these feeds already (_sample would say so): skipped without its key
-            # (~3·10⁶ calls on a long program, most of them for blocks checked before)
-            # (the key of _sample: v0, v1, acc, acc_down, vmax, length)
-            if c is not None and c[0] == juncs[i].v and c[1] == juncs[i + 1].v and c[2] == b.acc \
-                    and c[3] == b.acc_down and c[4] == b.vmax and c[5] == b.length:
-                continue
-            data.append((i, self._sample(i)))
+        blocks = self.blocks
+        # a clean block was checked at its current key (_sample would say so): skipped unread
+        # (~3·10⁶ calls on a long program, most of them for blocks checked before); a block not
+        # clean whose key came back to the checked one is skipped by _sample (None)
+        if FAST_SKIP:
+            data = [(i, self._sample(i)) for i in indices if not blocks[i].clean]
+        else:
+            data = [(i, self._sample(i)) for i in indices if not self._checked_at_key(i)]
         todo = [d for _, d in data if d is not None and d[9].size]
         if todo:
             s_all = np.concatenate([d[2][d[9]] for d in todo])
@@ -164,6 +163,13 @@ class BlockCheck:
             if d is not None and not self._check(i):
                 return False
         return True
+
+    def _checked_at_key(self, i: int) -> bool:
+        """Block i checked with these feeds already, by its whole key (v0, v1, acc, acc_down, vmax,
+        length, as :meth:`_sample`): the reference of the ``clean`` flag (tests compare)."""
+        b, c = self.blocks[i], self.blocks[i].checked
+        return c is not None and c[0] == self.juncs[i].v and c[1] == self.juncs[i + 1].v and c[2] == b.acc \
+            and c[3] == b.acc_down and c[4] == b.vmax and c[5] == b.length
 
     def _check(self, i: int) -> bool:
         """Check block i; repair it and return False if it broke a limit."""
@@ -208,7 +214,7 @@ class BlockCheck:
             self.stats.caps_lowered += 1
             return False
         if over_v.max() <= 0.0 and r.max() <= 1.0 + CHECK_RTOL:
-            b.checked = key
+            b.checked, b.clean = key, True
             return True
         if over_v.max() > 0.0:
             k = int(np.argmax(over_v / np.maximum(vlim, 1e-12)))
@@ -229,7 +235,7 @@ class BlockCheck:
                 # lowest limit from the crossing on, no junction (a split there, 3 % under the
                 # limit, began a sawtooth of junctions at zero acceleration: nurbs5 slow-Y, 10
                 # over 11 mm); each such repair lowers the top (never below an end feed)
-                b.vmax = rest_v
+                b.vmax, b.clean = rest_v, False
                 b.tops += 1
                 self.stats.caps_lowered += 1
                 return False
@@ -295,6 +301,7 @@ class BlockCheck:
             b.acc = acc
         if side != 0:
             b.acc_down = acc
+        b.clean = False
         b.ceilings = b.ceilings + ((float(s[k]), acc, side),)
         self.stats.acc_lowered += 1
         self._invalidate()
