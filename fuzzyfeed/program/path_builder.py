@@ -48,6 +48,16 @@ def _nurbs_chords(program: Program, m: int, chord_tol_mm: float) -> np.ndarray:
     return out
 
 
+def _plain_moves(program: Program, run: np.ndarray) -> np.ndarray:
+    """Moves :meth:`PathBuilder._add_plain` takes: not run, or a line/rapid with finite ends at
+    more than 1e-9 mm from its start (the per-move rule's length, the same floats)."""
+    d = program.end - program.start
+    length = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
+    line = (program.kind != ARC) & (program.kind != NURBS)
+    finite = np.isfinite(program.start).all(axis=1) & np.isfinite(program.end).all(axis=1)
+    return ~run | (line & finite & (length > 1e-9))
+
+
 class PathBuilder:
     """Chains built move by move (module docstring). ``on_chunk(program, tag, points, radius,
     feed, rapid, seg_move, measured)``: vertices (points (k, 3), radius (k,)) and segments (feed
@@ -104,6 +114,41 @@ class PathBuilder:
         """The last chain ends."""
         self._close(program, tag)
 
+    def _add_plain(self, program: Program, tag, c0: int, c1: int, run: np.ndarray, stop: np.ndarray) -> None:
+        """Moves ``c0..c1-1`` of ``program``, each not run or a line/rapid longer than 1e-9 mm with
+        finite ends (:func:`_plain_moves`), the open chain's last vertex its last move's end: the
+        chains, chunks and closes of :meth:`add`'s move-by-move rules, in arrays. Every run move is a
+        segment from its start, so a chain is a group of run moves each starting where the one before
+        ended, with no stop between."""
+        start, end = program.start[c0:c1], program.end[c0:c1]
+        run, stop = run[c0:c1], stop[c0:c1]
+        kinds, n = program.kind[c0:c1], c1 - c0
+        cont = np.zeros(n, dtype=bool)       # the move continues the chain open before it
+        cont[1:] = run[1:] & run[:-1] & ~stop[:-1] & (start[1:] == end[:-1]).all(axis=1)
+        cont[0] = bool(run[0]) and self.open and start[0].tolist() == self.last_end
+        if self.open and not cont[0]:
+            self._close(program, tag)
+        first = np.flatnonzero(run & ~cont)                  # each new chain's first move
+        ends = np.flatnonzero(run & ~np.append(cont[1:], False))    # each chain's last move here
+        heads = ([0] if cont[0] else []) + first.tolist()
+        rapid_all = (kinds == RAPID) | (kinds == HOME)
+        feed_all = np.where(rapid_all, np.nan, program.feed_mm_min[c0:c1] / 60.0)
+        meas_all = ~rapid_all & (program.cut[c0:c1] >= 0)
+        for i0, i1 in zip(heads, ends.tolist()):
+            moves = slice(i0, i1 + 1)
+            pts = end[moves].copy() if cont[i0] else np.vstack([start[i0][None, :], end[moves]])
+            self.open = True
+            self.segments += i1 + 1 - i0
+            self.on_chunk(program, tag, pts, np.full(pts.shape[0], np.nan), feed_all[moves].copy(),
+                          rapid_all[moves].copy(), np.arange(c0 + i0, c0 + i1 + 1, dtype=np.int64),
+                          meas_all[moves].copy())
+            if stop[i1] or i1 + 1 < n:
+                self._close(program, tag)
+            else:
+                self.last_end = end[i1].tolist()
+                self.prev = tuple(self.last_end)
+        self._reset()
+
     def add(self, program: Program, tag=None) -> None:
         """The moves of ``program`` (a window's; ``tag``, passed back to ``on_chunk`` with its
         chunks, says which), the chain left open at its end."""
@@ -122,8 +167,12 @@ class PathBuilder:
         run_a, stop_a = runnable, np.asarray(stops, bool)
         tol = self.chord_tol_mm
         chunk = PATH_CHUNK_MOVES
+        plain = _plain_moves(program, run_a)
         for c0 in range(0, kinds.size, chunk):
             c1 = min(c0 + chunk, kinds.size)
+            if plain[c0:c1].all() and (not self.open or self.prev == tuple(self.last_end)):
+                self._add_plain(program, tag, c0, c1, run_a, stop_a)
+                continue
             run_l, kind_l, stop_l = run_a[c0:c1].tolist(), kinds[c0:c1].tolist(), stop_a[c0:c1].tolist()
             start_l, end_l = program.start[c0:c1].tolist(), program.end[c0:c1].tolist()
             feed_l, cut_l = program.feed_mm_min[c0:c1].tolist(), program.cut[c0:c1].tolist()

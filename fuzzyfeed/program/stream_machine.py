@@ -158,13 +158,16 @@ def machine_cut_advice(pieces, n_pieces: int, length: float, k: int, table, mach
     settle = settle_time_s(machine)
 
     def safe(pc):
-        """Ceiling (mm/min, per sample: F capped, and the machine's reach along the path) and safe feed (mm/s)."""
+        """Ceiling (mm/min, per sample: F capped, and the machine's reach along the path), safe feed
+        (mm/s) and the reach (mm/s) along the segment leaving each sample (the last: the one arriving),
+        which is :meth:`~fuzzyfeed.machine.description.Machine.speed_along` of each segment, the same floats."""
         ms, s = pc.ms, pc.s
         sample_move = np.concatenate([[ms.seg_move[0]], ms.seg_move])
         ceil = pc.program.feed_mm_min[sample_move]
         if cap is not None:
             ceil = np.minimum(ceil, cap)
-        ceil = np.minimum(ceil, 60.0 * machine.move_velocity(sample_tangents(ms.xyz)))
+        reach = machine.move_velocity(sample_tangents(ms.xyz))
+        ceil = np.minimum(ceil, 60.0 * reach)
         ceiling = ceil / 60.0
         if not (np.isfinite(ceiling) & (ceiling > 0)).all():
             raise InputError(f"ceiling_mm_s: needs one finite feed > 0 per sample ({ceiling.size})")
@@ -172,7 +175,7 @@ def machine_cut_advice(pieces, n_pieces: int, length: float, k: int, table, mach
         v_safe = np.minimum(v_curve, junction_safe_feed(machine, ms.turn_angle, ms.xyz, s))
         if pc.lo == 0:     # the cut's entry: its samples reach past the rapid's braking lag
             v_safe[0] = min(v_safe[0], entry_safe_feed(SimpleNamespace(s=s, xyz=ms.xyz), entry, machine))
-        return sample_move, ceil, ceiling, v_safe
+        return sample_move, ceil, ceiling, v_safe, reach
 
     def controller(v_safe, s, ceiling, levels):
         near = settling_min(v_safe, s, settle, ceiling, levels=levels, span=span)
@@ -196,7 +199,7 @@ def machine_cut_advice(pieces, n_pieces: int, length: float, k: int, table, mach
     # pass 1: the settling levels (slowest hot spot, fastest feed around a hot spot) over the cut
     lo_v, hi_v = np.inf, -np.inf
     for pc in pieces():
-        _, _, ceiling, v_safe = safe(pc)
+        _, _, ceiling, v_safe, _ = safe(pc)
         hot, around = hot_spots(v_safe, ceiling)
         core = core_of(pc)
         h = hot[core]
@@ -209,7 +212,7 @@ def machine_cut_advice(pieces, n_pieces: int, length: float, k: int, table, mach
     if table.filter == "corner-mean":
         found = []
         for pc in pieces():
-            _, _, ceiling, v_safe = safe(pc)
+            _, _, ceiling, v_safe, _ = safe(pc)
             raw = controller(v_safe, pc.s, ceiling, levels)[2]
             core = core_of(pc)
             at = curvature_peaks(pc.ms.curvature)[core]
@@ -224,7 +227,7 @@ def _pass2(pieces, k, table, machine, safe, controller, cap, feed_step, min_piec
     carry = CarriedSums()
     for pc in pieces:
         program, ms, s, a, b, lo = pc.program, pc.ms, pc.s, pc.a, pc.b, pc.lo
-        sample_move, ceil, ceiling, v_safe = safe(pc)
+        sample_move, ceil, ceiling, v_safe, reach = safe(pc)
         ratio, near_r, raw = controller(v_safe, s, ceiling, levels)
         v, wlo, whi, w = filter_terms(raw, table.filter, table.filter_points, s, table.filter_mm, ms.curvature,
                                       span=span, lowest=lowest)
@@ -241,7 +244,7 @@ def _pass2(pieces, k, table, machine, safe, controller, cap, feed_step, min_piec
                    "feed_pct": pct[rows], "programmed_feed_mm_min": ce, "feed_mm_min": pct[rows] / 100.0 * ce}
         segs = slice(c0, c1)
         seg_move, seg_phi, ceiling_seg = segment_ceilings(program, ms, pct, segs, cap)
-        reachable = np.minimum(ceiling_seg, 60.0 * machine.speed_along(ms.xyz)[segs])
+        reachable = np.minimum(ceiling_seg, 60.0 * reach[segs])
         pm, pe, pf = move_pieces(program, seg_move, ms.seg_f1[segs], np.diff(s)[segs], seg_phi, ceiling_seg,
                                  reachable, feed_step, min_piece)
         yield AdvicePiece(cut=k, columns=columns, piece_move=pm + pc.move0, piece_end=pe, piece_feed_mm_min=pf)
