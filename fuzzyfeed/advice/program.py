@@ -5,12 +5,14 @@ machine, run as written and the cuts that break the tolerance advised, with the 
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 
+from fuzzyfeed.advice.machine_program import machine_result
 from fuzzyfeed.advice.options import AdviceOptions
+from fuzzyfeed.advice.program_outputs import (G52_REFUSAL, check_outputs, feed_note, refuse_report, verifier,
+                                               write_text)
 from fuzzyfeed.advice.result import AdviceResult
 from fuzzyfeed.errors import ExportError, MachineLimitsError
 
@@ -19,12 +21,6 @@ from fuzzyfeed.errors import ExportError, MachineLimitsError
 ADVICE_COLUMNS = ("cut", "source_line", "u", "x_mm", "y_mm", "z_mm", "s_mm", "curvature_1_mm",
                   "curvature_window_max_1_mm", "curvature_variation", "feed_pct_controller", "feed_pct",
                   "programmed_feed_mm_min", "feed_mm_min")
-
-_G52 = "--gcode-g52 writes a NURBS shape; a G-code program is written back with --gcode OUT.ngc"
-
-
-def _feed_note(cap) -> str:
-    return "the program's own F" + (f", capped at {cap:g} mm/min" if cap else "")
 
 
 def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
@@ -63,7 +59,7 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
     if selector is None and machine is None and options.reference:
         from fuzzyfeed.advice.program_windows import windowed_result
 
-        verify = _verifier(options, tools)     # rs274 missing: refused before anything is read
+        verify = verifier(options, tools)     # rs274 missing: refused before anything is read
 
         def whole():                   # the whole read, where the windows cannot give its result
             program = read_program(path, tools=tools)
@@ -72,9 +68,9 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
             return ProgramResult(spec, options, path, program, table, None, step_mm, step, verify)
 
         def checks(csv, gcode, gcode_g52, plot, report):
-            _check_outputs(csv, gcode, gcode_g52, plot)
-            _refuse_report(report)
-        windowed = windowed_result(spec, options, path, table, step_mm, step, tools, whole, checks, _feed_note)
+            check_outputs(csv, gcode, gcode_g52, plot)
+            refuse_report(report)
+        windowed = windowed_result(spec, options, path, table, step_mm, step, tools, whole, checks, feed_note)
         if windowed is not None:       # a long program: read, advised and written in windows
             return windowed
     if selector is None and machine is not None:
@@ -84,10 +80,10 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
             program = read_program(path, tools=tools)
             if program.n_cuts == 0:
                 return NothingResult(spec, options, path, program)
-            return _machine_result(spec, options, program, table, cap, step, step_mm, None, tools)
+            return machine_result(spec, options, program, table, cap, step, step_mm, None, tools)
 
         windowed = windowed_machine_result(spec, options, path, table, step_mm, step, tools, whole_machine,
-                                           _check_outputs, _feed_note)
+                                           check_outputs, feed_note)
         if windowed is not None:       # a long program: its chains and advice made in windows
             return windowed
     program = read_program(path, tools=tools)
@@ -99,67 +95,11 @@ def advise_program_file(spec: str, options: AdviceOptions) -> AdviceResult:
                      for k in range(program.n_cuts)]
         cuts = [pick_by_index(program.path, selector, described)]
     if machine is not None:
-        return _machine_result(spec, options, program, table, cap, step, step_mm, cuts, tools)
+        return machine_result(spec, options, program, table, cap, step, step_mm, cuts, tools)
     if not options.reference:
         raise MachineLimitsError("--no-reference: the value report needs a machine (--machine FILE, or "
                                  "a machine flag such as --contour-tol-um)")
-    return ProgramResult(spec, options, path, program, table, cuts, step_mm, step, _verifier(options, tools))
-
-
-def _machine_result(spec, options, program, table, cap, step, step_mm, cuts, tools):
-    """The :class:`MachineProgramResult` of ``program`` read whole (its evaluation made when needed)."""
-    from fuzzyfeed.report.value import evaluate_program
-
-    machine = options.machine
-    tty = sys.stderr.isatty()
-
-    def progress(stage: str) -> None:
-        if tty:
-            print(f"fuzzyfeed: {program.path.name}: {stage} ...", file=sys.stderr, flush=True)
-
-    verify = _verifier(options, tools)
-
-    def evaluate(sink=None):
-        return evaluate_program(program, machine, table, cap_mm_min=cap, feed_step_mm_min=step,
-                                step_mm=step_mm, cuts=cuts, reference=options.reference,
-                                progress=progress, verify=verify, tools=tools, check_uniform=False,
-                                sink=sink)
-    return MachineProgramResult(spec, options, program, evaluate)
-
-
-def _verifier(options: AdviceOptions, tools):
-    """With ``verify_rs274``: a rewrite ``(program, move, end, feed) -> (text, Verification)``
-    checked by rs274 with the tool table ``tools`` (:mod:`fuzzyfeed.program.verify`); else None."""
-    if not options.verify_rs274:
-        return None
-    from fuzzyfeed.program.rewrite import rewrite_program
-    from fuzzyfeed.program.verify import rs274_path, verified_rewrite
-
-    if rs274_path() is None:
-        raise ExportError("--verify-rs274: rs274 not found on PATH (LinuxCNC's interpreter, Debian "
-                          "package linuxcnc-uspace); leave the flag out to write the rewrite unchecked")
-    return lambda program, *pieces: verified_rewrite(program, *pieces, rewrite=rewrite_program, tools_mm=tools)
-
-
-def _refuse_report(report) -> None:
-    if report is not None:
-        raise MachineLimitsError("--report: the value report needs a machine (--machine FILE, or a "
-                                 "machine flag such as --contour-tol-um)")
-
-
-def _check_outputs(csv, gcode, gcode_g52, plot) -> None:
-    if gcode_g52:
-        raise ExportError(_G52)
-    outputs = [p for p in (csv, gcode, plot) if p]
-    if len(set(outputs)) != len(outputs):
-        raise ExportError(f"output files must differ: {', '.join(outputs)}")
-
-
-def _write_text(path: str, text: str) -> None:
-    from fuzzyfeed.base.atomic import atomic_write
-
-    with atomic_write(path, "w", newline="") as handle:
-        handle.write(text)
+    return ProgramResult(spec, options, path, program, table, cuts, step_mm, step, verifier(options, tools))
 
 
 class ProgramResult(AdviceResult):
@@ -296,8 +236,8 @@ class ProgramResult(AdviceResult):
         from fuzzyfeed.fuzzy.provenance import provenance
         from fuzzyfeed.io.csv import ColumnStream, tee, write_metadata
 
-        _check_outputs(csv, gcode, gcode_g52, plot)
-        _refuse_report(report)
+        check_outputs(csv, gcode, gcode_g52, plot)
+        refuse_report(report)
         if self._verify is not None and not gcode:
             raise ExportError("--verify-rs274 checks the rewritten program: give --gcode OUT.ngc (or a machine)")
         trace = None
@@ -311,7 +251,7 @@ class ProgramResult(AdviceResult):
                 out = ColumnStream(handle, csv)
                 self._advise(out.write if trace is None else tee(out.write, trace.add))
             record = provenance(self.table, cap or 0.0, str(self.path), out.rows)
-            record["F_mm_min"] = _feed_note(cap)
+            record["F_mm_min"] = feed_note(cap)
             write_metadata(csv, out.names, record)
         elif trace is not None:
             self._advise(trace.add)
@@ -319,7 +259,7 @@ class ProgramResult(AdviceResult):
             self._plot_trace(trace, plot)
         if gcode:
             if self._text is not None or self._verify is not None:
-                _write_text(gcode, self.text)
+                write_text(gcode, self.text)
             else:                        # the rewritten program in chunks, never whole
                 from fuzzyfeed.program.rewrite import rewrite_chunks
 
@@ -347,132 +287,6 @@ class ProgramResult(AdviceResult):
         from fuzzyfeed.report.plot_trace import plot_trace
 
         plot_trace(trace, self.table, f"{self.path.name}: {self._n_advised()} cut(s) end to end", output)
-
-
-class MachineProgramResult(AdviceResult):
-    """A program on a machine: run as written, the cuts that break the tolerance advised, the
-    value report (``.value``). The evaluation (:func:`~fuzzyfeed.report.value.evaluate_program`)
-    runs when first needed: by :meth:`write` with a CSV, which takes its rows as the advice makes
-    them (the advice runs once), else by whatever asks first. The uniform slowdown's checking run
-    (a whole run at its factor) and the limit reference are made when the report is asked for:
-    ``.value``, ``figures()`` or ``--report`` (not for the plot); the summary printed without them
-    marks the uniform row as not checked (:data:`~fuzzyfeed.report.value.UNCHECKED`) and says the
-    limit reference was not run."""
-
-    kind = "program on a machine"
-
-    def __init__(self, source, options, program, evaluate):
-        self.source, self.options, self.program = source, options, program
-        self._evaluate = evaluate     # (sink=None) -> Evaluation
-        self._evaluation = None
-        self._columns = None
-        self._feed_pct = None         # (min, mean) of the CSV's feed_pct, when the rows streamed
-
-    @property
-    def evaluation(self):
-        if self._evaluation is None:
-            self._evaluation = self._evaluate()
-        return self._evaluation
-
-    @evaluation.setter
-    def evaluation(self, value) -> None:
-        self._evaluation = value
-
-    @property
-    def text(self) -> str:
-        return self.evaluation.text
-
-    @property
-    def value(self):
-        self.evaluation = self.evaluation.checked()
-        return self.evaluation.report
-
-    def columns(self) -> dict:
-        if self._columns is None:
-            self._columns = self.evaluation.columns()
-        return self._columns
-
-    def summary(self) -> list[str]:
-        ev, program, machine = self.evaluation, self.program, self.options.machine
-        left = program.n_cuts - len(ev.advised_cuts)
-        return [f"{program.path.name}: {len(program.lines)} lines, {program.n_cuts} cut(s); {machine.describe()}",
-                f"advised {len(ev.advised_cuts)} cut(s) that break the tolerance as written; {left} left as written",
-                *ev.report.lines()]
-
-    def figures(self) -> dict:
-        r, ev = self.value, self.evaluation
-        if self._feed_pct is None:
-            columns = self.columns()
-            self._feed_pct = (float(columns["feed_pct"].min()), float(columns["feed_pct"].mean()))
-        row = {k: v for k, v in r.csv_row().items() if k not in ("program", "written_time_s", "advised_time_s")}
-        return {"cuts": self.program.n_cuts, "cuts_advised": len(ev.advised_cuts), "time_written_s": r.written.time_s,
-                "time_advised_s": r.advised.time_s, "feed_pct_min": self._feed_pct[0],
-                "feed_pct_mean": self._feed_pct[1], **row}
-
-    def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
-        from fuzzyfeed.fuzzy.provenance import provenance
-        from fuzzyfeed.io.csv import write_metadata
-
-        _check_outputs(csv, gcode, gcode_g52, plot)
-        cap, machine = self.options.feed_mm_min, self.options.machine
-        if csv is not None:              # rows written as the pieces come
-            from fuzzyfeed.base.atomic import atomic_write
-            from fuzzyfeed.io.csv import ColumnStream
-
-            with atomic_write(csv, "w", newline="") as handle:
-                out = ColumnStream(handle, csv)
-                if self._evaluation is None:      # the advice made now, its rows written as they come
-                    pct = _FeedPct(out.write)
-                    self._evaluation = self._evaluate(sink=pct)
-                    self._feed_pct = pct.figures()
-                else:                             # made before: its rows made again, piece by piece
-                    for part in (self.evaluation.column_pieces() if self._columns is None else [self._columns]):
-                        out.write(part)
-            record = provenance(self.options.table, cap or 0.0, str(self.program.path), out.rows)
-            record["F_mm_min"] = _feed_note(cap)
-            record["machine"] = machine.describe()
-            write_metadata(csv, out.names, record)
-        if report:
-            self.evaluation = self.evaluation.checked()
-        if gcode:
-            _write_text(gcode, self.text)
-        if plot:
-            self.plot(plot)
-        if report:
-            from fuzzyfeed.report.value_files import write_value_report
-
-            write_value_report([self.value], report)
-        written = [p for p in (csv, gcode, plot, report) if p]
-        return ["wrote " + ", ".join(written)] if written else []
-
-    def _plot(self, output) -> None:
-        from fuzzyfeed.report.value_files import plot_value
-
-        plot_value(self.evaluation.report, output)
-
-    def report_html(self) -> str:
-        """The value report as one HTML page (``--report FILE.html``)."""
-        from fuzzyfeed.report.value_files import report_table_html
-
-        return report_table_html([self.value])
-
-
-class _FeedPct:
-    """A CSV sink passing each piece on to ``write`` and keeping the feed_pct column's min and mean."""
-
-    def __init__(self, write):
-        self.write, self.low, self.total, self.count = write, np.inf, 0.0, 0
-
-    def __call__(self, cols: dict) -> None:
-        self.write(cols)
-        pct = np.asarray(cols["feed_pct"])
-        if pct.size:
-            self.low = min(self.low, float(pct.min()))
-            self.total += float(np.sum(pct))
-            self.count += pct.size
-
-    def figures(self) -> tuple[float, float] | None:
-        return None if self.count == 0 else (self.low, self.total / self.count)
 
 
 class NothingResult(AdviceResult):
@@ -509,7 +323,7 @@ class NothingResult(AdviceResult):
         from fuzzyfeed.io.csv import write_columns, write_metadata
 
         if gcode_g52:
-            raise ExportError(_G52)
+            raise ExportError(G52_REFUSAL)
         if csv is not None:
             write_columns(csv, self.columns())
             write_metadata(csv, list(ADVICE_COLUMNS), {"source": str(self.path), "generator": "fuzzyfeed",

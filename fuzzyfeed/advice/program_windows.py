@@ -236,7 +236,7 @@ def _need_gcode(gcode) -> None:
 def windowed_machine_result(spec, options, path: Path, table, step_mm: float, step: float, tools, whole, checks,
                             feed_note):
     """A :class:`WindowedMachineResult` for a long program on a machine (None: read it whole).
-    ``whole()`` makes the whole read's :class:`~fuzzyfeed.advice.program.MachineProgramResult`,
+    ``whole()`` makes the whole read's :class:`~fuzzyfeed.advice.machine_program.MachineProgramResult`,
     ``checks(csv, gcode, gcode_g52, plot)`` refuses outputs a program cannot have."""
     if options.verify_rs274 or windowed_lines(path) is None:
         return None
