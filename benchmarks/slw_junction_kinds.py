@@ -72,6 +72,22 @@ def junction_kinds(traj, s_points, tol):
     return out
 
 
+def axis_region_top(tangent, kn, acc, a_t: float, good: float, bad: float) -> float:
+    """The largest x = v² in [good, bad] whose axis-region interval of a (``_kernels.acc_range``)
+    meets [−a_t, a_t]: ``bad`` if it does, else bisected (60 steps; an infinite ``bad`` doubles)."""
+    import fuzzyfeed.slw._kernels as kernels
+
+    t_i, k_i = np.ascontiguousarray(tangent), np.ascontiguousarray(kn)
+    lo, hi = kernels.acc_range(bad, t_i, k_i, acc) if np.isfinite(bad) else (np.inf, -np.inf)
+    if lo <= hi and lo <= a_t and hi >= -a_t:
+        return bad
+    for _ in range(60):
+        mid = 0.5 * (good + bad) if np.isfinite(bad) else 2.0 * good + 1.0
+        lo, hi = kernels.acc_range(mid, t_i, k_i, acc)
+        good, bad = (mid, bad) if (lo <= hi and lo <= a_t and hi >= -a_t) else (good, mid)
+    return good
+
+
 def bottom_ratios(traj, limits, cap, bottoms):
     """v_J / vlim and v_J / v_any at the junctions ``bottoms`` ((s, v_J) pairs; module docstring)."""
     import fuzzyfeed.slw._kernels as kernels
@@ -94,15 +110,7 @@ def bottom_ratios(traj, limits, cap, bottoms):
     other = SlidingWindow(limits, traj.curve, cap=cap)._feed_limit_numpy(ref.s, ref.vlim, ref.tangent, ref.kn)
     a_t = limits.tangential_acc_mm_s2
     for i in range(s.size):  # the largest x whose range of a meets [−a_t, a_t]
-        good, bad = min(ref.vlim[i] ** 2, x[i]), x[i]
-        t_i, k_i = np.ascontiguousarray(ref.tangent[i]), np.ascontiguousarray(ref.kn[i])
-        lo, hi = kernels.acc_range(bad, t_i, k_i, acc) if np.isfinite(bad) else (np.inf, -np.inf)
-        if not (lo <= hi and lo <= a_t and hi >= -a_t):
-            for _ in range(60):
-                mid = 0.5 * (good + bad) if np.isfinite(bad) else 2.0 * good + 1.0
-                lo, hi = kernels.acc_range(mid, t_i, k_i, acc)
-                good, bad = (mid, bad) if (lo <= hi and lo <= a_t and hi >= -a_t) else (good, mid)
-            x[i] = good
+        x[i] = axis_region_top(ref.tangent[i], ref.kn[i], acc, a_t, min(ref.vlim[i] ** 2, x[i]), x[i])
     v_any = np.minimum(np.sqrt(x), other)
     return v / ref.vlim, v / v_any
 

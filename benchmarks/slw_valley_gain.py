@@ -54,7 +54,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_slw import cases  # noqa: E402
-from slw_junction_kinds import junction_kinds  # noqa: E402
+from slw_junction_kinds import axis_region_top, junction_kinds  # noqa: E402
 from slw_time_split import split  # noqa: E402
 
 from fuzzyfeed.slw.acc_profile import acc_transition, speed_range  # noqa: E402
@@ -148,21 +148,10 @@ def tick_check(curve, limits, s_start: float, pieces, t_start: float = 0.0, s_be
 def v_any_at(ref, i, limits, x_mvc, v_other):
     """The highest feed with a nonempty axis-region interval meeting |a| ≤ the tangential
     acceleration at reference point i (slw_junction_kinds.bottom_ratios, one point)."""
-    import fuzzyfeed.slw._kernels as kernels
-
     d = ref.tangent.shape[1]
     acc = np.asarray(limits.axis_acc_mm_s2, dtype=float)[:d]
-    a_t = limits.tangential_acc_mm_s2
-    t_i, k_i = np.ascontiguousarray(ref.tangent[i]), np.ascontiguousarray(ref.kn[i])
-    good, bad = min(ref.vlim[i] ** 2, x_mvc), x_mvc
-    lo, hi = kernels.acc_range(bad, t_i, k_i, acc) if np.isfinite(bad) else (np.inf, -np.inf)
-    if not (lo <= hi and lo <= a_t and hi >= -a_t):
-        for _ in range(60):
-            mid = 0.5 * (good + bad) if np.isfinite(bad) else 2.0 * good + 1.0
-            lo, hi = kernels.acc_range(mid, t_i, k_i, acc)
-            good, bad = (mid, bad) if (lo <= hi and lo <= a_t and hi >= -a_t) else (good, mid)
-    else:
-        good = bad
+    good = axis_region_top(ref.tangent[i], ref.kn[i], acc, limits.tangential_acc_mm_s2,
+                           min(ref.vlim[i] ** 2, x_mvc), x_mvc)
     return min(float(np.sqrt(good)), v_other)
 
 

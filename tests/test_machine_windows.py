@@ -148,9 +148,10 @@ def test_the_store_holds_the_whole_reads_chains_across_window_joins(tmp_path):
     cut.close()
 
 
-def test_the_scratch_directory_is_removed_after_success_and_after_an_error(tmp_path, monkeypatch, capsys):
-    import fuzzyfeed.program.machine_windows as mw
-
+def check_scratch_removed(tmp_path, monkeypatch, capsys, extra: tuple, break_halfway) -> None:
+    """The windowed run's scratch directories (``fuzzyfeed-machine-*``) are gone after a run with
+    ``extra`` flags that succeeds and after one that ``break_halfway(monkeypatch)`` makes fail
+    (nothing written in its folder)."""
     made = []
     real_mkdtemp = tempfile.mkdtemp
 
@@ -161,16 +162,10 @@ def test_the_scratch_directory_is_removed_after_success_and_after_an_error(tmp_p
         return d
     monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp)
     prog = _raster(tmp_path / "r.ngc")
-    _compare(tmp_path, prog, monkeypatch, capsys, 400, "--machine", "reference")
+    _compare(tmp_path, prog, monkeypatch, capsys, 400, "--machine", "reference", *extra)
     assert made and not any(os.path.exists(d) for d in made)
     made.clear()
-
-    def broken(*a, **k):
-        raise RuntimeError("a failure halfway")
-    monkeypatch.setattr(mw, "uniform_slowdown", broken, raising=False)
-    import fuzzyfeed.program.uniform as uniform
-
-    monkeypatch.setattr(uniform, "uniform_slowdown", broken)
+    break_halfway(monkeypatch)
     monkeypatch.setattr(windows, "MIN_LINES", 1)
     monkeypatch.setattr(windows, "WINDOW_LINES", 400)
     (tmp_path / "err").mkdir()
@@ -178,9 +173,23 @@ def test_the_scratch_directory_is_removed_after_success_and_after_an_error(tmp_p
     from fuzzyfeed.cli import main
 
     with pytest.raises(RuntimeError):
-        main(["advise", str(prog), "-o", "x.csv", "--gcode", "y.ngc", "--machine", "reference"])
+        main(["advise", str(prog), "-o", "x.csv", "--gcode", "y.ngc", "--machine", "reference", *extra])
     assert made and not any(os.path.exists(d) for d in made)
     assert os.listdir(tmp_path / "err") == []
+
+
+def broken(*a, **k):
+    raise RuntimeError("a failure halfway")
+
+
+def test_the_scratch_directory_is_removed_after_success_and_after_an_error(tmp_path, monkeypatch, capsys):
+    import fuzzyfeed.program.machine_windows as mw
+    import fuzzyfeed.program.uniform as uniform
+
+    def break_halfway(mp):
+        mp.setattr(mw, "uniform_slowdown", broken, raising=False)
+        mp.setattr(uniform, "uniform_slowdown", broken)
+    check_scratch_removed(tmp_path, monkeypatch, capsys, (), break_halfway)
 
 
 @pytest.mark.parametrize("rel", ["dxf2gcode/erin7.ngc", "linuxcnc/tort.ngc", "linuxcnc/cds.ngc",

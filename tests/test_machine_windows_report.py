@@ -11,7 +11,7 @@ import filecmp
 
 import pytest
 
-from test_machine_windows import _advise, _compare
+from test_machine_windows import _advise, _compare, broken, check_scratch_removed
 from test_program_windows import _raster
 
 
@@ -107,38 +107,10 @@ def test_a_place_set_apart_with_report_falls_back_to_the_whole_read(tmp_path, mo
 
 
 def test_the_scratch_directory_is_removed_after_a_report_and_after_an_error(tmp_path, monkeypatch, capsys):
-    import os
-    import tempfile
-
     import fuzzyfeed.program.reference as reference
-    import fuzzyfeed.program.windows as windows
-    from fuzzyfeed.cli import main
 
-    made = []
-    real_mkdtemp = tempfile.mkdtemp
-
-    def mkdtemp(*a, **k):
-        d = real_mkdtemp(*a, **k)
-        if "fuzzyfeed-machine-" in os.path.basename(d):
-            made.append(d)
-        return d
-    monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp)
-    prog = _raster(tmp_path / "r.ngc")
-    _compare(tmp_path, prog, monkeypatch, capsys, 400, "--machine", "reference", "--report", "r.html")
-    assert made and not any(os.path.exists(d) for d in made)
-    made.clear()
-
-    def broken(*a, **k):
-        raise RuntimeError("a failure halfway")
-    monkeypatch.setattr(reference, "limit_reference", broken)
-    monkeypatch.setattr(windows, "MIN_LINES", 1)
-    monkeypatch.setattr(windows, "WINDOW_LINES", 400)
-    (tmp_path / "err").mkdir()
-    monkeypatch.chdir(tmp_path / "err")
-    with pytest.raises(RuntimeError):
-        main(["advise", str(prog), "-o", "x.csv", "--gcode", "y.ngc", "--machine", "reference", "--report", "r.html"])
-    assert made and not any(os.path.exists(d) for d in made)
-    assert os.listdir(tmp_path / "err") == []
+    check_scratch_removed(tmp_path, monkeypatch, capsys, ("--report", "r.html"),
+                          lambda mp: mp.setattr(reference, "limit_reference", broken))
 
 
 def test_where_the_tool_passed_the_tolerance_summed_in_blocks_is_the_sum_in_one(tmp_path, monkeypatch):
