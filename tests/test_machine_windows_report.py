@@ -161,3 +161,23 @@ def test_the_report_of_a_one_cut_raster_in_windows_is_the_whole_reads(tmp_path, 
     prog = _program(tmp_path / "r.ngc", inch=inch, fast_row=17)
     out = _compare(tmp_path, prog, monkeypatch, capsys, 60, "--machine", "reference", "--report", "r.html")
     assert "1 cut(s)" in out and "limit reference" in out and "not run" not in out
+
+
+def test_the_whole_reads_value_plot_is_deterministic(tmp_path, monkeypatch):
+    """What the PNG comparisons below rest on."""
+    prog = _raster(tmp_path / "r.ngc", cuts=3, rows=3)
+    for name in ("a", "b"):
+        _advise(tmp_path / name, prog, False, monkeypatch, 400, "--machine", "reference", "--plot", "p.png")
+    assert filecmp.cmp(tmp_path / "a" / "p.png", tmp_path / "b" / "p.png", shallow=False)
+
+
+@pytest.mark.parametrize("extra", [(), ("--report", "r.html")])
+@pytest.mark.parametrize("inch", [False, True])
+def test_the_value_plot_in_windows_is_the_whole_reads(tmp_path, monkeypatch, capsys, inch, extra):
+    """``--plot`` beside ``-o``/``--gcode`` no longer reads the program whole: the windows draw the
+    value plot's feed trace from the stores (with or without ``--report``); PNG byte for byte."""
+    prog = _raster(tmp_path / "r.ngc", inch=inch)
+    out = _compare(tmp_path, prog, monkeypatch, capsys, 160, "--machine", "reference", "--plot", "p.png", *extra)
+    assert "p.png" in out
+    assert (tmp_path / "win" / "p.png").stat().st_size > 10_000   # a drawn plot, not an empty figure
+

@@ -248,10 +248,11 @@ class WindowedMachineResult(_WindowedResult):
     (:func:`~fuzzyfeed.program.machine_windows.evaluate_in_windows`: the chains in a scratch store,
     runs part by part; the scratch directory removed on every exit): the CSV rows written as the
     advice makes them, the advised program copied from its scratch file, ``--report`` (the uniform
-    slowdown checked and the limit reference, on the store; the plot's trace drawn from it), the
-    summary the whole read's, byte for byte. ``--plot``, and whatever else is asked of the result
-    (the text, the columns, the value report) read the program whole (``whole()``), as does any
-    window the machine path cannot join exactly (:class:`~fuzzyfeed.program.windows.Fallback`)."""
+    slowdown checked and the limit reference, on the store; the plot's trace drawn from it),
+    ``--plot`` beside ``-o`` or ``--gcode`` (the value plot of that trace), the summary the whole
+    read's, byte for byte. Whatever else is asked of the result (the text, the columns, the value
+    report, a plot alone) reads the program whole (``whole()``), as does any window the machine
+    path cannot join exactly (:class:`~fuzzyfeed.program.windows.Fallback`)."""
 
     kind = "program on a machine"
 
@@ -273,20 +274,24 @@ class WindowedMachineResult(_WindowedResult):
         return self.whole().figures()
 
     def _plot(self, output) -> None:
+        if self.report is not None and self.report.trace is not None:   # drawn by the windows
+            from fuzzyfeed.report.value_files import plot_value
+
+            return plot_value(self.report, output)
         return self.whole()._plot(output)
 
     def _write(self, csv, gcode, gcode_g52, plot, report) -> list[str]:
         if self._whole is None:
             self._checks(csv, gcode, gcode_g52, plot)
-        if (csv is None and gcode is None) or plot is not None or self._whole is not None:
+        if (csv is None and gcode is None) or self._whole is not None:
             return self.whole()._write(csv, gcode, gcode_g52, plot, report)
 
         def forget():
             self._runs = self.report = None
-        return self._in_windows(lambda: self._write_windows(csv, gcode, report), forget, csv, gcode, gcode_g52,
-                                plot, report)
+        return self._in_windows(lambda: self._write_windows(csv, gcode, report, plot), forget, csv, gcode,
+                                gcode_g52, plot, report)
 
-    def _write_windows(self, csv, gcode, report_file=None) -> list[str]:
+    def _write_windows(self, csv, gcode, report_file=None, plot=None) -> list[str]:
         import shutil
         import sys
         import tempfile
@@ -318,12 +323,16 @@ class WindowedMachineResult(_WindowedResult):
                                        tools=self.tools, window_lines=self.window_lines or WINDOW_LINES,
                                        sink=None if out is None else out.write, progress=progress,
                                        check=report_file is not None, reference=self.options.reference,
-                                       trace=None if report_file is None else partial(feed_trace,
-                                                                                      tol_um=machine.contour_tol_um))
+                                       trace=None if report_file is None and plot is None else partial(
+                                           feed_trace, tol_um=machine.contour_tol_um))
             report = windowed_report(runs, self.path.name, machine, self.table, self.options.reference)
             if gcode is not None:
                 with atomic_write(gcode, "wb") as handle, open(runs.advised_file, "rb") as src:
                     shutil.copyfileobj(src, handle)
+            if plot is not None:
+                from fuzzyfeed.report.value_files import plot_value
+
+                plot_value(report, plot)
             if report_file is not None:
                 from fuzzyfeed.report.value_files import write_value_report
 
@@ -334,7 +343,7 @@ class WindowedMachineResult(_WindowedResult):
             record["machine"] = machine.describe()
             write_metadata(csv, out.names, record)
         self._runs, self.report = runs, report
-        written = [p for p in (csv, gcode, report_file) if p]
+        written = [p for p in (csv, gcode, plot, report_file) if p]
         return ["wrote " + ", ".join(written)]
 
     def summary(self) -> list[str]:
