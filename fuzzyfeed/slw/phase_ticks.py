@@ -1,0 +1,324 @@
+"""Servo ticks from a feed profile x(s) = v(s)² on an arc-length grid (issue 38, the tick half).
+
+A planner over the whole path (a phase-plane or LP parameterisation) gives x_k = v_k² ≥ 0 on a grid
+0 = s_0 < … < s_n = L, x = 0 at both ends and at every full stop, and best also its nodal tangential
+accelerations a_k. :func:`ticks_from_phase` turns it into the tick rows (t, s, v, a, j) at t_k = k·Ts
+that :func:`fuzzyfeed.slw.trajectory.schedule` interpolates and checks, with the conventions of its
+window sampling: the first tick at s = 0 at rest, the last at ⌈T/Ts⌉·Ts exactly on L at rest
+(terminal-error compensation, seed 000), s non-decreasing, v = a = j = 0 after the end.
+
+**The motion between two nodes** joins (s_k, v_k, a_k) to (s_k+1, v_k+1, a_k+1) (s, v and a continuous:
+a C² motion), by the law of the smaller largest |jerk| of two:
+
+* two constant-jerk pieces in time (:func:`_two_jerks`): the second a share γ of the interval's
+  time T, T the root of a quadratic (the moments of j), γ chosen to minimise max(|j1|, |j2|). Exact
+  for any motion of constant jerk over the interval (the jerk-limited start s = J·t³/6 from a rest
+  is one), and for one that switches jerk once inside it (a seven-phase profile's grid values with
+  their own a give back that profile to rounding);
+* a linear in s (da/ds = c on each half, knot at the midpoint with a_m = 2ā − (a_k + a_k+1)/2,
+  ā = (x_k+1 − x_k)/(2h), so x interpolates x_k+1 exactly): j = c·v, i.e. s‴ = c·s′, in closed form
+  (cosh/cos, :func:`_linear_state`), durations by a safeguarded Newton. With a planner's trapezoid
+  relation h(a_k + a_k+1) = x_k+1 − x_k, a is linear over the interval and |j| ≤ √(max x)·|Δa|/h.
+
+**Nodal accelerations** (:func:`nodal_accelerations`): ``a_grid`` where given; without it the
+three-point x'_k/2 (a weak estimate: on a sampled seven-phase move the jerk reaches 1.06-2.5 × J;
+pass a_grid). At a rest node a = 0; beside one, a is the given value if a motion from rest reaches
+it, else ±2x/(3h) (the constant-jerk start s = J_r·t³/6 with J_r = 2x^{3/2}/(9h²), duration
+3h/√x; a planner matches it with x_1 = (3/2)·h_0·a_1 and x_1 ≤ (4.5·J·h_0²)^{2/3}).
+
+**What it guarantees** (to rounding; tests/test_phase_ticks.py): the ticks pass every node's
+(s, v, a); on every interval the realised |jerk| is at most the smaller of the two laws' bounds, so
+never above √(max x on a half)·|da/ds| of the linear-in-s interpolant (for a planner's linear-a
+profile: its own jerk constraint); |a| between nodes is within the pieces' extremes (the constant-
+jerk pieces: a linear in t between its knots). Each tick is the motion at k·Ts and the tick check's
+finite differences are weighted means of it (Δ³s/Ts³ is a B-spline mean of j, s being C²), so the
+ticks' feed, acceleration and jerk stay within the motion's own maxima.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fuzzyfeed.errors import InputError
+
+#: A node with x ≤ REST_RTOL·max(x) is a full stop (an LP's rounding of 0).
+REST_RTOL = 1e-12
+#: Most servo periods a profile may have (trajectory.MAX_TICKS: ≈ 14 h at 1 ms).
+MAX_TICKS = 5e7
+#: Ticks evaluated together (a bounded working set).
+TICK_CHUNK = 1 << 16
+#: Below this |c·τ²| the state functions are summed as series (no cancellation in cosh − 1).
+_SERIES_Z = 0.1
+_NEWTON_STEPS = 60
+
+# piece kinds: a linear in s (da/ds = c), or constant jerk in time
+_LINEAR, _CUBIC = 0, 1
+
+
+def _state_functions(z: np.ndarray, tau: np.ndarray):
+    """C = cosh√z, S1 = τ·sinh√z/√z, S2 = τ²·(cosh√z − 1)/z for z = c·τ² (cos/sin for z < 0): the
+    solution s = v0·S1 + a0·S2, v = v0·C + a0·S1/τ·τ of s''' = c·s' (entire in z; series near 0)."""
+    z = np.asarray(z, dtype=float)
+    small = np.abs(z) < _SERIES_Z
+    c0, c1, c2 = np.ones_like(z), np.ones_like(z), np.full_like(z, 0.5)
+    term0, term1, term2 = np.ones_like(z), np.ones_like(z), np.full_like(z, 0.5)
+    zs = np.where(small, z, 0.0)
+    for n in range(1, 9):  # Σ zⁿ/(2n)!, Σ zⁿ/(2n+1)!, Σ zⁿ/(2n+2)!
+        term0 = term0 * zs / ((2 * n - 1) * (2 * n))
+        term1 = term1 * zs / ((2 * n) * (2 * n + 1))
+        term2 = term2 * zs / ((2 * n + 1) * (2 * n + 2))
+        c0, c1, c2 = c0 + term0, c1 + term1, c2 + term2
+    big = ~small
+    if big.any():
+        zb = np.minimum(z[big], 1e4)  # cosh(100): far beyond any real piece
+        w = np.sqrt(np.abs(zb))
+        pos = zb > 0
+        ch = np.where(pos, np.cosh(w), np.cos(w))
+        sh = np.where(pos, np.sinh(w), np.sin(w)) / w
+        c0[big], c1[big], c2[big] = ch, sh, (ch - 1.0) / zb
+    return c0, tau * c1, tau * tau * c2
+
+
+def _linear_state(v0, a0, c, tau):
+    """s − s0, v, a, j at τ into a piece where a is linear in s (da/ds = c): s''' = c·s'."""
+    C, S1, S2 = _state_functions(c * tau * tau, tau)
+    v = v0 * C + a0 * S1
+    return v0 * S1 + a0 * S2, v, a0 * C + c * v0 * S1, c * v
+
+
+def _cubic_state(v0, a0, jerk, tau):
+    """s − s0, v, a, j at τ into a constant-jerk piece."""
+    return (v0 * tau + a0 * tau * tau / 2.0 + jerk * tau ** 3 / 6.0, v0 + a0 * tau + jerk * tau * tau / 2.0,
+            a0 + jerk * tau, np.full_like(tau, jerk) if np.ndim(tau) else jerk)
+
+
+def _linear_durations(x0, a0, c, length):
+    """Time to travel ``length`` on x = x0 + 2a0σ + cσ² (> 0 on the piece): the root of
+    s(τ) = length of :func:`_linear_state`, by Newton safeguarded by bisection on the bracket
+    [length/√max x, length/√min x] (s is increasing, s' = v ∈ [√min x, √max x])."""
+    x1 = x0 + 2.0 * a0 * length + c * length * length
+    lo_x = np.minimum(x0, x1)
+    hi_x = np.maximum(x0, x1)
+    inside = (c != 0.0) & (-a0 / np.where(c != 0.0, c, 1.0) > 0.0) & (-a0 / np.where(c != 0.0, c, 1.0) < length)
+    ext = x0 - a0 * a0 / np.where(c != 0.0, c, 1.0)
+    lo_x = np.where(inside, np.minimum(lo_x, ext), lo_x)
+    hi_x = np.where(inside, np.maximum(hi_x, ext), hi_x)
+    v0 = np.sqrt(x0)
+    lo, hi = length / np.sqrt(hi_x), length / np.sqrt(lo_x)
+    tau = np.clip(2.0 * length / (v0 + np.sqrt(x1)), lo, hi)
+    for _ in range(_NEWTON_STEPS):
+        s, v, _, _ = _linear_state(v0, a0, c, tau)
+        f = s - length
+        lo, hi = np.where(f < 0.0, tau, lo), np.where(f > 0.0, tau, hi)
+        step = tau - f / np.where(v > 0.0, v, np.inf)
+        nxt = np.where((step > lo) & (step < hi), step, 0.5 * (lo + hi))
+        done = np.abs(nxt - tau) <= 4e-16 * tau
+        tau = nxt
+        if done.all():
+            break
+    return tau
+
+
+def _check_grid(s_grid, x_grid, ts_s, a_grid):
+    s = np.asarray(s_grid, dtype=float)
+    x = np.asarray(x_grid, dtype=float)
+    if s.ndim != 1 or x.shape != s.shape or s.size < 2:
+        raise InputError(f"ticks_from_phase: s_grid {s.shape} and x_grid {x.shape} must be two 1-D arrays "
+                         "of the same length ≥ 2")
+    if not (np.isfinite(s).all() and np.isfinite(x).all()):
+        raise InputError("ticks_from_phase: s_grid and x_grid must be finite")
+    if not np.all(np.diff(s) > 0.0):
+        raise InputError("ticks_from_phase: s_grid must be strictly increasing")
+    if not (np.isfinite(ts_s) and ts_s > 0.0):
+        raise InputError(f"ticks_from_phase: servo period {ts_s!r} s; must be > 0")
+    top = float(x.max())
+    if top <= 0.0 or x.min() < -1e-9 * top:
+        raise InputError("ticks_from_phase: x_grid = v² must be ≥ 0 and positive somewhere")
+    x = np.where(x <= REST_RTOL * top, 0.0, x)
+    if x[0] != 0.0 or x[-1] != 0.0:
+        raise InputError("ticks_from_phase: the profile must start and end at rest (x = 0 at both ends)")
+    a = None
+    if a_grid is not None:
+        a = np.array(a_grid, dtype=float)
+        if a.shape != s.shape or not np.isfinite(a).all():
+            raise InputError(f"ticks_from_phase: a_grid {a.shape} must be finite, one value per grid point")
+    return s, x, a
+
+
+def nodal_accelerations(s: np.ndarray, x: np.ndarray, a_grid: np.ndarray | None = None) -> np.ndarray:
+    """a_k at the nodes: 0 at rest; ``a_grid`` where given and joinable to a neighbouring rest,
+    else beside a rest ±2x/(3h) (the constant-jerk start/stop's end value) and 0 at a single moving
+    node between two rests; elsewhere without ``a_grid`` the three-point x'_k/2. Raises
+    InputError for x = 0 on a whole interval (never passed)."""
+    h = np.diff(s)
+    rest = x == 0.0
+    if (rest[:-1] & rest[1:]).any():
+        k = int(np.flatnonzero(rest[:-1] & rest[1:])[0])
+        raise InputError(f"ticks_from_phase: x = 0 on the whole interval [{s[k]:.6g}, {s[k + 1]:.6g}] mm; "
+                         "a stretch at rest is never passed")
+    if a_grid is None:
+        slope = np.diff(x) / (2.0 * h)
+        a = np.zeros_like(x)
+        a[1:-1] = (h[1:] * slope[:-1] + h[:-1] * slope[1:]) / (h[:-1] + h[1:])
+    else:
+        a = a_grid.copy()
+    a[rest] = 0.0
+    after = np.flatnonzero(rest[:-1]) + 1     # nodes just after a rest (a start)
+    before = np.flatnonzero(rest[1:])         # nodes just before a rest (a stop)
+    v = np.sqrt(x)
+    if a_grid is not None:                    # the planner's own a, where a rest joins it
+        fits_after = np.isfinite(_time_halves(h[after - 1], v[after - 1], v[after], a[after - 1], a[after])[4])
+        fits_before = np.isfinite(_time_halves(h[before], v[before], v[before + 1], a[before], a[before + 1])[4])
+        after, before = after[~fits_after], before[~fits_before]
+    a[after] = 2.0 * x[after] / (3.0 * h[after - 1])
+    a[before] = -2.0 * x[before] / (3.0 * h[before])
+    a[np.intersect1d(after, before)] = 0.0    # a peak between two stops
+    return a
+
+
+def _two_jerks(h, v0, v1, a0, a1, gamma):
+    """Two constant-jerk pieces from (v0, a0) to (v1, a1) over h, the second γ of the time T: the
+    moments ∫j = Δa, ∫(T − t)j = Δv − a0T, ∫(T − t)²j/2 = h − v0T − a0T²/2 give
+    ((2γ − 1)a0 + γΔa)·T² − (6v0 + 2(1 + γ)Δv)·T + 6h = 0 (its smallest positive root), then with
+    P = 2(Δv − a0T)/T², Q = Δa/T: j1 = (P − γQ)/(1 − γ), j2 = ((1 + γ)Q − P)/γ.
+    → T, j1, j2 and the largest |j| (inf where no such motion keeps v ≥ 0)."""
+    da, dv = a1 - a0, v1 - v0
+    qa = (2.0 * gamma - 1.0) * a0 + gamma * da
+    qb = 6.0 * v0 + 2.0 * (1.0 + gamma) * dv
+    disc = qb * qb - 24.0 * qa * h
+    den = qb + np.sqrt(np.maximum(disc, 0.0))
+    ok = (disc >= 0.0) & (den > 0.0)
+    T = np.where(ok, 12.0 * h / np.where(ok, den, 1.0), 1.0)
+    P, Q = 2.0 * (dv - a0 * T) / (T * T), da / T
+    beta = 1.0 - gamma
+    j1, j2 = (P - gamma * Q) / beta, ((1.0 + gamma) * Q - P) / gamma
+    t1, t2 = beta * T, gamma * T
+    vm, am = v0 + a0 * t1 + j1 * t1 * t1 / 2.0, a0 + j1 * t1
+    slack = -1e-9 * np.maximum(v0, v1)   # a stop's own v = 0 at its end, rounded
+    for vb, ab, jb, tb in ((v0, a0, j1, t1), (vm, am, j2, t2)):  # v = vb + ab·t + jb·t²/2 ≥ 0
+        safe = np.where(jb != 0.0, jb, 1.0)
+        t_min = -ab / safe
+        dips = (jb > 0.0) & (t_min > 0.0) & (t_min < tb)
+        ok &= ~dips | (vb - ab * ab / (2.0 * safe) >= slack)
+    ok &= np.isfinite(j1) & np.isfinite(j2) & (T > 0.0)
+    return T, j1, j2, np.where(ok, np.maximum(np.abs(j1), np.abs(j2)), np.inf)
+
+
+#: The share of the time in the second piece: a grid of GAMMAS, then golden sections around the best.
+GAMMAS = np.arange(1, 32) / 32.0
+_GOLDEN_STEPS = 30
+
+
+def _time_halves(h, v0, v1, a0, a1):
+    """Per interval the two constant-jerk pieces (:func:`_two_jerks`) of the least largest |j| over
+    the time split γ (a grid, then golden sections): a motion of constant jerk over the interval is
+    found exactly (γ = 1/2, j1 = j2), one that switches jerk once inside it nearly. → T, γ, j1, j2,
+    the largest |j| (inf: none)."""
+    args = [np.asarray(arr, dtype=float)[:, None] for arr in (h, v0, v1, a0, a1)]
+    worst = _two_jerks(*args, GAMMAS[None, :])[3]
+    best = np.argmin(worst, axis=1)
+    gamma = GAMMAS[best]
+    top = worst[np.arange(best.size), best]
+    flat = [arr[:, 0] for arr in args]
+    lo, hi = np.maximum(gamma - 1.0 / 32.0, 1e-3), np.minimum(gamma + 1.0 / 32.0, 1.0 - 1e-3)
+    ratio = (np.sqrt(5.0) - 1.0) / 2.0
+    g1, g2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    f1, f2 = _two_jerks(*flat, g1)[3], _two_jerks(*flat, g2)[3]
+    for _ in range(_GOLDEN_STEPS):
+        left = f1 <= f2
+        hi, lo = np.where(left, g2, hi), np.where(left, lo, g1)
+        g2n, g1n = np.where(left, g1, lo + ratio * (hi - lo)), np.where(left, hi - ratio * (hi - lo), g2)
+        f2n = np.where(left, f1, _two_jerks(*flat, g2n)[3])
+        f1n = np.where(left, _two_jerks(*flat, g1n)[3], f2)
+        g1, g2, f1, f2 = g1n, g2n, f1n, f2n
+    g_ref, f_ref = np.where(f1 <= f2, g1, g2), np.minimum(f1, f2)
+    better = f_ref < top * (1.0 - 1e-12)
+    gamma = np.where(better, g_ref, gamma)
+    T, j1, j2, top = _two_jerks(*flat, gamma)
+    return T, gamma, j1, j2, top
+
+
+def _linear_halves(h, x, a):
+    """Per interval the two halves of the linear-in-s law: the midpoint knot's x and a, and per half
+    (x0, a0, slope c, length) with the half's jerk bound √(max x on it)·|c| (inf where x reaches 0
+    inside: the law cannot pass there)."""
+    a_mid = np.diff(x) / h - 0.5 * (a[:-1] + a[1:])
+    x_mid = x[:-1] + 0.5 * h * (a[:-1] + a_mid)
+    x0 = np.stack([x[:-1], x_mid], axis=1)
+    a0 = np.stack([a[:-1], a_mid], axis=1)
+    c = np.stack([(a_mid - a[:-1]) / (0.5 * h), (a[1:] - a_mid) / (0.5 * h)], axis=1)
+    length = np.stack([0.5 * h, 0.5 * h], axis=1)
+    x1 = x0 + 2.0 * a0 * length + c * length * length
+    sig = -a0 / np.where(c != 0.0, c, 1.0)
+    inside = (c != 0.0) & (sig > 0.0) & (sig < length)
+    ext = np.where(inside, x0 + a0 * sig, x0)         # x at a = 0 inside: a valley (c > 0) or a hump
+    top = np.maximum(np.maximum(x0, x1), ext)
+    low = np.minimum(np.minimum(x0, x1), ext)
+    bound = np.where(low > 0.0, np.sqrt(top) * np.abs(c), np.inf).max(axis=1)
+    return x0, a0, c, length, bound
+
+
+def _pieces(s: np.ndarray, x: np.ndarray, a: np.ndarray):
+    """The motion's pieces in path order (two per interval): kind, start s, v, a, c (da/ds of a
+    linear piece) or jerk (a cubic piece), duration. Per interval the law of the smaller jerk: two
+    constant jerks (:func:`_time_halves`) or a linear in s (:func:`_linear_halves`)."""
+    h = np.diff(s)
+    v = np.sqrt(x)
+    T, gamma, j1, j2, top = _time_halves(h, v[:-1], v[1:], a[:-1], a[1:])
+    x0, a_lin, c_lin, length, bound = _linear_halves(h, x, a)
+    timed = np.isfinite(top) & ~(top > bound)
+    if not (timed | np.isfinite(bound)).all():
+        i = int(np.flatnonzero(~(timed | np.isfinite(bound)))[0])
+        raise InputError(f"ticks_from_phase: no motion with x > 0 joins the grid points at s = {s[i]:.6g} and "
+                         f"{s[i + 1]:.6g} mm (their x and a disagree); a stop must be a grid point with x = 0")
+    kind = np.where(np.stack([timed, timed], axis=1), _CUBIC, _LINEAR).astype(np.int8)
+    t1 = (1.0 - gamma) * T
+    s_tm = s[:-1] + v[:-1] * t1 + a[:-1] * t1 * t1 / 2.0 + j1 * t1 ** 3 / 6.0
+    v_tm = v[:-1] + a[:-1] * t1 + j1 * t1 * t1 / 2.0
+    a_tm = a[:-1] + j1 * t1
+    s0 = np.stack([s[:-1], np.where(timed, s_tm, s[:-1] + 0.5 * h)], axis=1)
+    v0 = np.where(timed[:, None], np.stack([v[:-1], v_tm], axis=1), np.sqrt(x0))
+    a0 = np.where(timed[:, None], np.stack([a[:-1], a_tm], axis=1), a_lin)
+    c = np.where(timed[:, None], np.stack([j1, j2], axis=1), c_lin)
+    duration = np.stack([t1, gamma * T], axis=1)
+    if (~timed).any():
+        k = np.flatnonzero(~timed)
+        duration[k] = _linear_durations(x0[k].ravel(), a_lin[k].ravel(), c_lin[k].ravel(),
+                                        length[k].ravel()).reshape(-1, 2)
+    return tuple(arr.ravel() for arr in (kind, s0, v0, a0, c, duration))
+
+
+def ticks_from_phase(s_grid, x_grid, ts_s: float, a_grid=None):
+    """(t, s, v, a, j) at t_k = k·Ts, k = 0 … ⌈T/Ts⌉, of the profile x(s) = v² on the grid (module
+    docstring: the interpolant, the rest laws, what holds). ``a_grid`` optional nodal accelerations
+    (a planner's own; replaced at and beside rest nodes). The last tick is on s = L at rest."""
+    s, x, a_in = _check_grid(s_grid, x_grid, float(ts_s), a_grid)
+    a = nodal_accelerations(s, x, a_in)
+    kind, s0, v0, a0, c, duration = _pieces(s, x, a)
+    starts = np.concatenate([[0.0], np.cumsum(duration)])
+    t_end = float(starts[-1])
+    if not np.isfinite(t_end) or t_end / ts_s > MAX_TICKS:
+        raise InputError(f"the profile needs {t_end:.4g} s = {t_end / ts_s:.4g} servo periods (more than "
+                         f"{MAX_TICKS:.0e})")
+    total = float(s[-1])
+    k_last = max(int(np.ceil(t_end / ts_s - 1e-9)), 1)
+    t = np.arange(k_last + 1) * ts_s
+    pos, vel, acc, jerk = (np.zeros(t.size) for _ in range(4))
+    for lo in range(0, t.size, TICK_CHUNK):
+        m = slice(lo, lo + TICK_CHUNK)
+        at = np.clip(np.searchsorted(starts, t[m], side="right") - 1, 0, kind.size - 1)
+        tau = np.clip(t[m] - starts[at], 0.0, duration[at])
+        lin = kind[at] == _LINEAR
+        ds, v, acc_m, j = _linear_state(v0[at], a0[at], np.where(lin, c[at], 0.0), tau)
+        cs, cv, ca, cj = _cubic_state(v0[at], a0[at], np.where(lin, 0.0, c[at]), tau)
+        pos[m] = s0[at] + np.where(lin, ds, cs)
+        vel[m] = np.where(lin, v, cv)
+        acc[m] = np.where(lin, acc_m, ca)
+        jerk[m] = np.where(lin, j, cj)
+    after = t >= t_end
+    pos[after], vel[after], acc[after], jerk[after] = total, 0.0, 0.0, 0.0
+    pos[0] = s[0]
+    pos = np.minimum(np.maximum.accumulate(pos), total)
+    pos[-1] = total
+    np.maximum(vel, 0.0, out=vel)
+    return t, pos, vel, acc, jerk

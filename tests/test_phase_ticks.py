@@ -1,0 +1,196 @@
+"""Servo ticks from a feed profile x(s) = v² on a grid (fuzzyfeed.slw.phase_ticks), checked against
+closed forms it does not use: the constant-jerk start s = J·t³/6, the seven-phase rest-to-rest move
+(slw/profile's segments and floor.rest_to_rest_s), and the tick check's own finite differences
+(slw/check.tick_ratios on a straight line)."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from fuzzyfeed.errors import InputError
+from fuzzyfeed.machine.limits import MachineLimits
+from fuzzyfeed.slw.check import tick_ratios
+from fuzzyfeed.slw.floor import rest_to_rest_s
+from fuzzyfeed.slw.phase_ticks import ticks_from_phase
+from fuzzyfeed.slw.profile import SEVEN_PHASE, block_segments, segment_table, segments_state
+
+TS = 1e-3
+LIMITS = MachineLimits(feed_mm_s=100.0, axis_vel_mm_s=200.0, axis_acc_mm_s2=1000.0, jerk_mm_s3=1e4,
+                       ts_s=TS)
+#: What the ticks of a sampled seven-phase profile may realise over its limits: with its nodal
+#: accelerations (a_grid) every interval is one or two constant jerks, found exactly (rounding);
+#: without them (three-point a from x alone) the jerk is measured up to 2.46 x J on a 0.3 mm move
+#: (0.0375 mm grid), 1.06-1.42 x on longer ones, and the time up to 2.4 % long.
+FACTOR = 1.0 + 1e-6
+JERK_FACTOR_NO_A, TIME_RTOL_NO_A = 2.5, 0.03
+
+
+def _on_line(s):
+    """Positions along the x axis (the check's straight-line xyz)."""
+    return np.stack([s, np.zeros_like(s), np.zeros_like(s)], axis=1)
+
+
+def _sampled(segs, s_grid):
+    """x = v² and a at arc lengths ``s_grid`` of a profile of slw/profile segments (time found by
+    bisection on the segments' own s(t))."""
+    durations = np.array([g.duration_s for g in segs])
+    starts = np.concatenate([[0.0], np.cumsum(durations)])
+    starts_s = np.concatenate([[0.0], np.cumsum([g.length_mm for g in segs])])
+    table = segment_table(segs)
+
+    def state(t):
+        at = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(segs) - 1)
+        pos, v, a, _ = segments_state(segs, table, at, np.minimum(t - starts[at], durations[at]))
+        return pos + starts_s[at], v, a
+
+    lo, hi = np.zeros_like(s_grid), np.full_like(s_grid, starts[-1])
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        below = state(mid)[0] < s_grid
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    _, v, a = state(0.5 * (lo + hi))
+    v[0] = v[-1] = 0.0
+    return v * v, a, starts[-1]
+
+
+def _seven_phase(length, limits=LIMITS):
+    kind, segs = block_segments(length, 0.0, 0.0, limits.feed_mm_s, limits.tangential_acc_mm_s2,
+                                limits.jerk_mm_s3, shape=SEVEN_PHASE)
+    return segs
+
+
+def test_constant_jerk_start_is_the_closed_form():
+    # jerk +J for T1, −J for 2·T1, +J for T1: rest to rest; grid points at the phase ends only
+    J, T1 = 1e4, 0.05
+    s1 = J * T1 ** 3 / 6.0
+    v1, a1 = J * T1 ** 2 / 2.0, J * T1
+    L = 2.0 * (s1 + v1 * T1 + a1 * T1 ** 2 / 2.0 - J * T1 ** 3 / 6.0)
+    grid = np.array([0.0, s1, L - s1, L])
+    x = np.array([0.0, v1 * v1, v1 * v1, 0.0])
+    t, s, v, a, j = ticks_from_phase(grid, x, TS)
+    first = t <= T1
+    np.testing.assert_allclose(s[first], J * t[first] ** 3 / 6.0, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(v[first], J * t[first] ** 2 / 2.0, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(a[first], J * t[first], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(j[t < T1 - 1e-9], J, rtol=1e-12)
+    # the stop mirrors it: L − s = J·(T − t)³/6 over the last T1, T read off the last moving tick
+    moving = np.flatnonzero(v > 0.0)[-1]
+    T = t[moving] + (6.0 * (L - s[moving]) / J) ** (1.0 / 3.0)
+    last = (t > T - T1) & (t <= T)
+    np.testing.assert_allclose(L - s[last], J * (T - t[last]) ** 3 / 6.0, rtol=1e-9, atol=1e-13)
+    assert t[-1] == pytest.approx(np.ceil(T / TS - 1e-9) * TS, abs=1e-12) and s[-1] == L
+
+
+@pytest.mark.parametrize("length", [0.3, 4.0, 60.0])
+@pytest.mark.parametrize("with_a", [True, False])
+def test_seven_phase_move_on_a_line(length, with_a):
+    segs = _seven_phase(length)
+    T = rest_to_rest_s(length, LIMITS.feed_mm_s, LIMITS.tangential_acc_mm_s2, LIMITS.jerk_mm_s3)
+    grid = np.linspace(0.0, length, max(int(np.ceil(length / 0.25)), 8) + 1)
+    x, a, T_segs = _sampled(segs, grid)
+    assert T_segs == pytest.approx(T, rel=1e-9)
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a if with_a else None)
+    np.testing.assert_allclose(np.diff(t), TS, rtol=1e-9)
+    assert s[0] == 0.0 and s[-1] == length and np.all(np.diff(s) >= 0.0) and np.all(v >= 0.0)
+    r = tick_ratios(_on_line(s), j, LIMITS)
+    if with_a:   # the move itself: its time (the last tick the first at or after it), its limits
+        assert T - 1e-9 <= t[-1] < T + TS
+        assert r["feed"].max() <= FACTOR and r["acceleration x"].max() <= FACTOR
+        assert np.nanmax(r["path jerk"]) <= FACTOR and np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR
+    else:
+        assert abs(t[-1] - T) <= TS + TIME_RTOL_NO_A * T
+        assert r["feed"].max() <= 1.0 + 1e-4 and r["acceleration x"].max() <= 1.01
+        assert np.nanmax(r["path jerk"]) <= JERK_FACTOR_NO_A
+
+
+def test_interior_full_stop():
+    # two seven-phase moves end to end: x = 0 at the grid point between them
+    one, two = 3.0, 5.0
+    g1 = np.linspace(0.0, one, 13)
+    g2 = np.linspace(0.0, two, 21)
+    x1, a1, T1 = _sampled(_seven_phase(one), g1)
+    x2, a2, T2 = _sampled(_seven_phase(two), g2)
+    grid = np.concatenate([g1, one + g2[1:]])
+    x = np.concatenate([x1, x2[1:]])
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=np.concatenate([a1, a2[1:]]))
+    assert np.isfinite(np.stack([t, s, v, acc, j])).all()
+    assert np.all(np.diff(s) >= 0.0) and s[-1] == one + two
+    # comes to rest there (the nearest tick within half a period of the stop: a jerk-J start)
+    k = int(np.argmin(np.abs(s - one)))
+    J = LIMITS.jerk_mm_s3
+    assert abs(s[k] - one) <= J * (TS / 2) ** 3 / 6.0 * 1.01 and v[k] <= J * (TS / 2) ** 2 / 2.0 * 1.01
+    assert np.any(s > one + 1e-3)                             # and starts again
+    assert abs(t[-1] - (T1 + T2)) <= 2 * TS + 5e-3 * (T1 + T2)
+    r = tick_ratios(_on_line(s), j, LIMITS)
+    assert np.nanmax(r["path jerk"]) <= FACTOR and r["acceleration x"].max() <= FACTOR
+
+
+def _jerk_bound(grid, x, a):
+    """The bound the module states, recomputed here from the grid values and nodal a: on each half
+    interval √(max x there)·|da/ds| (max x: the ends, the midpoint and an inside extremum), on a rest
+    interval J_r = 2x^{3/2}/(9h²)."""
+    h = np.diff(grid)
+    bound = 0.0
+    for k in range(h.size):
+        if x[k] == 0.0 or x[k + 1] == 0.0:
+            m = max(x[k], x[k + 1])
+            bound = max(bound, 2.0 * m ** 1.5 / (9.0 * h[k] ** 2))
+            continue
+        am = (x[k + 1] - x[k]) / h[k] - 0.5 * (a[k] + a[k + 1])
+        xm = x[k] + 0.5 * h[k] * (a[k] + am)
+        for x0, a0, a1 in ((x[k], a[k], am), (xm, am, a[k + 1])):
+            c = (a1 - a0) / (0.5 * h[k])
+            top = max(x0, x0 + h[k] * (a0 + a1) / 2.0)
+            if c < 0.0 and 0.0 < -a0 / c < 0.5 * h[k]:
+                top = max(top, x0 - a0 * a0 / c)
+            bound = max(bound, np.sqrt(top) * abs(c))
+    return bound
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2 ** 31 - 1), n=st.integers(4, 40), ts=st.sampled_from([5e-4, 1e-3, 2e-3]))
+def test_random_profiles(seed, n, ts):
+    rng = np.random.default_rng(seed)
+    grid = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.25, n))])
+    J = rng.uniform(2e3, 5e4)
+    # random jerk-bounded a(s): x_{k+1} = x_k + h(a_k + a_{k+1}), a linear in s with
+    # |Δa|·√(x) ≤ J·h, from a constant-jerk start, ended by a constant-jerk stop
+    h = np.diff(grid)
+    x, a = np.zeros(n + 1), np.zeros(n + 1)
+    x[1] = rng.uniform(0.2, 1.0) * (4.5 * J * h[0] ** 2) ** (2.0 / 3.0)
+    a[1] = 2.0 * x[1] / (3.0 * h[0])
+    for k in range(1, n - 1):
+        for u in (*rng.uniform(-1.0, 1.0, 8), 1.0):   # keep moving: x > 0 all over the interval
+            slope = u * J / np.sqrt(x[k]) / 2.0
+            a[k + 1] = a[k] + slope * h[k]
+            x[k + 1] = x[k] + h[k] * (a[k] + a[k + 1])
+            valley = x[k] - a[k] ** 2 / slope if slope > 0.0 and -a[k] / slope < h[k] and a[k] < 0.0 else x[k + 1]
+            if min(x[k + 1], valley) > 0.05 * x[k]:
+                break
+        assume(min(x[k + 1], valley) > 0.05 * x[k])
+    a[n - 1] = -2.0 * x[n - 1] / (3.0 * h[n - 1])
+    t, s, v, acc, j = ticks_from_phase(grid, x, ts, a_grid=a)
+    L = grid[-1]
+    assert np.isfinite(np.stack([s, v, acc, j])).all()
+    assert np.all(np.diff(s) >= 0.0) and np.all(v >= 0.0) and s[0] == 0.0 and s[-1] == L
+    np.testing.assert_allclose(np.diff(t), ts, rtol=1e-9)
+    bound = _jerk_bound(grid, x, a)
+    assert np.abs(j).max() <= bound * (1.0 + 1e-9)
+    if s.size > 4:
+        fd = np.abs(np.diff(np.diff(np.diff(np.concatenate([[0.0], s])) / ts) / ts)) / ts
+        assert fd.max() <= bound * (1.0 + 1e-6) + 1e-6 * L / ts ** 3
+
+
+def test_bad_grids_are_one_clear_error():
+    with pytest.raises(InputError, match="at rest"):
+        ticks_from_phase([0.0, 1.0, 2.0], [1.0, 4.0, 0.0], TS)
+    with pytest.raises(InputError, match="whole interval"):
+        ticks_from_phase([0.0, 1.0, 2.0, 3.0, 4.0], [0.0, 4.0, 0.0, 0.0, 0.0], TS)
+    with pytest.raises(InputError, match="strictly increasing"):
+        ticks_from_phase([0.0, 1.0, 1.0], [0.0, 4.0, 0.0], TS)
+
+
+def test_one_moving_point_between_two_stops():
+    t, s, v, a, j = ticks_from_phase([0.0, 1.0, 2.0, 3.0, 4.0], [0.0, 4.0, 0.0, 4.0, 0.0], TS)
+    assert np.isfinite(np.stack([s, v, a, j])).all() and np.all(np.diff(s) >= 0.0) and s[-1] == 4.0
