@@ -12,7 +12,7 @@ from fuzzyfeed.errors import InputError
 from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.slw.check import tick_ratios
 from fuzzyfeed.slw.floor import rest_to_rest_s
-from fuzzyfeed.slw.phase_ticks import ticks_from_phase
+from fuzzyfeed.slw.phase_ticks import _linear_durations, _linear_state, nodal_accelerations, ticks_from_phase
 from fuzzyfeed.slw.profile import SEVEN_PHASE, block_segments, segment_table, segments_state
 
 TS = 1e-3
@@ -126,26 +126,40 @@ def test_interior_full_stop():
     assert np.nanmax(r["path jerk"]) <= FACTOR and r["acceleration x"].max() <= FACTOR
 
 
-def _jerk_bound(grid, x, a):
-    """The bound the module states, recomputed here from the grid values and nodal a: on each half
-    interval √(max x there)·|da/ds| (max x: the ends, the midpoint and an inside extremum), on a rest
-    interval J_r = 2x^{3/2}/(9h²)."""
+def _jerk_bounds(grid, x, a):
+    """Per interval the bound the module states, recomputed here from the grid values and nodal a:
+    the linear-in-s law's √(max x on a half)·|da/ds| over its two halves (max x: the ends and an
+    inside extremum; inf where that law's x reaches 0), on a rest interval the constant-jerk
+    start's J_r = 2x^{3/2}/(9h²)."""
     h = np.diff(grid)
-    bound = 0.0
+    out = np.zeros(h.size)
     for k in range(h.size):
         if x[k] == 0.0 or x[k + 1] == 0.0:
             m = max(x[k], x[k + 1])
-            bound = max(bound, 2.0 * m ** 1.5 / (9.0 * h[k] ** 2))
+            out[k] = 2.0 * m ** 1.5 / (9.0 * h[k] ** 2)
             continue
         am = (x[k + 1] - x[k]) / h[k] - 0.5 * (a[k] + a[k + 1])
         xm = x[k] + 0.5 * h[k] * (a[k] + am)
         for x0, a0, a1 in ((x[k], a[k], am), (xm, am, a[k + 1])):
             c = (a1 - a0) / (0.5 * h[k])
-            top = max(x0, x0 + h[k] * (a0 + a1) / 2.0)
-            if c < 0.0 and 0.0 < -a0 / c < 0.5 * h[k]:
-                top = max(top, x0 - a0 * a0 / c)
-            bound = max(bound, np.sqrt(top) * abs(c))
-    return bound
+            ends = (x0, x0 + h[k] * (a0 + a1) / 2.0)
+            inside = [x0 - a0 * a0 / c] if c != 0.0 and 0.0 < -a0 / c < 0.5 * h[k] else []
+            if min(*ends, *inside) <= 0.0:
+                out[k] = np.inf
+                break
+            out[k] = max(out[k], np.sqrt(max(*ends, *inside)) * abs(c))
+    return out
+
+
+def _jerk_bound(grid, x, a):
+    return _jerk_bounds(grid, x, a).max()
+
+
+def _within_bounds(grid, s, j, bounds):
+    """|j| of the ticks strictly inside each interval ≤ its bound."""
+    k = np.searchsorted(grid, s, side="left") - 1
+    inside = (k >= 0) & (k < grid.size - 1) & (s > grid[np.clip(k, 0, None)])
+    return bool(np.all(np.abs(j[inside]) <= bounds[k[inside]] * (1.0 + 1e-9)))
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -194,3 +208,64 @@ def test_bad_grids_are_one_clear_error():
 def test_one_moving_point_between_two_stops():
     t, s, v, a, j = ticks_from_phase([0.0, 1.0, 2.0, 3.0, 4.0], [0.0, 4.0, 0.0, 4.0, 0.0], TS)
     assert np.isfinite(np.stack([s, v, a, j])).all() and np.all(np.diff(s) >= 0.0) and s[-1] == 4.0
+
+
+def test_linear_law_against_quadrature():
+    from scipy.integrate import quad
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        x0, length = rng.uniform(1e-2, 1e4), rng.uniform(1e-4, 0.2)
+        a0, c = rng.uniform(-1.0, 1.0) * x0 / length, rng.uniform(-3.0, 3.0) * x0 / length ** 2
+        xs = x0 + 2.0 * a0 * np.linspace(0, length, 201) + c * np.linspace(0, length, 201) ** 2
+        if xs.min() <= 0.05 * x0:
+            continue
+        x1 = x0 + 2.0 * a0 * length + c * length ** 2
+        T = _linear_durations(np.array([x0]), np.array([a0]), np.array([c]), np.array([length]))[0]
+        want = quad(lambda u: 1.0 / np.sqrt(x0 + 2.0 * a0 * u + c * u * u), 0.0, length, epsabs=0, epsrel=1e-13)[0]
+        assert T == pytest.approx(want, rel=1e-10)
+        s, v, a, j = _linear_state(np.sqrt(x0), a0, c, np.array([T]))
+        assert s[0] == pytest.approx(length, rel=1e-12)
+        assert v[0] == pytest.approx(np.sqrt(x1), rel=1e-9)
+        assert a[0] == pytest.approx(a0 + c * length, abs=1e-9 * (abs(a0) + abs(c) * length))
+        assert j[0] == pytest.approx(c * v[0], rel=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2 ** 31 - 1))
+def test_grid_values_that_disagree(seed):
+    # x and a drawn independently (no planner's relation between them): one clear error, or ticks
+    # that move forward within the linear-in-s law's jerk bound
+    rng = np.random.default_rng(seed)
+    grid = np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 0.25, 4))])
+    x = np.concatenate([[0.0], rng.uniform(50.0, 400.0, 3), [0.0]])
+    a_in = np.concatenate([[0.0], rng.uniform(-3000.0, 3000.0, 3), [0.0]])
+    try:
+        t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a_in)
+    except InputError as exc:
+        assert "joins the grid points" in str(exc)
+        return
+    assert np.isfinite(np.stack([s, v, acc, j])).all() and np.all(np.diff(s) >= 0.0) and s[-1] == grid[-1]
+    # away from the rests (there: two constant jerks from rest, no linear law to compare with)
+    bounds = _jerk_bounds(grid, x, nodal_accelerations(grid, x, a_in))
+    bounds[[0, -1]] = np.inf
+    assert _within_bounds(grid, s, j, bounds)
+
+
+def test_linear_law_where_two_jerks_are_worse():
+    # grid values no planner would give (a against the change of x): on the interval from 0.45 to
+    # 0.6 mm a linear in s has the smaller jerk, and it is what the ticks follow
+    from fuzzyfeed.slw.phase_ticks import _pieces
+
+    grid = np.array([0.0, 0.2, 0.45, 0.6, 0.8])
+    x = np.array([0.0, 92.89792839, 140.33957617, 192.01975474, 0.0])
+    a_in = np.array([0.0, 2815.10368887, -2026.09725129, 2143.76204134, 0.0])
+    a = nodal_accelerations(grid, x, a_in)
+    kind = _pieces(grid, x, a)[0]
+    assert list(kind[4:6]) == [0, 0] and (kind[:4] == 1).all()
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a_in)
+    on = (s > 0.45) & (s < 0.6)
+    assert np.abs(j[on]).max() <= _jerk_bound(grid[2:4], x[2:4], a[2:4]) * (1.0 + 1e-9)
+    # the linear law passes x at the midpoint knot and reaches the next node's v exactly
+    k = int(np.argmin(np.abs(s - 0.6)))
+    assert v[k] ** 2 == pytest.approx(x[3] + 2.0 * a[3] * (s[k] - 0.6), rel=1e-3)

@@ -95,7 +95,8 @@ def _cubic_state(v0, a0, jerk, tau):
 def _linear_durations(x0, a0, c, length):
     """Time to travel ``length`` on x = x0 + 2a0σ + cσ² (> 0 on the piece): the root of
     s(τ) = length of :func:`_linear_state`, by Newton safeguarded by bisection on the bracket
-    [length/√max x, length/√min x] (s is increasing, s' = v ∈ [√min x, √max x])."""
+    [length/√max x, length/√min x] (τ is below the root iff s < length and v > 0: the closed form
+    runs on past the piece, where it may turn back)."""
     x1 = x0 + 2.0 * a0 * length + c * length * length
     lo_x = np.minimum(x0, x1)
     hi_x = np.maximum(x0, x1)
@@ -109,7 +110,8 @@ def _linear_durations(x0, a0, c, length):
     for _ in range(_NEWTON_STEPS):
         s, v, _, _ = _linear_state(v0, a0, c, tau)
         f = s - length
-        lo, hi = np.where(f < 0.0, tau, lo), np.where(f > 0.0, tau, hi)
+        below = (f < 0.0) & (v > 0.0)   # past the root s rises above length, then v < 0 (reversal)
+        lo, hi = np.where(below, tau, lo), np.where(below, hi, tau)
         step = tau - f / np.where(v > 0.0, v, np.inf)
         nxt = np.where((step > lo) & (step < hi), step, 0.5 * (lo + hi))
         done = np.abs(nxt - tau) <= 4e-16 * tau
@@ -254,7 +256,7 @@ def _linear_halves(h, x, a):
     ext = np.where(inside, x0 + a0 * sig, x0)         # x at a = 0 inside: a valley (c > 0) or a hump
     top = np.maximum(np.maximum(x0, x1), ext)
     low = np.minimum(np.minimum(x0, x1), ext)
-    bound = np.where(low > 0.0, np.sqrt(top) * np.abs(c), np.inf).max(axis=1)
+    bound = np.where(low > 0.0, np.sqrt(np.maximum(top, 0.0)) * np.abs(c), np.inf).max(axis=1)
     return x0, a0, c, length, bound
 
 
@@ -277,7 +279,7 @@ def _pieces(s: np.ndarray, x: np.ndarray, a: np.ndarray):
     v_tm = v[:-1] + a[:-1] * t1 + j1 * t1 * t1 / 2.0
     a_tm = a[:-1] + j1 * t1
     s0 = np.stack([s[:-1], np.where(timed, s_tm, s[:-1] + 0.5 * h)], axis=1)
-    v0 = np.where(timed[:, None], np.stack([v[:-1], v_tm], axis=1), np.sqrt(x0))
+    v0 = np.where(timed[:, None], np.stack([v[:-1], v_tm], axis=1), np.sqrt(np.maximum(x0, 0.0)))
     a0 = np.where(timed[:, None], np.stack([a[:-1], a_tm], axis=1), a_lin)
     c = np.where(timed[:, None], np.stack([j1, j2], axis=1), c_lin)
     duration = np.stack([t1, gamma * T], axis=1)
