@@ -20,10 +20,10 @@ LIMITS = MachineLimits(feed_mm_s=100.0, axis_vel_mm_s=200.0, axis_acc_mm_s2=1000
                        ts_s=TS)
 #: What the ticks of a sampled seven-phase profile may realise over its limits: with its nodal
 #: accelerations (a_grid) every interval is one or two constant jerks, found exactly (rounding);
-#: without them (three-point a from x alone) the jerk is measured up to 2.46 x J on a 0.3 mm move
+#: without them (three-point a from x alone, no J) the jerk is measured up to 2.8 x J on a 0.3 mm move
 #: (0.0375 mm grid), 1.06-1.42 x on longer ones, and the time up to 2.4 % long.
 FACTOR = 1.0 + 1e-6
-JERK_FACTOR_NO_A, TIME_RTOL_NO_A = 2.5, 0.03
+JERK_FACTOR_NO_A, ACC_FACTOR_NO_A, TIME_RTOL_NO_A = 3.0, 1.3, 0.03
 
 
 def _on_line(s):
@@ -54,6 +54,11 @@ def _sampled(segs, s_grid):
     return v * v, a, starts[-1]
 
 
+#: A machine whose jerk phase ends inside the first 0.25 mm (t_j = A/J = 25 ms, 0.026 mm): the first
+#: interval holds a switch of jerk (J, then 0 at the acceleration limit).
+LOW_ACC = MachineLimits(feed_mm_s=100.0, axis_vel_mm_s=200.0, axis_acc_mm_s2=250.0, jerk_mm_s3=1e4, ts_s=TS)
+
+
 def _seven_phase(length, limits=LIMITS):
     kind, segs = block_segments(length, 0.0, 0.0, limits.feed_mm_s, limits.tangential_acc_mm_s2,
                                 limits.jerk_mm_s3, shape=SEVEN_PHASE)
@@ -82,25 +87,26 @@ def test_constant_jerk_start_is_the_closed_form():
     assert t[-1] == pytest.approx(np.ceil(T / TS - 1e-9) * TS, abs=1e-12) and s[-1] == L
 
 
-@pytest.mark.parametrize("length", [0.3, 4.0, 60.0])
+@pytest.mark.parametrize("length, limits", [(0.3, LIMITS), (4.0, LIMITS), (60.0, LIMITS), (60.0, LOW_ACC)])
 @pytest.mark.parametrize("with_a", [True, False])
-def test_seven_phase_move_on_a_line(length, with_a):
-    segs = _seven_phase(length)
-    T = rest_to_rest_s(length, LIMITS.feed_mm_s, LIMITS.tangential_acc_mm_s2, LIMITS.jerk_mm_s3)
+def test_seven_phase_move_on_a_line(length, limits, with_a):
+    segs = _seven_phase(length, limits)
+    T = rest_to_rest_s(length, limits.feed_mm_s, limits.tangential_acc_mm_s2, limits.jerk_mm_s3)
     grid = np.linspace(0.0, length, max(int(np.ceil(length / 0.25)), 8) + 1)
     x, a, T_segs = _sampled(segs, grid)
     assert T_segs == pytest.approx(T, rel=1e-9)
-    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a if with_a else None)
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a if with_a else None,
+                                       jerk_mm_s3=limits.jerk_mm_s3 if with_a else None)
     np.testing.assert_allclose(np.diff(t), TS, rtol=1e-9)
     assert s[0] == 0.0 and s[-1] == length and np.all(np.diff(s) >= 0.0) and np.all(v >= 0.0)
-    r = tick_ratios(_on_line(s), j, LIMITS)
+    r = tick_ratios(_on_line(s), j, limits)
     if with_a:   # the move itself: its time (the last tick the first at or after it), its limits
-        assert T - 1e-9 <= t[-1] < T + TS
+        assert T - 1e-9 <= t[-1] <= T + TS + 1e-9
         assert r["feed"].max() <= FACTOR and r["acceleration x"].max() <= FACTOR
-        assert np.nanmax(r["path jerk"]) <= FACTOR and np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR
+        assert np.nanmax(r["path jerk"]) <= FACTOR and np.abs(j).max() <= limits.jerk_mm_s3 * FACTOR
     else:
         assert abs(t[-1] - T) <= TS + TIME_RTOL_NO_A * T
-        assert r["feed"].max() <= 1.0 + 1e-4 and r["acceleration x"].max() <= 1.01
+        assert r["feed"].max() <= 1.0 + 1e-4 and r["acceleration x"].max() <= ACC_FACTOR_NO_A
         assert np.nanmax(r["path jerk"]) <= JERK_FACTOR_NO_A
 
 
@@ -113,7 +119,8 @@ def test_interior_full_stop():
     x2, a2, T2 = _sampled(_seven_phase(two), g2)
     grid = np.concatenate([g1, one + g2[1:]])
     x = np.concatenate([x1, x2[1:]])
-    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=np.concatenate([a1, a2[1:]]))
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=np.concatenate([a1, a2[1:]]),
+                                       jerk_mm_s3=LIMITS.jerk_mm_s3)
     assert np.isfinite(np.stack([t, s, v, acc, j])).all()
     assert np.all(np.diff(s) >= 0.0) and s[-1] == one + two
     # comes to rest there (the nearest tick within half a period of the stop: a jerk-J start)
@@ -163,8 +170,9 @@ def _within_bounds(grid, s, j, bounds):
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 2 ** 31 - 1), n=st.integers(4, 40), ts=st.sampled_from([5e-4, 1e-3, 2e-3]))
-def test_random_profiles(seed, n, ts):
+@given(seed=st.integers(0, 2 ** 31 - 1), n=st.integers(4, 40), ts=st.sampled_from([5e-4, 1e-3, 2e-3]),
+       with_j=st.booleans())
+def test_random_profiles(seed, n, ts, with_j):
     rng = np.random.default_rng(seed)
     grid = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.25, n))])
     J = rng.uniform(2e3, 5e4)
@@ -184,7 +192,7 @@ def test_random_profiles(seed, n, ts):
                 break
         assume(min(x[k + 1], valley) > 0.05 * x[k])
     a[n - 1] = -2.0 * x[n - 1] / (3.0 * h[n - 1])
-    t, s, v, acc, j = ticks_from_phase(grid, x, ts, a_grid=a)
+    t, s, v, acc, j = ticks_from_phase(grid, x, ts, a_grid=a, jerk_mm_s3=J if with_j else None)
     L = grid[-1]
     assert np.isfinite(np.stack([s, v, acc, j])).all()
     assert np.all(np.diff(s) >= 0.0) and np.all(v >= 0.0) and s[0] == 0.0 and s[-1] == L

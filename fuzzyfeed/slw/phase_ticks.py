@@ -11,28 +11,34 @@ window sampling: the first tick at s = 0 at rest, the last at ⌈T/Ts⌉·Ts exa
 a C² motion), by the law of the smaller largest |jerk| of two:
 
 * two constant-jerk pieces in time (:func:`_two_jerks`): the second a share γ of the interval's
-  time T, T the root of a quadratic (the moments of j), γ chosen to minimise max(|j1|, |j2|). Exact
-  for any motion of constant jerk over the interval (the jerk-limited start s = J·t³/6 from a rest
-  is one), and for one that switches jerk once inside it (a seven-phase profile's grid values with
-  their own a give back that profile to rounding);
+  time T, T the root of a quadratic (the moments of j), γ chosen (:func:`_cost`) with the jerk limit
+  J (``jerk_mm_s3``) as the split within J whose acceleration leaves [a_k, a_k+1] least, without it
+  as the least max(|j1|, |j2|) with such an excursion weighed in. Exact for any motion of constant
+  jerk over the interval (the jerk-limited start s = J·t³/6 from a rest is one) and, given J, for one
+  that switches jerk once inside it (a seven-phase profile's grid values with their own a and J
+  give back that profile to rounding);
 * a linear in s (da/ds = c on each half, knot at the midpoint with a_m = 2ā − (a_k + a_k+1)/2,
   ā = (x_k+1 − x_k)/(2h), so x interpolates x_k+1 exactly): j = c·v, i.e. s‴ = c·s′, in closed form
   (cosh/cos, :func:`_linear_state`), durations by a safeguarded Newton. With a planner's trapezoid
   relation h(a_k + a_k+1) = x_k+1 − x_k, a is linear over the interval and |j| ≤ √(max x)·|Δa|/h.
 
 **Nodal accelerations** (:func:`nodal_accelerations`): ``a_grid`` where given; without it the
-three-point x'_k/2 (a weak estimate: on a sampled seven-phase move the jerk reaches 1.06-2.5 × J;
-pass a_grid). At a rest node a = 0; beside one, a is the given value if a motion from rest reaches
-it, else ±2x/(3h) (the constant-jerk start s = J_r·t³/6 with J_r = 2x^{3/2}/(9h²), duration
-3h/√x; a planner matches it with x_1 = (3/2)·h_0·a_1 and x_1 ≤ (4.5·J·h_0²)^{2/3}).
+three-point x'_k/2 (a weak estimate: on a sampled seven-phase move the jerk reaches 1.06-2.8 × J and
+the acceleration 1.3 × A; pass a_grid and J). At a rest node a = 0; beside one, a is the given value
+if a motion from rest reaches it, else ±2x/(3h) (the constant-jerk start s = J_r·t³/6 with
+J_r = 2x^{3/2}/(9h²), duration 3h/√x; a planner matches it with x_1 = (3/2)·h_0·a_1 and
+x_1 ≤ (4.5·J·h_0²)^{2/3}).
 
 **What it guarantees** (to rounding; tests/test_phase_ticks.py): the ticks pass every node's
-(s, v, a); on every interval the realised |jerk| is at most the smaller of the two laws' bounds, so
-never above √(max x on a half)·|da/ds| of the linear-in-s interpolant (for a planner's linear-a
-profile: its own jerk constraint); |a| between nodes is within the pieces' extremes (the constant-
-jerk pieces: a linear in t between its knots). Each tick is the motion at k·Ts and the tick check's
-finite differences are weighted means of it (Δ³s/Ts³ is a B-spline mean of j, s being C²), so the
-ticks' feed, acceleration and jerk stay within the motion's own maxima.
+(s, v, a); on every interval the realised |jerk| is at most the smaller of the two laws' bounds (the
+constant-jerk split's own max|j|, or √(max x on a half)·|da/ds| of the linear-in-s interpolant, for
+a planner's linear-a profile its own jerk constraint, checked on random profiles); |a| between
+nodes within the pieces' extremes (linear in t on a constant-jerk piece). Not exact: an interval
+holding a whole seven-phase ramp (J, 0, −J: two switches) is fitted by two jerks (measured on the
+window's own schedules resampled at 0.25 mm plus its junctions, benchmarks/phase_ticks_roundtrip.py:
+time within 1e-4, acceleration ≤ 1.019 and jerk ≤ 1.024 × the window's). Each tick is the motion at
+k·Ts and the tick check's finite differences are weighted means of it (Δ³s/Ts³ is a B-spline mean of
+j, s being C²), so the ticks' feed, acceleration and jerk stay within the motion's own maxima.
 """
 
 from __future__ import annotations
@@ -147,7 +153,8 @@ def _check_grid(s_grid, x_grid, ts_s, a_grid):
     return s, x, a
 
 
-def nodal_accelerations(s: np.ndarray, x: np.ndarray, a_grid: np.ndarray | None = None) -> np.ndarray:
+def nodal_accelerations(s: np.ndarray, x: np.ndarray, a_grid: np.ndarray | None = None,
+                        jerk: float | None = None) -> np.ndarray:
     """a_k at the nodes: 0 at rest; ``a_grid`` where given and joinable to a neighbouring rest,
     else beside a rest ±2x/(3h) (the constant-jerk start/stop's end value) and 0 at a single moving
     node between two rests; elsewhere without ``a_grid`` the three-point x'_k/2. Raises
@@ -169,8 +176,8 @@ def nodal_accelerations(s: np.ndarray, x: np.ndarray, a_grid: np.ndarray | None 
     before = np.flatnonzero(rest[1:])         # nodes just before a rest (a stop)
     v = np.sqrt(x)
     if a_grid is not None:                    # the planner's own a, where a rest joins it
-        fits_after = np.isfinite(_time_halves(h[after - 1], v[after - 1], v[after], a[after - 1], a[after])[4])
-        fits_before = np.isfinite(_time_halves(h[before], v[before], v[before + 1], a[before], a[before + 1])[4])
+        fits_after = np.isfinite(_time_halves(h[after - 1], v[after - 1], v[after], a[after - 1], a[after], jerk)[4])
+        fits_before = np.isfinite(_time_halves(h[before], v[before], v[before + 1], a[before], a[before + 1], jerk)[4])
         after, before = after[~fits_after], before[~fits_before]
     a[after] = 2.0 * x[after] / (3.0 * h[after - 1])
     a[before] = -2.0 * x[before] / (3.0 * h[before])
@@ -183,7 +190,8 @@ def _two_jerks(h, v0, v1, a0, a1, gamma):
     moments ∫j = Δa, ∫(T − t)j = Δv − a0T, ∫(T − t)²j/2 = h − v0T − a0T²/2 give
     ((2γ − 1)a0 + γΔa)·T² − (6v0 + 2(1 + γ)Δv)·T + 6h = 0 (its smallest positive root), then with
     P = 2(Δv − a0T)/T², Q = Δa/T: j1 = (P − γQ)/(1 − γ), j2 = ((1 + γ)Q − P)/γ.
-    → T, j1, j2 and the largest |j| (inf where no such motion keeps v ≥ 0)."""
+    → T, j1, j2, the largest |j| (inf where no such motion keeps v ≥ 0) and the excursion of a
+    beyond [min(a0, a1), max(a0, a1)] at the junction, relative to max(|a0|, |a1|)."""
     da, dv = a1 - a0, v1 - v0
     qa = (2.0 * gamma - 1.0) * a0 + gamma * da
     qb = 6.0 * v0 + 2.0 * (1.0 + gamma) * dv
@@ -203,41 +211,64 @@ def _two_jerks(h, v0, v1, a0, a1, gamma):
         dips = (jb > 0.0) & (t_min > 0.0) & (t_min < tb)
         ok &= ~dips | (vb - ab * ab / (2.0 * safe) >= slack)
     ok &= np.isfinite(j1) & np.isfinite(j2) & (T > 0.0)
-    return T, j1, j2, np.where(ok, np.maximum(np.abs(j1), np.abs(j2)), np.inf)
+    with np.errstate(invalid="ignore"):
+        out = np.maximum(np.maximum(am - np.maximum(a0, a1), np.minimum(a0, a1) - am), 0.0)
+    excursion = out / (np.maximum(np.abs(a0), np.abs(a1)) + 1e-300)
+    return T, j1, j2, np.where(ok, np.maximum(np.abs(j1), np.abs(j2)), np.inf), excursion
 
 
 #: The share of the time in the second piece: a grid of GAMMAS, then golden sections around the best.
-GAMMAS = np.arange(1, 32) / 32.0
-_GOLDEN_STEPS = 30
+GAMMAS = np.arange(1, 64) / 64.0
+_GOLDEN_STEPS = 40
+#: Without a jerk limit, an excursion of a beyond its nodal values by 1 % weighs as 10 % more jerk.
+EXCURSION_WEIGHT = 10.0
+#: Intervals fitted together (a bounded working set: GAMMAS.size floats an interval, a few dozen times).
+_FIT_CHUNK = 4096
 
 
-def _time_halves(h, v0, v1, a0, a1):
-    """Per interval the two constant-jerk pieces (:func:`_two_jerks`) of the least largest |j| over
-    the time split γ (a grid, then golden sections): a motion of constant jerk over the interval is
-    found exactly (γ = 1/2, j1 = j2), one that switches jerk once inside it nearly. → T, γ, j1, j2,
-    the largest |j| (inf: none)."""
-    args = [np.asarray(arr, dtype=float)[:, None] for arr in (h, v0, v1, a0, a1)]
-    worst = _two_jerks(*args, GAMMAS[None, :])[3]
-    best = np.argmin(worst, axis=1)
-    gamma = GAMMAS[best]
-    top = worst[np.arange(best.size), best]
-    flat = [arr[:, 0] for arr in args]
-    lo, hi = np.maximum(gamma - 1.0 / 32.0, 1e-3), np.minimum(gamma + 1.0 / 32.0, 1.0 - 1e-3)
-    ratio = (np.sqrt(5.0) - 1.0) / 2.0
-    g1, g2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-    f1, f2 = _two_jerks(*flat, g1)[3], _two_jerks(*flat, g2)[3]
-    for _ in range(_GOLDEN_STEPS):
-        left = f1 <= f2
-        hi, lo = np.where(left, g2, hi), np.where(left, lo, g1)
-        g2n, g1n = np.where(left, g1, lo + ratio * (hi - lo)), np.where(left, hi - ratio * (hi - lo), g2)
-        f2n = np.where(left, f1, _two_jerks(*flat, g2n)[3])
-        f1n = np.where(left, _two_jerks(*flat, g1n)[3], f2)
-        g1, g2, f1, f2 = g1n, g2n, f1n, f2n
-    g_ref, f_ref = np.where(f1 <= f2, g1, g2), np.minimum(f1, f2)
-    better = f_ref < top * (1.0 - 1e-12)
-    gamma = np.where(better, g_ref, gamma)
-    T, j1, j2, top = _two_jerks(*flat, gamma)
-    return T, gamma, j1, j2, top
+def _cost(fit, jerk: float | None):
+    """What the split γ minimises: with the jerk limit J, the excursion of a among the splits
+    within J (then the least jerk), else the least jerk with excursions weighed in."""
+    _, _, _, top, excursion = fit
+    with np.errstate(invalid="ignore"):
+        if jerk is None:
+            cost = top * (1.0 + EXCURSION_WEIGHT * excursion)
+        else:
+            cost = excursion + 1e3 * np.maximum(top / jerk - 1.0, 0.0) + 1e-9 * top / jerk
+    return np.where(np.isfinite(top) & np.isfinite(cost), cost, np.inf)
+
+
+def _time_halves(h, v0, v1, a0, a1, jerk: float | None = None):
+    """Per interval the two constant-jerk pieces (:func:`_two_jerks`) of the least :func:`_cost`
+    over the time split γ (a grid, then golden sections): a motion of constant jerk over the
+    interval is found exactly (γ = 1/2, j1 = j2), one that switches jerk once inside it to rounding.
+    → T, γ, j1, j2, the largest |j| (inf: none), a chunk of intervals at a time."""
+    n = np.size(h)
+    out = [np.empty(n) for _ in range(5)]
+    for lo in range(0, n, _FIT_CHUNK):
+        m = slice(lo, lo + _FIT_CHUNK)
+        flat = [np.asarray(arr, dtype=float)[m] for arr in (h, v0, v1, a0, a1)]
+        cost = _cost(_two_jerks(*(arr[:, None] for arr in flat), GAMMAS[None, :]), jerk)
+        best = np.argmin(cost, axis=1)
+        gamma, top = GAMMAS[best], cost[np.arange(best.size), best]
+        left, right = np.maximum(gamma - 1.0 / 64.0, 1e-4), np.minimum(gamma + 1.0 / 64.0, 1.0 - 1e-4)
+        ratio = (np.sqrt(5.0) - 1.0) / 2.0
+        g1, g2 = right - ratio * (right - left), left + ratio * (right - left)
+        f1, f2 = _cost(_two_jerks(*flat, g1), jerk), _cost(_two_jerks(*flat, g2), jerk)
+        for _ in range(_GOLDEN_STEPS):
+            go_left = f1 <= f2
+            right, left = np.where(go_left, g2, right), np.where(go_left, left, g1)
+            g2n = np.where(go_left, g1, left + ratio * (right - left))
+            g1n = np.where(go_left, right - ratio * (right - left), g2)
+            f2n = np.where(go_left, f1, _cost(_two_jerks(*flat, g2n), jerk))
+            f1n = np.where(go_left, _cost(_two_jerks(*flat, g1n), jerk), f2)
+            g1, g2, f1, f2 = g1n, g2n, f1n, f2n
+        g_ref, f_ref = np.where(f1 <= f2, g1, g2), np.minimum(f1, f2)
+        gamma = np.where(f_ref < top * (1.0 - 1e-12), g_ref, gamma)   # costs are ≥ 0
+        T, j1, j2, worst, _ = _two_jerks(*flat, gamma)
+        for arr, val in zip(out, (T, gamma, j1, j2, worst)):
+            arr[m] = val
+    return tuple(out)
 
 
 def _linear_halves(h, x, a):
@@ -260,13 +291,13 @@ def _linear_halves(h, x, a):
     return x0, a0, c, length, bound
 
 
-def _pieces(s: np.ndarray, x: np.ndarray, a: np.ndarray):
+def _pieces(s: np.ndarray, x: np.ndarray, a: np.ndarray, jerk: float | None = None):
     """The motion's pieces in path order (two per interval): kind, start s, v, a, c (da/ds of a
     linear piece) or jerk (a cubic piece), duration. Per interval the law of the smaller jerk: two
     constant jerks (:func:`_time_halves`) or a linear in s (:func:`_linear_halves`)."""
     h = np.diff(s)
     v = np.sqrt(x)
-    T, gamma, j1, j2, top = _time_halves(h, v[:-1], v[1:], a[:-1], a[1:])
+    T, gamma, j1, j2, top = _time_halves(h, v[:-1], v[1:], a[:-1], a[1:], jerk)
     x0, a_lin, c_lin, length, bound = _linear_halves(h, x, a)
     timed = np.isfinite(top) & ~(top > bound)
     if not (timed | np.isfinite(bound)).all():
@@ -290,13 +321,17 @@ def _pieces(s: np.ndarray, x: np.ndarray, a: np.ndarray):
     return tuple(arr.ravel() for arr in (kind, s0, v0, a0, c, duration))
 
 
-def ticks_from_phase(s_grid, x_grid, ts_s: float, a_grid=None):
+def ticks_from_phase(s_grid, x_grid, ts_s: float, a_grid=None, jerk_mm_s3: float | None = None):
     """(t, s, v, a, j) at t_k = k·Ts, k = 0 … ⌈T/Ts⌉, of the profile x(s) = v² on the grid (module
     docstring: the interpolant, the rest laws, what holds). ``a_grid`` optional nodal accelerations
-    (a planner's own; replaced at and beside rest nodes). The last tick is on s = L at rest."""
+    (a planner's own; replaced beside rest nodes where no motion from rest reaches them);
+    ``jerk_mm_s3`` optional jerk limit J: between two nodes, among the motions within J the one whose
+    a leaves the nodal values least. The last tick is on s = L at rest."""
     s, x, a_in = _check_grid(s_grid, x_grid, float(ts_s), a_grid)
-    a = nodal_accelerations(s, x, a_in)
-    kind, s0, v0, a0, c, duration = _pieces(s, x, a)
+    if jerk_mm_s3 is not None and not (np.isfinite(jerk_mm_s3) and jerk_mm_s3 > 0.0):
+        raise InputError(f"ticks_from_phase: jerk_mm_s3 = {jerk_mm_s3!r}; must be > 0")
+    a = nodal_accelerations(s, x, a_in, jerk_mm_s3)
+    kind, s0, v0, a0, c, duration = _pieces(s, x, a, jerk_mm_s3)
     starts = np.concatenate([[0.0], np.cumsum(duration)])
     t_end = float(starts[-1])
     if not np.isfinite(t_end) or t_end / ts_s > MAX_TICKS:
