@@ -277,3 +277,22 @@ def test_linear_law_where_two_jerks_are_worse():
     # the linear law passes x at the midpoint knot and reaches the next node's v exactly
     k = int(np.argmin(np.abs(s - 0.6)))
     assert v[k] ** 2 == pytest.approx(x[3] + 2.0 * a[3] * (s[k] - 0.6), rel=1e-3)
+
+
+@pytest.mark.parametrize("tiny", [1e-9, 1e-7, 1e-6])
+def test_grid_points_a_hair_apart(tiny):
+    # a planner's grid puts a point 1e-9·L before every knot: over such a step the fit divides
+    # rounding by T² (a piece jerk of 250 × J before those points were merged)
+    from fuzzyfeed.slw.phase_ticks import _pieces, merge_close
+
+    L = 20.0
+    base = np.linspace(0.0, L, 81)
+    grid = np.unique(np.concatenate([base, base[5:-5:3] - tiny * L]))
+    x, a, T = _sampled(_seven_phase(L), grid)
+    s_m, x_m, a_m = merge_close(grid, x, a)
+    assert s_m.size < grid.size and np.diff(s_m).min() >= 1e-5 * L * 0.999 or np.diff(s_m).min() >= 1e-4
+    kind, _, _, _, c, _ = _pieces(s_m, x_m, nodal_accelerations(s_m, x_m, a_m, LIMITS.jerk_mm_s3),
+                                  LIMITS.jerk_mm_s3)
+    assert np.abs(c[kind == 1]).max() <= LIMITS.jerk_mm_s3 * FACTOR
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a, jerk_mm_s3=LIMITS.jerk_mm_s3)
+    assert T - 1e-9 <= t[-1] <= T + TS + 1e-9 and np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR
