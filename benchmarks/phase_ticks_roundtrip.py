@@ -32,10 +32,8 @@ from fuzzyfeed.slw.check import corner_ticks, tick_ratios  # noqa: E402
 from fuzzyfeed.slw.lookahead import KINK_MIN  # noqa: E402
 from fuzzyfeed.slw.phase_ticks import ticks_from_phase  # noqa: E402
 from fuzzyfeed.slw.preprocess import joins  # noqa: E402
-from fuzzyfeed.slw.profile import segment_table, segments_state  # noqa: E402
 
-MACHINES = {"equal": MachineLimits(),
-            "slow-y": MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))}
+MACHINES = slw_cases.RECORDED_MACHINES
 KEYS = ("feed", "acc", "jerk")
 #: (label, pass the sampled a, pass the jerk limit)
 VARIANTS = (("a+J", True, True), ("a", True, False), ("J", False, True))
@@ -45,33 +43,18 @@ def sampled_profile(traj, step: float, junctions_on: bool = True):
     """(s, x, a) of the window's profile on a grid of ≤ step mm with every full stop (and with
     ``junctions_on`` every block junction) on it."""
     segs = [seg for b in traj.blocks for seg in b.segments if seg.duration_s > 0.0]
-    durations = np.array([seg.duration_s for seg in segs])
-    starts = np.concatenate([[0.0], np.cumsum(durations)])
-    starts_s = np.concatenate([[0.0], np.cumsum([seg.length_mm for seg in segs])])
     total = traj.curve.length
-    scale = total / starts_s[-1]        # as trajectory._sample_profile
-    table = segment_table(segs)
-
-    def state(t):
-        at = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(segs) - 1)
-        pos, v, a, _ = segments_state(segs, table, at, np.minimum(t - starts[at], durations[at]))
-        return (pos + starts_s[at]) * scale, v, a
-
-    stops = np.array([b.s1 for b in traj.blocks[:-1] if b.v_end == 0.0])
+    scale = total / sum(seg.length_mm for seg in segs)     # as trajectory._sample_profile
+    stops = np.array([b.s1 for b in traj.blocks[:-1] if b.v_end == 0.0]) * scale
     # every block junction on the grid too (the window's critical points: its valleys), as a
     # planner's grid has its corners and knots
     junctions = np.array([b.s1 for b in traj.blocks[:-1]]) * scale if junctions_on else stops
     grid = np.unique(np.concatenate([np.linspace(0.0, total, int(np.ceil(total / step)) + 1), junctions, stops]))
     grid = grid[np.concatenate([[True], np.diff(grid) > 1e-9 * total])]
-    lo, hi = np.zeros_like(grid), np.full_like(grid, starts[-1])
-    for _ in range(100):
-        mid = 0.5 * (lo + hi)
-        below = state(mid)[0] < grid
-        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-    _, v, a = state(0.5 * (lo + hi))
+    v, a, _ = slw_cases.profile_at(segs, grid, scale)
     at_stop = np.isin(grid, stops) | (grid == 0.0) | (grid == total)
     v[at_stop], a[at_stop] = 0.0, 0.0
-    return grid, v * v, a * scale
+    return grid, v * v, a
 
 
 def ratios(curve, limits, s, jerk, kinks_u) -> dict[str, float]:

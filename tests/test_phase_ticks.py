@@ -13,7 +13,8 @@ from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.slw.check import tick_ratios
 from fuzzyfeed.slw.floor import rest_to_rest_s
 from fuzzyfeed.slw.phase_ticks import _linear_durations, _linear_state, nodal_accelerations, ticks_from_phase
-from fuzzyfeed.slw.profile import SEVEN_PHASE, block_segments, segment_table, segments_state
+from fuzzyfeed.slw.profile import SEVEN_PHASE, block_segments
+from slw_cases import profile_at
 
 TS = 1e-3
 LIMITS = MachineLimits(feed_mm_s=100.0, axis_vel_mm_s=200.0, axis_acc_mm_s2=1000.0, jerk_mm_s3=1e4,
@@ -32,26 +33,11 @@ def _on_line(s):
 
 
 def _sampled(segs, s_grid):
-    """x = v² and a at arc lengths ``s_grid`` of a profile of slw/profile segments (time found by
-    bisection on the segments' own s(t))."""
-    durations = np.array([g.duration_s for g in segs])
-    starts = np.concatenate([[0.0], np.cumsum(durations)])
-    starts_s = np.concatenate([[0.0], np.cumsum([g.length_mm for g in segs])])
-    table = segment_table(segs)
-
-    def state(t):
-        at = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(segs) - 1)
-        pos, v, a, _ = segments_state(segs, table, at, np.minimum(t - starts[at], durations[at]))
-        return pos + starts_s[at], v, a
-
-    lo, hi = np.zeros_like(s_grid), np.full_like(s_grid, starts[-1])
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        below = state(mid)[0] < s_grid
-        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-    _, v, a = state(0.5 * (lo + hi))
+    """x = v² and a at arc lengths ``s_grid`` of a profile of slw/profile segments, at rest at both
+    ends, and its time."""
+    v, a, T = profile_at(segs, s_grid)
     v[0] = v[-1] = 0.0
-    return v * v, a, starts[-1]
+    return v * v, a, T
 
 
 #: A machine whose jerk phase ends inside the first 0.25 mm (t_j = A/J = 25 ms, 0.026 mm): the first

@@ -236,7 +236,8 @@ def _two_jerks(h, v0, v1, a0, a1, gamma):
     ok &= np.isfinite(j1) & np.isfinite(j2) & (T > 0.0)
     with np.errstate(invalid="ignore"):
         out = np.maximum(np.maximum(am - np.maximum(a0, a1), np.minimum(a0, a1) - am), 0.0)
-    excursion = out / (np.maximum(np.abs(a0), np.abs(a1)) + 1e-300)
+    # relative to the larger nodal |a| or the mean acceleration |Δv|·(v0 + v1)/(2h), whichever is larger
+    excursion = out / (np.maximum(np.maximum(np.abs(a0), np.abs(a1)), np.abs(dv) * (v0 + v1) / (2.0 * h)) + 1e-300)
     return T, j1, j2, np.where(ok, np.maximum(np.abs(j1), np.abs(j2)), np.inf), excursion
 
 
@@ -245,19 +246,22 @@ GAMMAS = np.arange(1, 64) / 64.0
 _GOLDEN_STEPS = 40
 #: Without a jerk limit, an excursion of a beyond its nodal values by 1 % weighs as 10 % more jerk.
 EXCURSION_WEIGHT = 10.0
+#: With a jerk limit, 0.1 % of time weighs as much as an excursion of a by 1e-6 of its size.
+TIME_WEIGHT = 1e-3
 #: Intervals fitted together (a bounded working set: GAMMAS.size floats an interval, a few dozen times).
 _FIT_CHUNK = 4096
 
 
-def _cost(fit, jerk: float | None):
+def _cost(fit, jerk: float | None, quick):
     """What the split γ minimises: with the jerk limit J, the excursion of a among the splits
-    within J (then the least jerk), else the least jerk with excursions weighed in."""
-    _, _, _, top, excursion = fit
-    with np.errstate(invalid="ignore"):
+    within J, then the time (over ``quick``, the interval's time at constant acceleration); else
+    the least jerk with excursions weighed in."""
+    T, _, _, top, excursion = fit
+    with np.errstate(invalid="ignore", over="ignore"):
         if jerk is None:
             cost = top * (1.0 + EXCURSION_WEIGHT * excursion)
         else:
-            cost = excursion + 1e3 * np.maximum(top / jerk - 1.0, 0.0) + 1e-9 * top / jerk
+            cost = excursion + 1e3 * np.maximum(top / jerk - 1.0, 0.0) + TIME_WEIGHT * T / quick
     return np.where(np.isfinite(top) & np.isfinite(cost), cost, np.inf)
 
 
@@ -271,20 +275,21 @@ def _time_halves(h, v0, v1, a0, a1, jerk: float | None = None):
     for lo in range(0, n, _FIT_CHUNK):
         m = slice(lo, lo + _FIT_CHUNK)
         flat = [np.asarray(arr, dtype=float)[m] for arr in (h, v0, v1, a0, a1)]
-        cost = _cost(_two_jerks(*(arr[:, None] for arr in flat), GAMMAS[None, :]), jerk)
+        quick = 2.0 * flat[0] / (flat[1] + flat[2])
+        cost = _cost(_two_jerks(*(arr[:, None] for arr in flat), GAMMAS[None, :]), jerk, quick[:, None])
         best = np.argmin(cost, axis=1)
         gamma, top = GAMMAS[best], cost[np.arange(best.size), best]
         left, right = np.maximum(gamma - 1.0 / 64.0, 1e-4), np.minimum(gamma + 1.0 / 64.0, 1.0 - 1e-4)
         ratio = (np.sqrt(5.0) - 1.0) / 2.0
         g1, g2 = right - ratio * (right - left), left + ratio * (right - left)
-        f1, f2 = _cost(_two_jerks(*flat, g1), jerk), _cost(_two_jerks(*flat, g2), jerk)
+        f1, f2 = _cost(_two_jerks(*flat, g1), jerk, quick), _cost(_two_jerks(*flat, g2), jerk, quick)
         for _ in range(_GOLDEN_STEPS):
             go_left = f1 <= f2
             right, left = np.where(go_left, g2, right), np.where(go_left, left, g1)
             g2n = np.where(go_left, g1, left + ratio * (right - left))
             g1n = np.where(go_left, right - ratio * (right - left), g2)
-            f2n = np.where(go_left, f1, _cost(_two_jerks(*flat, g2n), jerk))
-            f1n = np.where(go_left, _cost(_two_jerks(*flat, g1n), jerk), f2)
+            f2n = np.where(go_left, f1, _cost(_two_jerks(*flat, g2n), jerk, quick))
+            f1n = np.where(go_left, _cost(_two_jerks(*flat, g1n), jerk, quick), f2)
             g1, g2, f1, f2 = g1n, g2n, f1n, f2n
         g_ref, f_ref = np.where(f1 <= f2, g1, g2), np.minimum(f1, f2)
         gamma = np.where(f_ref < top * (1.0 - 1e-12), g_ref, gamma)   # costs are ≥ 0
