@@ -282,3 +282,17 @@ def test_grid_points_a_hair_apart(tiny):
     assert np.abs(c[kind == 1]).max() <= LIMITS.jerk_mm_s3 * FACTOR
     t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a, jerk_mm_s3=LIMITS.jerk_mm_s3)
     assert T - 1e-9 <= t[-1] <= T + TS + 1e-9 and np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR
+
+
+def test_a_whole_stop_in_the_last_interval():
+    # a short seven-phase move (no plateau): from its peak (a = 0) to rest in one interval, as the
+    # window's grid has it before a stop; every split of that interval leaves a = 0 (an excursion
+    # of a range of zero width: the fit once overflowed there and took 1.5 x the time)
+    L = 0.3
+    grid = np.concatenate([np.linspace(0.0, L / 2.0, 5), [L]])
+    x, a, T = _sampled(_seven_phase(L), grid)
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a, jerk_mm_s3=LIMITS.jerk_mm_s3)
+    assert T - 1e-9 <= t[-1] <= T + TS + 1e-9
+    assert np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR
+    r = tick_ratios(_on_line(s), j, LIMITS)
+    assert np.nanmax(r["path jerk"]) <= FACTOR and r["acceleration x"].max() <= FACTOR

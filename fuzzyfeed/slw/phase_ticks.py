@@ -12,8 +12,8 @@ a C² motion), by the law of the smaller largest |jerk| of two:
 
 * two constant-jerk pieces in time (:func:`_two_jerks`): the second a share γ of the interval's
   time T, T the root of a quadratic (the moments of j), γ chosen (:func:`_cost`) with the jerk limit
-  J (``jerk_mm_s3``) as the split within J whose acceleration leaves [a_k, a_k+1] least, without it
-  as the least max(|j1|, |j2|) with such an excursion weighed in. Exact for any motion of constant
+  J (``jerk_mm_s3``) as the split within J whose acceleration leaves [a_k, a_k+1] least, then the
+  quickest; without it as the least max(|j1|, |j2|) with such an excursion weighed in. Exact for any motion of constant
   jerk over the interval (the jerk-limited start s = J·t³/6 from a rest is one) and, given J, for one
   that switches jerk once inside it (a seven-phase profile's grid values with their own a and J
   give back that profile to rounding);
@@ -35,8 +35,8 @@ constant-jerk split's own max|j|, or √(max x on a half)·|da/ds| of the linear
 a planner's linear-a profile its own jerk constraint, checked on random profiles); |a| between
 nodes within the pieces' extremes (linear in t on a constant-jerk piece). Not exact: an interval
 holding a whole seven-phase ramp (J, 0, −J: two switches) is fitted by two jerks (measured on the
-window's own schedules resampled at 0.25 mm plus its junctions, benchmarks/phase_ticks_roundtrip.py:
-time within 1e-4, acceleration ≤ 1.019 and jerk ≤ 1.024 × the window's). Each tick is the motion at
+window's own schedules resampled at 0.25 mm plus its junctions, with a and J,
+benchmarks/phase_ticks_roundtrip.py: time within 1e-4, jerk ≤ J, acceleration ≤ 1.053 × A). Each tick is the motion at
 k·Ts and the tick check's finite differences are weighted means of it (Δ³s/Ts³ is a B-spline mean of
 j, s being C²), so the ticks' feed, acceleration and jerk stay within the motion's own maxima.
 """
