@@ -296,3 +296,19 @@ def test_a_whole_stop_in_the_last_interval():
     assert np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR
     r = tick_ratios(_on_line(s), j, LIMITS)
     assert np.nanmax(r["path jerk"]) <= FACTOR and r["acceleration x"].max() <= FACTOR
+
+
+def test_a_planners_trapezoid_value_beside_a_rest_is_replaced():
+    # with a linear in s from a rest (a_1 = x_1/h, the trapezoid relation from a_0 = 0) no finite
+    # jerk leaves the rest; the nearest two-jerk motion needs 2.94 x J: the constant-jerk start
+    # (a_1 = 2x_1/(3h), J_r = 2x_1^{3/2}/(9h²) = 0.98 J here) is taken instead
+    J, h = 1e4, 0.25
+    x1 = (4.5 * 0.98 * J * h * h) ** (2.0 / 3.0)
+    grid = np.arange(6) * h
+    x = np.array([0.0, x1, 1.8 * x1, 1.8 * x1, x1, 0.0])
+    a_lp = np.array([0.0, x1 / h, 0.0, 0.0, -x1 / h, 0.0])
+    a = nodal_accelerations(grid, x, a_lp, J)
+    np.testing.assert_allclose(a[[1, 4]], [2.0 * x1 / (3.0 * h), -2.0 * x1 / (3.0 * h)], rtol=1e-12)
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a_lp, jerk_mm_s3=J)
+    first = s < h
+    assert np.abs(j[first]).max() == pytest.approx(0.98 * J, rel=1e-9)

@@ -176,10 +176,20 @@ def merge_close(s: np.ndarray, x: np.ndarray, a: np.ndarray | None):
     return s, x, a
 
 
+def _joins_rest(h, v, a, a_law, jerk: float | None):
+    """Whether a motion from rest over h (two constant jerks) reaches (v, a) with a jerk at most
+    that of the constant-jerk start to (v, ``a_law``) or within ``jerk`` (a stop mirrored: a
+    negated). A planner's trapezoid value a = x/h is reached only at 2.94 × the jerk."""
+    zero = np.zeros_like(h)
+    given = _time_halves(h, zero, v, zero, a, jerk)[4]
+    law = 2.0 * v ** 3 / (9.0 * h * h)
+    return np.isfinite(given) & ((given <= law * (1.0 + 1e-9)) | (given <= (np.inf if jerk is None else jerk * (1.0 + 1e-6))))
+
+
 def nodal_accelerations(s: np.ndarray, x: np.ndarray, a_grid: np.ndarray | None = None,
                         jerk: float | None = None) -> np.ndarray:
-    """a_k at the nodes: 0 at rest; ``a_grid`` where given and joinable to a neighbouring rest,
-    else beside a rest ±2x/(3h) (the constant-jerk start/stop's end value) and 0 at a single moving
+    """a_k at the nodes: 0 at rest; ``a_grid`` where given and joinable to a neighbouring rest
+    (:func:`_joins_rest`), else beside a rest ±2x/(3h) (the constant-jerk start/stop's end value) and 0 at a single moving
     node between two rests; elsewhere without ``a_grid`` the three-point x'_k/2. Raises
     InputError for x = 0 on a whole interval (never passed)."""
     h = np.diff(s)
@@ -198,12 +208,14 @@ def nodal_accelerations(s: np.ndarray, x: np.ndarray, a_grid: np.ndarray | None 
     after = np.flatnonzero(rest[:-1]) + 1     # nodes just after a rest (a start)
     before = np.flatnonzero(rest[1:])         # nodes just before a rest (a stop)
     v = np.sqrt(x)
-    if a_grid is not None:                    # the planner's own a, where a rest joins it
-        fits_after = np.isfinite(_time_halves(h[after - 1], v[after - 1], v[after], a[after - 1], a[after], jerk)[4])
-        fits_before = np.isfinite(_time_halves(h[before], v[before], v[before + 1], a[before], a[before + 1], jerk)[4])
-        after, before = after[~fits_after], before[~fits_before]
-    a[after] = 2.0 * x[after] / (3.0 * h[after - 1])
-    a[before] = -2.0 * x[before] / (3.0 * h[before])
+    start = 2.0 * x[after] / (3.0 * h[after - 1])
+    stop = -2.0 * x[before] / (3.0 * h[before])
+    if a_grid is not None:   # the planner's own a where a rest joins it within J (or the rest law's jerk)
+        keep_after = _joins_rest(h[after - 1], v[after], a[after], start, jerk)
+        keep_before = _joins_rest(h[before], v[before], -a[before], -stop, jerk)
+        after, start = after[~keep_after], start[~keep_after]
+        before, stop = before[~keep_before], stop[~keep_before]
+    a[after], a[before] = start, stop
     a[np.intersect1d(after, before)] = 0.0    # a peak between two stops
     return a
 
