@@ -312,3 +312,16 @@ def test_a_planners_trapezoid_value_beside_a_rest_is_replaced():
     t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a_lp, jerk_mm_s3=J)
     first = s < h
     assert np.abs(j[first]).max() == pytest.approx(0.98 * J, rel=1e-9)
+
+
+def test_two_rests_a_hair_apart_are_one_stop():
+    # a planner's grid has a knot's left point 1e-9·L before a stop at that knot: both at x = 0
+    one, two = 3.0, 5.0
+    g1, g2 = np.linspace(0.0, one, 13), np.linspace(0.0, two, 21)
+    x1, a1, T1 = _sampled(_seven_phase(one), g1)
+    x2, a2, T2 = _sampled(_seven_phase(two), g2)
+    grid = np.concatenate([g1[:-1], [one - 1e-9 * (one + two), one], one + g2[1:]])
+    x = np.concatenate([x1[:-1], [0.0, 0.0], x2[1:]])
+    a = np.concatenate([a1[:-1], [0.0, 0.0], a2[1:]])
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a, jerk_mm_s3=LIMITS.jerk_mm_s3)
+    assert abs(t[-1] - (T1 + T2)) <= 2 * TS and np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR

@@ -157,7 +157,7 @@ def _check_grid(s_grid, x_grid, ts_s, a_grid):
 
 def merge_close(s: np.ndarray, x: np.ndarray, a: np.ndarray | None):
     """The grid without the nodes closer than min(MERGE_MM, MERGE_RTOL·L) to the one before (a
-    rest node kept, its moving neighbour dropped instead): over a step of 1e-9·L the two-jerk fit
+    rest node kept, its moving neighbour dropped instead; of two rests one): over a step of 1e-9·L the two-jerk fit
     divides rounding by T² (a jerk of 250 × J measured on a knot's left point)."""
     h_min = min(MERGE_MM, MERGE_RTOL * float(s[-1] - s[0]))
     while s.size > 2:
@@ -165,8 +165,9 @@ def merge_close(s: np.ndarray, x: np.ndarray, a: np.ndarray | None):
         if close.size == 0:
             break
         rest, last = x == 0.0, s.size - 1
-        drop = np.where(rest[close + 1] | (close + 1 == last), close, close + 1)
-        drop = np.unique(drop[(drop > 0) & (drop < last) & ~rest[drop]])
+        both = rest[close] & rest[close + 1]      # two rests a hair apart: one rest
+        drop = np.where((rest[close + 1] & ~both) | (close + 1 == last), close, close + 1)
+        drop = np.unique(drop[(drop > 0) & (drop < last) & (~rest[drop] | both)])
         drop = drop[np.concatenate([[True], np.diff(drop) > 1])] if drop.size else drop  # not two neighbours
         if drop.size == 0:
             break
@@ -258,8 +259,9 @@ GAMMAS = np.arange(1, 64) / 64.0
 _GOLDEN_STEPS = 40
 #: Without a jerk limit, an excursion of a beyond its nodal values by 1 % weighs as 10 % more jerk.
 EXCURSION_WEIGHT = 10.0
-#: With a jerk limit, 0.1 % of time weighs as much as an excursion of a by 1e-6 of its size.
-TIME_WEIGHT = 1e-3
+#: With a jerk limit, the time (over the constant-acceleration time) weighs this much beside the
+#: excursion of a (0 : the least jerk after the least excursion).
+TIME_WEIGHT = 0.0
 #: Intervals fitted together (a bounded working set: GAMMAS.size floats an interval, a few dozen times).
 _FIT_CHUNK = 4096
 
@@ -273,7 +275,7 @@ def _cost(fit, jerk: float | None, quick):
         if jerk is None:
             cost = top * (1.0 + EXCURSION_WEIGHT * excursion)
         else:
-            cost = excursion + 1e3 * np.maximum(top / jerk - 1.0, 0.0) + TIME_WEIGHT * T / quick
+            cost = excursion + 1e3 * np.maximum(top / jerk - 1.0, 0.0) + TIME_WEIGHT * T / quick + 1e-9 * top / jerk
     return np.where(np.isfinite(top) & np.isfinite(cost), cost, np.inf)
 
 
