@@ -3,7 +3,8 @@
 Per case (the shipped shapes and a few random NURBS of tests/slw_cases.py, both machines of
 bench_slw): ``schedule(curve, limits, transition="seven-phase")``; its profile (the released blocks'
 segments, evaluated exactly) sampled as x = v² and a on an arc-length grid of ≤ ``--step`` mm plus
-every block junction (``--no-junctions``: only the full stops; x = 0 there); ``ticks_from_phase`` on it: with the sampled a (a_grid) and the jerk limit, with a only, with J only;
+every block junction (``--no-junctions``: only the full stops; x = 0 there); ``ticks_from_phase``
+on it: with the sampled a (a_grid) and the jerk limit, with a only, with J only;
 then the same interpolation (interpolate_u "best") and the tick check's ratios (check.tick_ratios,
 true corners left out of the path jerk as ``schedule`` does). Printed per case: the window's time,
 the ticks' time over it, and the worst ratio to each limit, window / ticks with a / ticks without.

@@ -11,12 +11,12 @@ window sampling: the first tick at s = 0 at rest, the last at ⌈T/Ts⌉·Ts exa
 a C² motion), by the law of the smaller largest |jerk| of two:
 
 * two constant-jerk pieces in time (:func:`_two_jerks`): the second a share γ of the interval's
-  time T, T the root of a quadratic (the moments of j), γ chosen (:func:`_cost`) with the jerk limit
-  J (``jerk_mm_s3``) as the split within J whose acceleration leaves [a_k, a_k+1] least, then the
-  least jerk; without it as the least max(|j1|, |j2|) with such an excursion weighed in. Exact for any motion of constant
-  jerk over the interval (the jerk-limited start s = J·t³/6 from a rest is one) and, given J, for one
-  that switches jerk once inside it (a seven-phase profile's grid values with their own a and J
-  give back that profile to rounding);
+  time T, T the root of a quadratic (the moments of j), γ chosen (:func:`_cost`) with the jerk
+  limit J (``jerk_mm_s3``) as the split within J whose acceleration leaves [a_k, a_k+1] least,
+  then the least jerk; without it as the least max(|j1|, |j2|) with such an excursion weighed in.
+  Exact for any motion of constant jerk over the interval (the jerk-limited start s = J·t³/6 from
+  a rest is one) and, given J, for one that switches jerk once inside it (a seven-phase profile's
+  grid values with their own a and J give back that profile to rounding);
 * a linear in s (da/ds = c on each half, knot at the midpoint with a_m = 2ā − (a_k + a_k+1)/2,
   ā = (x_k+1 − x_k)/(2h), so x interpolates x_k+1 exactly): j = c·v, i.e. s‴ = c·s′, in closed form
   (cosh/cos, :func:`_linear_state`), durations by a safeguarded Newton. With a planner's trapezoid
@@ -25,7 +25,8 @@ a C² motion), by the law of the smaller largest |jerk| of two:
 **Nodal accelerations** (:func:`nodal_accelerations`): ``a_grid`` where given; without it the
 three-point x'_k/2 (a weak estimate: on a sampled seven-phase move the jerk reaches 1.06-2.8 × J and
 the acceleration 1.3 × A; pass a_grid and J). At a rest node a = 0; beside one, a is the given value
-if a motion from rest reaches it, else ±2x/(3h) (the constant-jerk start s = J_r·t³/6 with
+if a motion from rest reaches it within J (or within the constant-jerk start's own jerk: a
+planner's trapezoid value x/h needs 2.94 × that), else ±2x/(3h) (the constant-jerk start s = J_r·t³/6 with
 J_r = 2x^{3/2}/(9h²), duration 3h/√x; a planner matches it with x_1 = (3/2)·h_0·a_1 and
 x_1 ≤ (4.5·J·h_0²)^{2/3}).
 
@@ -36,9 +37,10 @@ a planner's linear-a profile its own jerk constraint, checked on random profiles
 nodes within the pieces' extremes (linear in t on a constant-jerk piece). Not exact: an interval
 holding a whole seven-phase ramp (J, 0, −J: two switches) is fitted by two jerks (measured on the
 window's own schedules resampled at 0.25 mm plus its junctions, with a and J,
-benchmarks/phase_ticks_roundtrip.py: time within 1e-4, jerk ≤ J, acceleration ≤ 1.053 × A). Each tick is the motion at
-k·Ts and the tick check's finite differences are weighted means of it (Δ³s/Ts³ is a B-spline mean of
-j, s being C²), so the ticks' feed, acceleration and jerk stay within the motion's own maxima.
+benchmarks/phase_ticks_roundtrip.py: time within 1e-4, jerk ≤ J, acceleration ≤ 1.053 × A). Each
+tick is the motion at k·Ts and the tick check's finite differences are weighted means of it
+(Δ³s/Ts³ is a B-spline mean of j, s being C²), so the ticks' feed, acceleration and jerk stay
+within the motion's own maxima.
 """
 
 from __future__ import annotations
@@ -65,7 +67,7 @@ _LINEAR, _CUBIC = 0, 1
 
 def _state_functions(z: np.ndarray, tau: np.ndarray):
     """C = cosh√z, S1 = τ·sinh√z/√z, S2 = τ²·(cosh√z − 1)/z for z = c·τ² (cos/sin for z < 0): the
-    solution s = v0·S1 + a0·S2, v = v0·C + a0·S1/τ·τ of s''' = c·s' (entire in z; series near 0)."""
+    solution s = v0·S1 + a0·S2, v = v0·C + a0·S1 of s‴ = c·s′ (entire in z; series near 0)."""
     z = np.asarray(z, dtype=float)
     small = np.abs(z) < _SERIES_Z
     c0, c1, c2 = np.ones_like(z), np.ones_like(z), np.full_like(z, 0.5)
@@ -157,8 +159,8 @@ def _check_grid(s_grid, x_grid, ts_s, a_grid):
 
 def merge_close(s: np.ndarray, x: np.ndarray, a: np.ndarray | None):
     """The grid without the nodes closer than min(MERGE_MM, MERGE_RTOL·L) to the one before (a
-    rest node kept, its moving neighbour dropped instead; of two rests one): over a step of 1e-9·L the two-jerk fit
-    divides rounding by T² (a jerk of 250 × J measured on a knot's left point)."""
+    rest node kept, its moving neighbour dropped instead; of two rests one): over a step of 1e-9·L
+    the two-jerk fit divides rounding by T² (a jerk of 250 × J measured on a knot's left point)."""
     h_min = min(MERGE_MM, MERGE_RTOL * float(s[-1] - s[0]))
     while s.size > 2:
         close = np.flatnonzero(np.diff(s) < h_min)      # interval k too short: drop node k or k + 1
@@ -184,15 +186,16 @@ def _joins_rest(h, v, a, a_law, jerk: float | None):
     zero = np.zeros_like(h)
     given = _time_halves(h, zero, v, zero, a, jerk)[4]
     law = 2.0 * v ** 3 / (9.0 * h * h)
-    return np.isfinite(given) & ((given <= law * (1.0 + 1e-9)) | (given <= (np.inf if jerk is None else jerk * (1.0 + 1e-6))))
+    within = np.inf if jerk is None else jerk * (1.0 + 1e-6)
+    return np.isfinite(given) & ((given <= law * (1.0 + 1e-9)) | (given <= within))
 
 
 def nodal_accelerations(s: np.ndarray, x: np.ndarray, a_grid: np.ndarray | None = None,
                         jerk: float | None = None) -> np.ndarray:
     """a_k at the nodes: 0 at rest; ``a_grid`` where given and joinable to a neighbouring rest
-    (:func:`_joins_rest`), else beside a rest ±2x/(3h) (the constant-jerk start/stop's end value) and 0 at a single moving
-    node between two rests; elsewhere without ``a_grid`` the three-point x'_k/2. Raises
-    InputError for x = 0 on a whole interval (never passed)."""
+    (:func:`_joins_rest`), else beside a rest ±2x/(3h) (the constant-jerk start/stop's end value)
+    and 0 at a single moving node between two rests; elsewhere without ``a_grid`` the three-point
+    x'_k/2. Raises InputError for x = 0 on a whole interval (never passed)."""
     h = np.diff(s)
     rest = x == 0.0
     if (rest[:-1] & rest[1:]).any():
