@@ -255,8 +255,8 @@ def test_linear_law_where_two_jerks_are_worse():
     x = np.array([0.0, 92.89792839, 140.33957617, 192.01975474, 0.0])
     a_in = np.array([0.0, 2815.10368887, -2026.09725129, 2143.76204134, 0.0])
     a = nodal_accelerations(grid, x, a_in)
-    kind = _pieces(grid, x, a)[0]
-    assert list(kind[4:6]) == [0, 0] and (kind[:4] == 1).all()
+    kind = _pieces(grid, x, a)[0].reshape(-1, 3)[:, :2]    # per interval its pieces (the third: none)
+    assert (kind[2] == 0).all() and (kind[[0, 1, 3]] == 1).all()
     t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a_in)
     on = (s > 0.45) & (s < 0.6)
     assert np.abs(j[on]).max() <= _jerk_bound(grid[2:4], x[2:4], a[2:4]) * (1.0 + 1e-9)
@@ -325,3 +325,17 @@ def test_two_rests_a_hair_apart_are_one_stop():
     a = np.concatenate([a1[:-1], [0.0, 0.0], a2[1:]])
     t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a, jerk_mm_s3=LIMITS.jerk_mm_s3)
     assert abs(t[-1] - (T1 + T2)) <= 2 * TS and np.abs(j).max() <= LIMITS.jerk_mm_s3 * FACTOR
+
+
+def test_a_whole_ramp_in_one_interval():
+    # the stop of a move on LOW_ACC (−J, −A for 0.375 s, +J: 20 mm) as one interval from its start
+    # (a = 0 at full feed) to rest: two jerks pass A by 23 %; with J the ramp's own three pieces
+    L, limits = 60.0, LOW_ACC
+    F, A, J = limits.feed_mm_s, limits.tangential_acc_mm_s2, limits.jerk_mm_s3
+    d_stop = F * (F / A + A / J) / 2.0
+    grid = np.concatenate([np.linspace(0.0, L - d_stop, 161), [L]])
+    x, a, T = _sampled(_seven_phase(L, limits), grid)
+    t, s, v, acc, j = ticks_from_phase(grid, x, TS, a_grid=a, jerk_mm_s3=J)
+    assert T - 1e-9 <= t[-1] <= T + TS + 1e-9
+    r = tick_ratios(_on_line(s), j, limits)
+    assert r["acceleration x"].max() <= FACTOR and np.nanmax(r["path jerk"]) <= FACTOR

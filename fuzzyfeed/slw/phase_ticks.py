@@ -8,7 +8,8 @@ window sampling: the first tick at s = 0 at rest, the last at ⌈T/Ts⌉·Ts exa
 (terminal-error compensation, seed 000), s non-decreasing, v = a = j = 0 after the end.
 
 **The motion between two nodes** joins (s_k, v_k, a_k) to (s_k+1, v_k+1, a_k+1) (s, v and a continuous:
-a C² motion), by the law of the smaller largest |jerk| of two:
+a C² motion), by the law of the smaller largest |jerk| of two (with J given: of the smaller
+excursion of a beyond [a_k, a_k+1] within J, then of the smaller jerk):
 
 * two constant-jerk pieces in time (:func:`_two_jerks`): the second a share γ of the interval's
   time T, T the root of a quadratic (the moments of j), γ chosen (:func:`_cost`) with the jerk
@@ -17,6 +18,8 @@ a C² motion), by the law of the smaller largest |jerk| of two:
   Exact for any motion of constant jerk over the interval (the jerk-limited start s = J·t³/6 from
   a rest is one) and, given J, for one that switches jerk once inside it (a seven-phase profile's
   grid values with their own a and J give back that profile to rounding);
+* with J given, where the two jerks leave [a_k, a_k+1], three pieces ±J, 0, ∓J through a plateau
+  a_p (:func:`_ramp`): a whole seven-phase ramp inside one interval;
 * a linear in s (da/ds = c on each half, knot at the midpoint with a_m = 2ā − (a_k + a_k+1)/2,
   ā = (x_k+1 − x_k)/(2h), so x interpolates x_k+1 exactly): j = c·v, i.e. s‴ = c·s′, in closed form
   (cosh/cos, :func:`_linear_state`), durations by a safeguarded Newton. With a planner's trapezoid
@@ -31,13 +34,15 @@ J_r = 2x^{3/2}/(9h²), duration 3h/√x; a planner matches it with x_1 = (3/2)·
 x_1 ≤ (4.5·J·h_0²)^{2/3}).
 
 **What it guarantees** (to rounding; tests/test_phase_ticks.py): the ticks pass every node's
-(s, v, a); on every interval the realised |jerk| is at most the smaller of the two laws' bounds (the
-constant-jerk split's own max|j|, or √(max x on a half)·|da/ds| of the linear-in-s interpolant, for
-a planner's linear-a profile its own jerk constraint, checked on random profiles); |a| between
-nodes within the pieces' extremes (linear in t on a constant-jerk piece). Not exact: an interval
-holding a whole seven-phase ramp (J, 0, −J: two switches) is fitted by two jerks (measured on the
-window's own schedules resampled at 0.25 mm plus its junctions, with a and J,
-benchmarks/phase_ticks_roundtrip.py: time within 1e-4, jerk ≤ J, acceleration ≤ 1.053 × A). Each
+(s, v, a); without J the realised |jerk| on every interval is at most the smaller of the two laws'
+bounds (the constant-jerk split's own max|j|, or √(max x on a half)·|da/ds| of the linear-in-s
+interpolant: for a planner's linear-a profile its own jerk constraint, checked on random profiles);
+with J, the law of the smaller score (relative excursion of a + 1000 × relative excess of the
+jerk over J), on a tie the smaller jerk: so the linear law's bound again where both keep a within
+its nodal values and J. |a| between nodes is within the pieces' extremes (linear in t on a
+constant-jerk piece). Measured (benchmarks/phase_ticks_roundtrip.py): the window's own schedules
+resampled at 0.25 mm plus its junctions, with a and J, come back in the window's time with its
+feed, acceleration and jerk ratios (≤ 1.0000); topp10's LP profiles at their own margins. Each
 tick is the motion at k·Ts and the tick check's finite differences are weighted means of it
 (Δ³s/Ts³ is a B-spline mean of j, s being C²), so the ticks' feed, acceleration and jerk stay
 within the motion's own maxima.
@@ -312,6 +317,41 @@ def _time_halves(h, v0, v1, a0, a1, jerk: float | None = None):
     return tuple(out)
 
 
+def _ramp(h, v0, v1, a0, a1, jerk: float, side):
+    """Three pieces, jerk ±J, 0, ∓J, through a plateau a_p beyond the nodal a's (``side`` +1: above
+    max(a0, a1, 0), −1: below min(a0, a1, 0)): the seven-phase ramp inside one interval, which two
+    jerks follow only with an excursion of a. With t1 = |a_p − a0|/J, t3 = |a1 − a_p|/J and the
+    plateau t2 = (Δv − (a0 + a_p)t1/2 − (a_p + a1)t3/2)/a_p ≥ 0, the distance falls as |a_p| grows:
+    a_p by bisection on it, from the nodal edge to the plateau-free a_p² = (2J|Δv| + a0² + a1²)/2.
+    → t1, t2, t3, a_p (NaN where h is out of reach)."""
+    edge = np.where(side > 0, np.maximum(np.maximum(a0, a1), 0.0), np.minimum(np.minimum(a0, a1), 0.0))
+    dv = v1 - v0
+    far = side * np.sqrt(np.maximum((2.0 * jerk * np.abs(dv) + a0 * a0 + a1 * a1) / 2.0, 0.0))
+
+    def shape(ap):
+        t1, t3 = np.abs(ap - a0) / jerk, np.abs(a1 - ap) / jerk
+        j1, j3 = np.sign(ap - a0) * jerk, np.sign(a1 - ap) * jerk
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t2 = (dv - (a0 + ap) * t1 / 2.0 - (ap + a1) * t3 / 2.0) / ap
+        va = v0 + (a0 + ap) * t1 / 2.0
+        vb = va + ap * t2
+        d = (v0 * t1 + a0 * t1 * t1 / 2.0 + j1 * t1 ** 3 / 6.0 + va * t2 + ap * t2 * t2 / 2.0
+             + vb * t3 + ap * t3 * t3 / 2.0 + j3 * t3 ** 3 / 6.0)
+        return t1, t2, t3, d
+
+    lo, hi = edge + side * 1e-12 * (np.abs(edge) + np.abs(far)), far
+    d_lo, d_hi = shape(lo)[3], shape(hi)[3]
+    reach = (side * dv > 0.0) & np.isfinite(d_lo) & np.isfinite(d_hi) & (d_hi <= h) & (h <= d_lo)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        long = shape(mid)[3] > h          # still too far: a deeper plateau
+        lo, hi = np.where(long, mid, lo), np.where(long, hi, mid)
+    ap = 0.5 * (lo + hi)
+    t1, t2, t3, _ = shape(ap)
+    ok = reach & (t2 >= 0.0) & (np.minimum(v0, v1) >= 0.0)
+    return tuple(np.where(ok, arr, np.nan) for arr in (t1, t2, t3, ap))
+
+
 def _linear_halves(h, x, a):
     """Per interval the two halves of the linear-in-s law: the midpoint knot's x and a, and per half
     (x0, a0, slope c, length) with the half's jerk bound √(max x on it)·|c| (inf where x reaches 0
@@ -341,24 +381,58 @@ def _pieces(s: np.ndarray, x: np.ndarray, a: np.ndarray, jerk: float | None = No
     T, gamma, j1, j2, top = _time_halves(h, v[:-1], v[1:], a[:-1], a[1:], jerk)
     x0, a_lin, c_lin, length, bound = _linear_halves(h, x, a)
     timed = np.isfinite(top) & ~(top > bound)
+    if jerk is not None:   # with J: the law whose a leaves the nodal values least, within J; then the jerk
+        excursion = _two_jerks(h, v[:-1], v[1:], a[:-1], a[1:], gamma)[4]
+        scale = np.maximum(np.maximum(np.abs(a[:-1]), np.abs(a[1:])), np.abs(np.diff(v)) * (v[:-1] + v[1:]) / (2.0 * h))
+        hi, lo = np.maximum(a[:-1], a[1:]), np.minimum(a[:-1], a[1:])
+        out = np.maximum(np.maximum(a_lin[:, 1] - hi, lo - a_lin[:, 1]), 0.0)   # the midpoint knot's
+        with np.errstate(invalid="ignore"):
+            score_two = excursion + 1e3 * np.maximum(top / jerk - 1.0, 0.0)
+            score_lin = out / (scale + 1e-300) + 1e3 * np.maximum(bound / jerk - 1.0, 0.0)
+        timed = np.isfinite(top) & ((score_two < score_lin - 1e-9) | (~(score_two > score_lin + 1e-9) & ~(top > bound)))
     if not (timed | np.isfinite(bound)).all():
         i = int(np.flatnonzero(~(timed | np.isfinite(bound)))[0])
         raise InputError(f"ticks_from_phase: no motion with x > 0 joins the grid points at s = {s[i]:.6g} and "
                          f"{s[i + 1]:.6g} mm (their x and a disagree); a stop must be a grid point with x = 0")
-    kind = np.where(np.stack([timed, timed], axis=1), _CUBIC, _LINEAR).astype(np.int8)
+    kind = np.where(np.stack([timed, timed, timed], axis=1), _CUBIC, _LINEAR).astype(np.int8)
     t1 = (1.0 - gamma) * T
     s_tm = s[:-1] + v[:-1] * t1 + a[:-1] * t1 * t1 / 2.0 + j1 * t1 ** 3 / 6.0
     v_tm = v[:-1] + a[:-1] * t1 + j1 * t1 * t1 / 2.0
     a_tm = a[:-1] + j1 * t1
-    s0 = np.stack([s[:-1], np.where(timed, s_tm, s[:-1] + 0.5 * h)], axis=1)
-    v0 = np.where(timed[:, None], np.stack([v[:-1], v_tm], axis=1), np.sqrt(np.maximum(x0, 0.0)))
-    a0 = np.where(timed[:, None], np.stack([a[:-1], a_tm], axis=1), a_lin)
-    c = np.where(timed[:, None], np.stack([j1, j2], axis=1), c_lin)
-    duration = np.stack([t1, gamma * T], axis=1)
+    s0 = np.stack([s[:-1], np.where(timed, s_tm, s[:-1] + 0.5 * h), s[1:]], axis=1)
+    v0 = np.where(timed[:, None], np.stack([v[:-1], v_tm, v[1:]], axis=1),
+                  np.stack([np.sqrt(np.maximum(x0[:, 0], 0.0)), np.sqrt(np.maximum(x0[:, 1], 0.0)), v[1:]], axis=1))
+    a0 = np.where(timed[:, None], np.stack([a[:-1], a_tm, a[1:]], axis=1),
+                  np.stack([a_lin[:, 0], a_lin[:, 1], a[1:]], axis=1))
+    c = np.where(timed[:, None], np.stack([j1, j2, np.zeros_like(j1)], axis=1),
+                 np.stack([c_lin[:, 0], c_lin[:, 1], np.zeros_like(j1)], axis=1))
+    duration = np.stack([t1, gamma * T, np.zeros_like(T)], axis=1)
     if (~timed).any():
         k = np.flatnonzero(~timed)
-        duration[k] = _linear_durations(x0[k].ravel(), a_lin[k].ravel(), c_lin[k].ravel(),
-                                        length[k].ravel()).reshape(-1, 2)
+        duration[k, :2] = _linear_durations(x0[k].ravel(), a_lin[k].ravel(), c_lin[k].ravel(),
+                                            length[k].ravel()).reshape(-1, 2)
+    if jerk is not None:   # a whole ramp (±J, 0, ∓J) inside an interval: three pieces, no excursion
+        _, _, _, _, excursion = _two_jerks(h, v[:-1], v[1:], a[:-1], a[1:], gamma)
+        k = np.flatnonzero(timed & (excursion > 1e-9))
+        if k.size:
+            side = np.where(a_tm[k] > np.maximum(a[:-1][k], a[1:][k]), 1.0, -1.0)
+            r1, r2, r3, ap = _ramp(h[k], v[:-1][k], v[1:][k], a[:-1][k], a[1:][k], jerk, side)
+            scale = np.maximum(np.maximum(np.abs(a[:-1][k]), np.abs(a[1:][k])),
+                               np.abs(v[1:][k] - v[:-1][k]) * (v[:-1][k] + v[1:][k]) / (2.0 * h[k])) + 1e-300
+            edge = np.where(side > 0, np.maximum(a[:-1][k], a[1:][k]), np.minimum(a[:-1][k], a[1:][k]))
+            better = np.isfinite(ap) & (np.abs(ap - edge) / scale < excursion[k])
+            k, r1, r2, r3, ap = k[better], r1[better], r2[better], r3[better], ap[better]
+            j_1 = np.sign(ap - a[:-1][k]) * jerk
+            j_3 = np.sign(a[1:][k] - ap) * jerk
+            va = v[:-1][k] + (a[:-1][k] + ap) * r1 / 2.0
+            sa = s[:-1][k] + v[:-1][k] * r1 + a[:-1][k] * r1 * r1 / 2.0 + j_1 * r1 ** 3 / 6.0
+            vb, sb = va + ap * r2, sa + va * r2 + ap * r2 * r2 / 2.0
+            kind[k] = _CUBIC
+            s0[k] = np.stack([s[:-1][k], sa, sb], axis=1)
+            v0[k] = np.stack([v[:-1][k], va, vb], axis=1)
+            a0[k] = np.stack([a[:-1][k], ap, ap], axis=1)
+            c[k] = np.stack([j_1, np.zeros_like(ap), j_3], axis=1)
+            duration[k] = np.stack([r1, r2, r3], axis=1)
     return tuple(arr.ravel() for arr in (kind, s0, v0, a0, c, duration))
 
 
