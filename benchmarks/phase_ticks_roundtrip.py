@@ -6,8 +6,9 @@ segments, evaluated exactly) sampled as x = vÂ² and a on an arc-length grid of â
 every block junction (``--no-junctions``: only the full stops; x = 0 there); ``ticks_from_phase``
 on it: with the sampled a (a_grid) and the jerk limit, with a only, with J only;
 then the same interpolation (interpolate_u "best") and the tick check's ratios (check.tick_ratios,
-true corners left out of the path jerk as ``schedule`` does). Printed per case: the window's time,
-the ticks' time over it, and the worst ratio to each limit, window / ticks with a / ticks without.
+true corners left out of the path jerk as ``schedule`` does; and whether check.breach, the
+schedule's own last check, refuses the ticks). Printed per case: the window's time,
+the ticks' time over it and the worst ratio to each limit per variant, and the window's own.
 
 Run: python benchmarks/phase_ticks_roundtrip.py [--random N] [--step 0.25]
 """
@@ -29,7 +30,7 @@ from fuzzyfeed.geometry.interpolate import interpolate_u  # noqa: E402
 from fuzzyfeed.io.shapes import load_shape, shape_names  # noqa: E402
 from fuzzyfeed.machine.limits import MachineLimits  # noqa: E402
 from fuzzyfeed.slw import schedule  # noqa: E402
-from fuzzyfeed.slw.check import corner_ticks, tick_ratios  # noqa: E402
+from fuzzyfeed.slw.check import breach, corner_ticks, tick_ratios  # noqa: E402
 from fuzzyfeed.slw.lookahead import KINK_MIN  # noqa: E402
 from fuzzyfeed.slw.phase_ticks import ticks_from_phase  # noqa: E402
 from fuzzyfeed.slw.preprocess import joins  # noqa: E402
@@ -66,7 +67,8 @@ def ratios(curve, limits, s, jerk, kinks_u) -> dict[str, float]:
     r = tick_ratios(xyz, jerk, limits, corner_ticks(u, kinks_u))
     return {"feed": max(r["feed"].max(), *(r[f"velocity {ax}"].max() for ax in "xyz")),
             "acc": max(r[f"acceleration {ax}"].max() for ax in "xyz"),
-            "jerk": max(float(np.nanmax(r["path jerk"], initial=0.0)), float(r["jerk"].max()))}
+            "jerk": max(float(np.nanmax(r["path jerk"], initial=0.0)), float(r["jerk"].max())),
+            "breach": breach(xyz, u, np.asarray(jerk), limits, kinks_u) is not None}
 
 
 def run(name: str, curve, limits: MachineLimits, step: float, junctions_on: bool = True) -> dict:
@@ -108,9 +110,11 @@ def main() -> None:
         time = np.array([r[label]["time"] for r in rows])
         excess = {k: max(r[label][k] / max(r["window"][k], 1e-300) for r in rows) for k in KEYS}
         over = {k: max(r[label][k] for r in rows) for k in KEYS}
+        breaches = sum(r[label]["breach"] for r in rows)
         print(f"# {label}: time/window median {np.median(time):.5f} range [{time.min():.5f}, {time.max():.5f}]; "
               "worst ratio " + ", ".join(f"{k} {over[k]:.4f}" for k in KEYS)
-              + "; worst over the window's own " + ", ".join(f"{k} {excess[k]:.4f}" for k in KEYS))
+              + "; worst over the window's own " + ", ".join(f"{k} {excess[k]:.4f}" for k in KEYS)
+              + f"; check.breach: {breaches} of {len(rows)}")
 
 
 if __name__ == "__main__":
