@@ -184,3 +184,27 @@ def recorded_schedule(name: str, machine: str, **options):
     from fuzzyfeed.slw import schedule
 
     return schedule(named_curve(name), RECORDED_MACHINES[machine], **options)
+
+
+def profile_at(segs: list, s_query: np.ndarray, scale: float = 1.0):
+    """v, a and the total time of a profile of slw/profile segments at arc lengths ``s_query`` (the
+    segments' own s(t) times ``scale``, inverted by bisection on t; a scaled by ``scale`` too)."""
+    from fuzzyfeed.slw.profile import segment_table, segments_state
+
+    durations = np.array([g.duration_s for g in segs])
+    starts = np.concatenate([[0.0], np.cumsum(durations)])
+    starts_s = np.concatenate([[0.0], np.cumsum([g.length_mm for g in segs])])
+    table = segment_table(segs)
+
+    def state(t):
+        at = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(segs) - 1)
+        pos, v, a, _ = segments_state(segs, table, at, np.minimum(t - starts[at], durations[at]))
+        return (pos + starts_s[at]) * scale, v, a
+
+    lo, hi = np.zeros_like(s_query, dtype=float), np.full(np.shape(s_query), starts[-1])
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        below = state(mid)[0] < s_query
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    _, v, a = state(0.5 * (lo + hi))
+    return v, a * scale, float(starts[-1])
