@@ -102,3 +102,59 @@ def test_every_iterate_keeps_the_jerk():
     for iters in (1, 2):
         x, a = solve_grid(*grid, limits, max_iter=iters)
         check_profile(curve, limits, grid[0], x, a)
+
+
+# ---------------------------------------------------------------- schedule(planner="optimal")
+def _assert_within_limits(traj) -> None:
+    """Every tick within every limit, recomputed from the positions (check.tick_ratios), the
+    tolerances of the tick check (TICK_RTOL; the chords' jerk PATH_JERK_RTOL)."""
+    from fuzzyfeed.slw.check import PATH_JERK_RTOL, TICK_RTOL, corner_ticks, tick_ratios
+    from fuzzyfeed.slw.lookahead import KINK_MIN
+    from fuzzyfeed.slw.preprocess import joins
+
+    s_j, _, _, jump = joins(traj.curve)
+    kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
+    corner_u = np.atleast_1d(traj.curve.param_at_length(kinks)) if kinks.size else kinks
+    ratios = tick_ratios(np.asarray(traj.xyz), np.asarray(traj.jerk_mm_s3), traj.limits,
+                         corner_ticks(np.asarray(traj.u), corner_u))
+    for name, r in ratios.items():
+        allowed = 1 + (PATH_JERK_RTOL if name == "path jerk" else TICK_RTOL)
+        assert np.nanmax(r, initial=0.0) <= allowed, name
+    assert traj.t_s[-1] >= path_bound(traj.curve, traj.limits, halve=False).time_s
+    assert traj.s_mm[0] == 0.0 and traj.s_mm[-1] == pytest.approx(traj.curve.length, rel=1e-12)
+    assert np.all(np.diff(traj.s_mm) >= 0)
+
+
+@pytest.mark.parametrize("name", ["infinity", "trident2"])
+def test_schedule_optimal_on_shapes_keeps_every_limit(name):
+    from fuzzyfeed.slw import schedule
+
+    traj = schedule(load_shape(name).curve, SLOW_Y, planner="optimal")
+    _assert_within_limits(traj)
+    assert traj.n_blocks == 0 and traj.n_critical >= 0
+
+
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 60))
+def test_schedule_optimal_never_exceeds_a_machine_limit(seed):
+    """No machine limit is ever exceeded: a schedule is returned within every limit, or none."""
+    from fuzzyfeed.errors import InputError
+    from fuzzyfeed.slw import schedule
+
+    curve, limits = random_nurbs(seed)
+    try:
+        traj = schedule(curve, limits, planner="optimal")
+    except InputError:
+        return
+    _assert_within_limits(traj)
+
+
+def test_schedule_planner_is_checked_and_the_window_stays_the_default():
+    from fuzzyfeed.errors import InputError
+    from fuzzyfeed.slw import schedule
+
+    curve = load_shape("trident2").curve
+    with pytest.raises(InputError, match="planner"):
+        schedule(curve, SLOW_Y, planner="lp")
+    a, b = schedule(curve, SLOW_Y), schedule(curve, SLOW_Y, planner="window")
+    assert np.array_equal(a.s_mm, b.s_mm) and a.n_blocks > 0

@@ -32,10 +32,9 @@ from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.machine.limits import MachineLimits
 
 #: Grid refinement: √x of the passes changes by at most this ratio across an interval, at most
-#: REFINE_LEVELS halvings, never below REFINE_MIN_REL of the length.
+#: REFINE_LEVELS halvings, never below twice phase_ticks' merge distance (:func:`_min_step`).
 REFINE_RATIO = 1.2
 REFINE_LEVELS = 10
-REFINE_MIN_REL = 1e-7
 #: Margins of the plan: feed (on v), axial acceleration, jerk.
 FEED_MARGIN = 0.999
 ACC_MARGIN = 0.98
@@ -171,7 +170,7 @@ def grid_problem(curve: Nurbs, limits: MachineLimits, cap=None, max_step_mm: flo
     s_c, _ = corners(curve, limits)
     if s_c.size:
         corner[np.clip(np.searchsorted(s, s_c), 0, s.size - 1)] = True
-    min_ds = REFINE_MIN_REL * s[-1]
+    min_ds = _min_step(s[-1])
     for _ in range(REFINE_LEVELS):
         lim = _limit(s, x_lim, cap)
         x = _start(s, lim, tangent, kn, limits)
@@ -188,11 +187,38 @@ def grid_problem(curve: Nurbs, limits: MachineLimits, cap=None, max_step_mm: flo
         tangent = np.concatenate([tangent, tm])[order]
         kn = np.concatenate([kn, km])[order]
         corner = np.concatenate([corner, np.zeros(mid.size, dtype=bool)])[order]
+    keep = _spaced(s, corner, min_ds)
+    s, x_lim, tangent, kn, corner = s[keep], x_lim[keep], tangent[keep], kn[keep], corner[keep]
     x_lim = _limit(s, x_lim, cap)
     stops = x_lim <= 0.0
     stops[0] = stops[-1] = True
     x_lim[stops] = 0.0
     return s, x_lim, tangent, kn, stops, corner
+
+
+def _min_step(length: float) -> float:
+    """The least grid step: twice phase_ticks' merge distance (nodes closer are merged there)."""
+    from fuzzyfeed.slw.phase_ticks import MERGE_MM, MERGE_RTOL
+
+    return 2.0 * min(MERGE_MM, MERGE_RTOL * length)
+
+
+def _spaced(s: np.ndarray, keep_first: np.ndarray, min_ds: float) -> np.ndarray:
+    """Nodes to keep so that no two are closer than ``min_ds`` (a knot's left point 1e-9·L before
+    it, the refinement's last halvings): of a close pair the later is dropped, unless it is the end
+    or in ``keep_first`` (a corner), then the earlier; the ends always kept."""
+    keep = np.ones(s.size, dtype=bool)
+    last = 0
+    for i in range(1, s.size):
+        if s[i] - s[last] >= min_ds:
+            last = i
+        elif i == s.size - 1 or keep_first[i]:
+            if last > 0:
+                keep[last] = False
+            last = i
+        else:
+            keep[i] = False
+    return keep
 
 
 def _limit(s, x_lim, cap):
@@ -222,14 +248,24 @@ def rest_step_limit(s: np.ndarray, stops: np.ndarray, jerk: float) -> np.ndarray
     return out
 
 
-def rest_limit(s: np.ndarray, stops: np.ndarray, jerk: float) -> np.ndarray:
-    """The fastest x at distance d from the nearest full stop under the jerk alone: s = J·t³/6,
-    v = J·t²/2 ⇒ x = (J/2)²·(6d/J)^{4/3} (an upper bound on every feasible x; the trust region's
-    floor would otherwise hold the jerk rows next to a rest at J·h/√floor)."""
-    at = s[stops]
-    k = np.clip(np.searchsorted(at, s), 1, at.size - 1) if at.size > 1 else np.zeros(s.size, dtype=int)
-    d = np.minimum(np.abs(s - at[k - 1]), np.abs(at[k] - s)) if at.size > 1 else np.abs(s - at[0])
-    return (0.5 * jerk) ** 2 * np.cbrt(6.0 * d / jerk) ** 4
+def slow_limit(s: np.ndarray, slow: np.ndarray, v0: np.ndarray, a0: float, jerk: float) -> np.ndarray:
+    """The fastest x at distance d from the nearest slow point on either side (a full stop or a
+    corner: feed v0 there, |a| ≤ a0), under the jerk alone: s ≥ J·t³/6 gives t ≤ (6d/J)^{1/3} and
+    v ≤ v0 + a0·t + J·t²/2. An upper bound on every feasible x; the jerk rows' tangents are taken
+    below it (next to a corner passed at 0.45 mm/s, a tangent at 1 % of the command feed's x held
+    the feed at 0.76 mm/s where the window runs 1.9)."""
+    idx = np.flatnonzero(slow)
+    out = np.full(s.size, np.inf)
+    if idx.size == 0:
+        return out
+    for side in ("left", "right"):
+        k = np.searchsorted(s[idx], s, side="right") - 1 if side == "left" else np.searchsorted(s[idx], s, side="left")
+        ok = (k >= 0) & (k < idx.size)
+        j = idx[np.clip(k, 0, idx.size - 1)]
+        t = np.cbrt(6.0 * np.abs(s - s[j]) / jerk)
+        v = v0[j] + (a0 * (v0[j] > 0)) * t + 0.5 * jerk * t * t
+        out = np.where(ok, np.minimum(out, v * v), out)
+    return out
 
 
 def _line_search(s, x0, a0, x1, a1, jerk: float, steps: int = 12):
@@ -268,7 +304,9 @@ def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_
     a_lo[corner], a_hi[corner] = -corner_acc, corner_acc
     a_lo[stops] = a_hi[stops] = 0.0
     jerk = JERK_MARGIN * limits.jerk_mm_s3
-    x_lim = np.minimum(np.minimum(x_lim, rest_limit(s, stops, jerk)), rest_step_limit(s, stops, jerk))
+    slow = stops | corner
+    x_lim = np.minimum(x_lim, slow_limit(s, slow, np.sqrt(np.where(slow, x_lim, 0.0)), corner_acc, jerk))
+    x_lim = np.minimum(x_lim, rest_step_limit(s, stops, jerk))
     col_lo = np.concatenate([np.zeros(n1), a_lo])
     col_hi = np.concatenate([x_lim, a_hi])
     x_hat = _start(s, x_lim, tangent, kn, limits)

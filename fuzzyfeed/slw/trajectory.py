@@ -203,7 +203,7 @@ def check_work(total_mm: float, limits: MachineLimits) -> None:
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
              progress: Callable[[float], None] | None = None, approach: int = 2,
              feed_cap=None, blend: bool = True, path_tolerance_mm: float | None = None,
-             transition: str = COSINE) -> Trajectory:
+             transition: str = COSINE, planner: str = "window") -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
 
     ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 2 (default)
@@ -227,6 +227,11 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     corners, which are passed within one servo period (:func:`fuzzyfeed.geometry.polyline_fit.fit_polyline`);
     ``blend=False`` takes every vertex as a corner. The fit is ``Trajectory.polyline_fit``.
 
+    ``planner``: ``"window"`` (default; the sliding look-ahead window above) or ``"optimal"``: the
+    whole-path jerk-limited LP (:mod:`fuzzyfeed.slw.optimal`, ticks by
+    :mod:`fuzzyfeed.slw.phase_ticks`; ``approach``, ``transition`` and ``progress`` do not apply),
+    checked and repaired tick by tick as the window is (:mod:`fuzzyfeed.slw.optimal_schedule`).
+
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
     ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal or a
     notebook widget).
@@ -242,6 +247,8 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
     if transition not in TRANSITIONS:
         raise InputError(f"transition = {transition!r}; use one of {', '.join(TRANSITIONS)}")
+    if planner not in ("window", "optimal"):
+        raise InputError(f"planner = {planner!r}; use 'window' or 'optimal'")
     check_work(total, limits)
     fit = None
     if blend and curve.degree == 1:
@@ -251,6 +258,14 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         fit = replace(kept, source=curve)
         curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
+    if planner == "optimal":
+        from fuzzyfeed.slw.optimal_schedule import schedule_optimal
+
+        s_j, _, _, jump = joins(curve)
+        kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
+        kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
+        *ticks, critical = schedule_optimal(curve, limits, cap, kinks_u, _dip, TICK_REPAIRS)
+        return Trajectory(curve, limits, *ticks, (), LookaheadStats(), critical, fit)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
     # corners closer together than a stair step needs are a cap, not critical points
     dense = corner_plan(curve, limits)[2]
