@@ -35,10 +35,11 @@ from fuzzyfeed.machine.limits import MachineLimits
 #: REFINE_LEVELS halvings, never below twice phase_ticks' merge distance (:func:`_min_step`).
 REFINE_RATIO = 1.2
 REFINE_LEVELS = 10
-#: Margins of the plan: feed (on v), axial acceleration, jerk.
+#: Margins of the plan: feed (on v), axial acceleration, jerk (phase_ticks realises the grid's a and j
+#: within them: measured ≤ 0.9959 of A, 0.9950 of J on the shapes and random curves at 0.995).
 FEED_MARGIN = 0.999
-ACC_MARGIN = 0.98
-JERK_MARGIN = 0.98
+ACC_MARGIN = 0.995
+JERK_MARGIN = 0.995
 #: |a| at a true corner's node, as a share of the smallest axis acceleration.
 CORNER_ACC = 0.05
 #: The jerk rows' tangent point: the last iterate, at least this share of x_lim.
