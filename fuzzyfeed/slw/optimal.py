@@ -138,24 +138,27 @@ def _rows(s, tangent, kn, stops, c, jerk: float, acc: np.ndarray, x_top: np.ndar
 
 def _solve_lp(a, row_lo, row_hi, cost, col_lo, col_hi, basis=None):
     """min cost·z under the rows and bounds with scipy's bundled HiGHS (its private binding:
-    linprog starts every solve cold), from ``basis`` if given → (z or None, the final basis)."""
+    linprog starts every solve cold), from ``basis`` if given → (z or None, the final basis).
+    Without presolve first (HIGHS_OPTIONS: faster from a basis); HiGHS's defaults if that ends
+    without an optimum (random curve 11 on slow-y: status "Unknown" without presolve)."""
     from scipy.optimize._highspy import _core
 
-    h = _core._Highs()
-    h.setOptionValue("output_flag", False)
-    for key, value in HIGHS_OPTIONS.items():
-        h.setOptionValue(key, value)
     a.sort_indices()
-    h.passModel(int(a.shape[1]), int(a.shape[0]), int(a.nnz), 1, 1, 0.0, np.asarray(cost, dtype=float),
-                np.asarray(col_lo, dtype=float), np.asarray(col_hi, dtype=float), row_lo, row_hi,
-                a.indptr[:-1].astype(np.int32), a.indices.astype(np.int32), a.data.astype(float),
-                np.zeros(a.shape[1], dtype=np.int32))
-    if basis is not None:
-        h.setBasis(basis)
-    h.run()
-    if h.getModelStatus() != _core.HighsModelStatus.kOptimal:
-        return None, None
-    return np.asarray(h.getSolution().col_value), h.getBasis()
+    for options, start in ((HIGHS_OPTIONS, basis), ({}, None)):
+        h = _core._Highs()
+        h.setOptionValue("output_flag", False)
+        for key, value in options.items():
+            h.setOptionValue(key, value)
+        h.passModel(int(a.shape[1]), int(a.shape[0]), int(a.nnz), 1, 1, 0.0, np.asarray(cost, dtype=float),
+                    np.asarray(col_lo, dtype=float), np.asarray(col_hi, dtype=float), row_lo, row_hi,
+                    a.indptr[:-1].astype(np.int32), a.indices.astype(np.int32), a.data.astype(float),
+                    np.zeros(a.shape[1], dtype=np.int32))
+        if start is not None:
+            h.setBasis(start)
+        h.run()
+        if h.getModelStatus() == _core.HighsModelStatus.kOptimal:
+            return np.asarray(h.getSolution().col_value), h.getBasis()
+    return None, None
 
 
 def _weights(s, x_hat, floor_x):
