@@ -105,48 +105,71 @@ def test_every_iterate_keeps_the_jerk():
 
 
 # ---------------------------------------------------------------- schedule(planner="optimal")
-def _assert_within_limits(traj) -> None:
+def _assert_within_limits(curve, limits, t, s, u, xyz, jerk) -> None:
     """Every tick within every limit, recomputed from the positions (check.tick_ratios), the
     tolerances of the tick check (TICK_RTOL; the chords' jerk PATH_JERK_RTOL)."""
     from fuzzyfeed.slw.check import PATH_JERK_RTOL, TICK_RTOL, corner_ticks, tick_ratios
     from fuzzyfeed.slw.lookahead import KINK_MIN
     from fuzzyfeed.slw.preprocess import joins
 
-    s_j, _, _, jump = joins(traj.curve)
+    s_j, _, _, jump = joins(curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
-    corner_u = np.atleast_1d(traj.curve.param_at_length(kinks)) if kinks.size else kinks
-    ratios = tick_ratios(np.asarray(traj.xyz), np.asarray(traj.jerk_mm_s3), traj.limits,
-                         corner_ticks(np.asarray(traj.u), corner_u))
+    corner_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
+    ratios = tick_ratios(np.asarray(xyz), np.asarray(jerk), limits, corner_ticks(np.asarray(u), corner_u))
     for name, r in ratios.items():
         allowed = 1 + (PATH_JERK_RTOL if name == "path jerk" else TICK_RTOL)
         assert np.nanmax(r, initial=0.0) <= allowed, name
-    assert traj.t_s[-1] >= path_bound(traj.curve, traj.limits, halve=False).time_s
-    assert traj.s_mm[0] == 0.0 and traj.s_mm[-1] == pytest.approx(traj.curve.length, rel=1e-12)
-    assert np.all(np.diff(traj.s_mm) >= 0)
+    assert t[-1] >= path_bound(curve, limits, halve=False).time_s
+    assert s[0] == 0.0 and s[-1] == pytest.approx(curve.length, rel=1e-12)
+    assert np.all(np.diff(s) >= 0)
+
+
+def _lp_ticks(curve, limits):
+    """The LP's own ticks (no window to fall back on), as schedule() makes them."""
+    from fuzzyfeed.slw.lookahead import KINK_MIN
+    from fuzzyfeed.slw.optimal_schedule import schedule_optimal
+    from fuzzyfeed.slw.preprocess import joins
+    from fuzzyfeed.slw.trajectory import TICK_REPAIRS, _dip
+
+    s_j, _, _, jump = joins(curve)
+    kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
+    kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
+    t, s, u, xyz, v, a, j, _ = schedule_optimal(curve, limits, None, kinks_u, _dip, TICK_REPAIRS)
+    return t, s, u, xyz, j
 
 
 @pytest.mark.parametrize("name", ["infinity", "trident2"])
-def test_schedule_optimal_on_shapes_keeps_every_limit(name):
-    from fuzzyfeed.slw import schedule
-
-    traj = schedule(load_shape(name).curve, SLOW_Y, planner="optimal")
-    _assert_within_limits(traj)
-    assert traj.n_blocks == 0 and traj.n_critical >= 0
+def test_lp_ticks_on_shapes_keep_every_limit(name):
+    curve = load_shape(name).curve
+    t, s, u, xyz, j = _lp_ticks(curve, SLOW_Y)
+    _assert_within_limits(curve, SLOW_Y, t, s, u, xyz, j)
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, 60))
-def test_schedule_optimal_never_exceeds_a_machine_limit(seed):
-    """No machine limit is ever exceeded: a schedule is returned within every limit, or none."""
+def test_lp_ticks_never_exceed_a_machine_limit(seed):
+    """No machine limit is ever exceeded: the LP's ticks are returned within every limit, or none."""
     from fuzzyfeed.errors import InputError
-    from fuzzyfeed.slw import schedule
 
     curve, limits = random_nurbs(seed)
     try:
-        traj = schedule(curve, limits, planner="optimal")
+        t, s, u, xyz, j = _lp_ticks(curve, limits)
     except InputError:
         return
-    _assert_within_limits(traj)
+    _assert_within_limits(curve, limits, t, s, u, xyz, j)
+
+
+@pytest.mark.parametrize("name", ["trident2", "wm"])
+def test_schedule_optimal_is_never_slower_than_the_window(name):
+    from fuzzyfeed.slw import schedule
+
+    curve = load_shape(name).curve
+    for limits in (MachineLimits(), SLOW_Y):
+        best = schedule(curve, limits, planner="optimal", transition="seven-phase")
+        window = schedule(curve, limits, transition="seven-phase")
+        assert best.cycle_time_s <= window.cycle_time_s
+        _assert_within_limits(best.curve, limits, best.t_s, best.s_mm, best.u, best.xyz, best.jerk_mm_s3)
+    assert best.n_blocks == 0  # slow-y: the LP's (trident2 1.0293 against the window's 1.0903 x the floor)
 
 
 def test_schedule_planner_is_checked_and_the_window_stays_the_default():

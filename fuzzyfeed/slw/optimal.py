@@ -51,6 +51,10 @@ HIGHS_OPTIONS = {"presolve": "off"}
 #: Stop when the time changes by less than this (relative), or after MAX_ITER LPs.
 T_RTOL = 1e-4
 MAX_ITER = 30
+#: Budgets: a grid of more nodes is refused (RuntimeError: the caller falls back), and no new LP is
+#: started after this much CPU time (s) in solve_grid (the best iterate so far is kept).
+MAX_NODES = 20_000
+TIME_BUDGET_S = 6.0
 #: x below this share of F² counts as rest in the weights (their 1/x^{3/2} is clipped there).
 WEIGHT_FLOOR = 1e-6
 
@@ -319,7 +323,12 @@ def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_
     """Sequential LP on a prepared grid → (x, a) at the nodes, every iterate within every limit
     (the convex-concave procedure: the jerk rows' tangents at the last iterate). ``log``
     (optional) receives each iteration's time."""
+    import time
+
     n1 = s.size
+    if n1 > MAX_NODES:
+        raise RuntimeError(f"{n1} grid nodes, over the LP's budget of {MAX_NODES}")
+    started = time.process_time()
     feed = limits.feed_mm_s
     acc = ACC_MARGIN * np.asarray(limits.axis_acc_mm_s2, dtype=float)
     a_max = float(np.max(limits.axis_acc_mm_s2))
@@ -357,6 +366,8 @@ def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_
             break
         t_prev = t
         x_hat = x
+        if time.process_time() - started > TIME_BUDGET_S:
+            break
     return best
 
 
