@@ -17,7 +17,7 @@ leg between full stops at least its seven-phase rest-to-rest time), printed besi
 the CPU time of ``schedule``. Anchor in the same run: the bound against toppra 0.6 on infinity
 (DESIGN §6: 4.9008 s).
 
-Run: python benchmarks/bench_slw.py [--random N] [--transition both|seven-phase|cosine]
+Run: python benchmarks/bench_slw.py [--random N] [--transition both|seven-phase|cosine] [--planner window|optimal]
 ``--corner-bound NAME ...`` prints, for the named cases only, a proven lower bound on the cycle time
 of any jerk-limited schedule through the path's true corners (:func:`corner_chain_bound`) beside
 the floor and the SLW time: where it is above the floor, no scheduler can reach the floor there.
@@ -137,9 +137,14 @@ def corner_chain_bound(curve, limits: MachineLimits) -> float:
 
 
 def run_case(name: str, curve, limits: MachineLimits, transition: str, cap=None, keep_curve: bool = False) -> dict:
+    """One case; ``transition`` "optimal" runs ``schedule(planner="optimal")``: the faster of the LP's
+    and the window's seven-phase schedule (its CPU time includes both)."""
     t0 = time.process_time()
     try:
-        traj = schedule(curve, limits, transition=transition, feed_cap=cap)
+        if transition == "optimal":
+            traj = schedule(curve, limits, feed_cap=cap, planner="optimal", transition="seven-phase")
+        else:
+            traj = schedule(curve, limits, transition=transition, feed_cap=cap)
     except Exception as exc:  # noqa: BLE001 - a benchmark reports every failure
         return {"name": name, "fail": f"{type(exc).__name__}: {exc}"[:240], "cpu": time.process_time() - t0}
     cpu = time.process_time() - t0
@@ -247,6 +252,8 @@ def main() -> None:
     ap.add_argument("--random", type=int, default=110, help="random NURBS, each on both machines "
                                                               "(default: %(default)s)")
     ap.add_argument("--transition", choices=("both", "seven-phase", "cosine"), default="both")
+    ap.add_argument("--planner", choices=("window", "optimal"), default="window", help="'optimal': the whole-path "
+                    "LP (schedule(planner='optimal')), once per case, instead of the window's transitions")
     ap.add_argument("--max-cuts", type=int, default=2, help="cuts of each program (default: %(default)s)")
     ap.add_argument("--corner-bound", nargs="+", metavar="NAME", help="only these cases (path/machine, as "
                     "printed): the proven corner-chain lower bound beside the floor and the SLW time")
@@ -273,6 +280,8 @@ def main() -> None:
                 break
         return
     transitions = ("cosine", "seven-phase") if args.transition == "both" else (args.transition,)
+    if args.planner == "optimal":
+        transitions = ("optimal",)
     warm_kernels()  # every compiled kernel loaded (or compiled once) outside the timed cases
     print(f"machines: equal {EQUAL}\n          slow-y {SLOW_Y}")
     print(HEADER)

@@ -190,6 +190,25 @@ def _dip(cap: FeedCap | None, found: tuple[str, int, float], s: np.ndarray, v: n
     return dip if cap is None else lower(cap, dip)
 
 
+def _faster_optimal(window: Trajectory, cap: FeedCap | None) -> Trajectory:
+    """The whole-path LP's schedule on the window's followed path (slw/optimal_schedule.py) if it
+    passes the tick check and is faster than ``window``; else ``window`` (also when the LP fails,
+    exceeds its node budget or breaks a limit after its repairs)."""
+    from fuzzyfeed.slw.optimal_schedule import schedule_optimal
+
+    curve, limits = window.curve, window.limits
+    s_j, _, _, jump = joins(curve)
+    kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
+    kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
+    try:
+        *ticks, critical = schedule_optimal(curve, limits, cap, kinks_u, _dip, TICK_REPAIRS)
+    except InputError:
+        return window
+    if ticks[0][-1] >= window.cycle_time_s:
+        return window
+    return Trajectory(curve, limits, *ticks, (), LookaheadStats(), critical, window.polyline_fit)
+
+
 def check_work(total_mm: float, limits: MachineLimits) -> None:
     """Refuse, before any work, a schedule of more than MAX_TICKS servo periods even at the command
     feed (the fastest the path can be run: L / (F·Ts) is a lower bound on the ticks)."""
@@ -203,7 +222,7 @@ def check_work(total_mm: float, limits: MachineLimits) -> None:
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
              progress: Callable[[float], None] | None = None, approach: int = 2,
              feed_cap=None, blend: bool = True, path_tolerance_mm: float | None = None,
-             transition: str = COSINE) -> Trajectory:
+             transition: str = COSINE, planner: str = "window") -> Trajectory:
     """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
 
     ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 2 (default)
@@ -227,6 +246,12 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     corners, which are passed within one servo period (:func:`fuzzyfeed.geometry.polyline_fit.fit_polyline`);
     ``blend=False`` takes every vertex as a corner. The fit is ``Trajectory.polyline_fit``.
 
+    ``planner``: ``"window"`` (default; the sliding look-ahead window above) or ``"optimal"``: the
+    window's schedule (with these options) and the whole-path jerk-limited LP's
+    (:mod:`fuzzyfeed.slw.optimal`, ticks by :mod:`fuzzyfeed.slw.phase_ticks`, checked and repaired tick by
+    tick as the window is: :mod:`fuzzyfeed.slw.optimal_schedule`), the faster of the two; the window's
+    when the LP fails, passes its node or time budget or keeps a limit broken after its repairs.
+
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
     ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal or a
     notebook widget).
@@ -242,6 +267,8 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         raise InputError(f"approach = {approach!r}; use 1 or 2 (seed 000, Table 1)")
     if transition not in TRANSITIONS:
         raise InputError(f"transition = {transition!r}; use one of {', '.join(TRANSITIONS)}")
+    if planner not in ("window", "optimal"):
+        raise InputError(f"planner = {planner!r}; use 'window' or 'optimal'")
     check_work(total, limits)
     fit = None
     if blend and curve.degree == 1:
@@ -251,6 +278,10 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         fit = replace(kept, source=curve)
         curve, total = fit.curve, fit.curve.length
     cap = _feed_cap(feed_cap, total)
+    if planner == "optimal":  # the window's schedule first: the fallback and the one to beat
+        window = schedule(curve if fit is None else fit.source, limits, progress, approach, feed_cap, blend,
+                          path_tolerance_mm, transition)
+        return _faster_optimal(window, cap)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
     # corners closer together than a stair step needs are a cap, not critical points
     dense = corner_plan(curve, limits)[2]
