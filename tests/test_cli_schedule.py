@@ -79,3 +79,29 @@ def test_help_lists_limit_flags(capsys):
     for flag in ("--feed-mm-min", "--axis-vel-mm-s", "--axis-acc-mm-s2", "--jerk-mm-s3", "--chord-tol-mm",
                  "--ts-s", "6000", "--plot"):
         assert flag in text
+
+
+def test_planner_optimal_is_the_faster_schedule_and_says_so(tmp_path, capsys):
+    """``--planner optimal`` keeps the whole-path LP's schedule where it beats the window (trident
+    on the hobby router, whose slow axes the LP follows more closely), and the summary says which."""
+    times = {}
+    for planner in ("window", "optimal"):
+        out = tmp_path / f"{planner}.csv"
+        assert main(["schedule", "trident", "-o", str(out), "--machine", "hobby-router",
+                     "--transition", "seven-phase", "--planner", planner]) == 0
+        text = capsys.readouterr().out
+        times[planner] = float(text.split("cycle time")[1].split()[0])
+        assert ("whole-path LP" in text) == (planner == "optimal"), text
+        with out.open() as fh:
+            rows = list(csv.DictReader(fh))
+        assert abs(float(rows[-1]["t_s"]) - times[planner]) < 1e-9
+    assert times["optimal"] < times["window"]
+
+
+def test_bad_planner_is_one_line_exit_2(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["schedule", "trident", "-o", str(tmp_path / "t.csv"), "--planner", "fast"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--planner" in err[0] and "fast" in err[0]
+    assert not (tmp_path / "t.csv").exists()

@@ -30,6 +30,11 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write (atomically)")
     add_limit_arguments(p)
     add_approach_argument(p)
+    p.add_argument("--planner", choices=("window", "optimal"), default="window",
+                   help="window: the sliding look-ahead window (seed 000); optimal: also a jerk-limited "
+                        "time-optimal feed over the whole path (a sequence of linear programs), the "
+                        "faster of the two kept, both checked tick by tick; slower to compute, and long "
+                        "paths (over 20 000 grid points) keep the window (default: %(default)s)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed, acceleration and jerk against time (and the feed against "
                         "arc length with the limit and the bound)")
@@ -47,7 +52,8 @@ def compute(args: argparse.Namespace):
     check_schedule_work(args.shape, shape.curve.length, limits)
     try:  # a progress bar on a terminal (tqdm.auto), none in a pipe or a log
         traj = schedule(shape.curve, limits, progress=True if sys.stderr.isatty() else None,
-                        approach=args.approach, feed_cap=cap, transition=args.transition)
+                        approach=args.approach, feed_cap=cap, transition=args.transition,
+                        planner=args.planner)
     except InputError as exc:  # the message names the user's file (and the slowest limit)
         raise InputError(schedule_error(args.shape, exc, shape.curve.length, limits)) from None
     bound = path_bound(traj.curve, limits, feed_cap=cap)  # of the path followed (a polyline: blended)
@@ -63,7 +69,8 @@ def summary(shape_name: str, traj, m: dict, bound, feed_note: str | None = None)
         f"ratio {traj.cycle_time_s / bound_s:.4f})",
         f"bound grid        {bound.s_mm.size} points, time changes {100 * bound.grid_change:.3f} % "
         "when the grid is halved",
-        f"critical points   {traj.n_critical}   blocks {traj.n_blocks}",
+        f"critical points   {traj.n_critical}   "
+        + (f"blocks {traj.n_blocks}" if traj.n_blocks else "whole-path LP (--planner optimal; faster than the window)"),
         f"max feed          {m['feed'] * lim.feed_mm_min:.1f} mm/min ({100 * m['feed']:.2f} % of command)",
         f"max chord error   {1000 * m['chord'] * lim.chord_tol_mm:.4f} um ({100 * m['chord']:.2f} % of limit)",
         f"max axis velocity {100 * m['axis_vel']:.2f} % of limit",
