@@ -29,6 +29,8 @@ from fuzzyfeed.program.path_builder import PathBuilder
 WRITE_SEGMENTS = 1 << 16
 #: Gaps (items) below which the indices of a gathered read are read as one slice.
 _GATHER_GAP = 4096
+#: The most items one slice of a gathered read (or scattered write) spans.
+_GATHER_SPAN = 1 << 16
 
 _VERTEX = (("points", np.float64, 3), ("radius", np.float64, 1))
 _SEGMENT = (("feed", np.float64, 1), ("rapid", np.bool_, 1), ("move", np.int64, 1), ("measured", np.bool_, 1),
@@ -90,12 +92,11 @@ class StoredColumn:
         """Items ``idx`` (sorted, unique, in range) set to ``values``: read, changed and written in
         slices of nearby indices (:meth:`gather`'s)."""
         idx = np.asarray(idx, dtype=np.int64)
-        if idx.size == 0:
-            return
-        breaks = np.flatnonzero(np.diff(idx) > _GATHER_GAP) + 1
-        for g, v in zip(np.split(idx, breaks), np.split(np.asarray(values, dtype=self.dtype), breaks)):
+        values = np.asarray(values, dtype=self.dtype)
+        for a, b in _slices(idx):
+            g = idx[a:b]
             block = self._read(int(g[0]), int(g[-1]) + 1)
-            block[g - g[0]] = v
+            block[g - g[0]] = values[a:b]
             self[int(g[0]):int(g[-1]) + 1] = block
 
     def gather(self, idx: np.ndarray) -> np.ndarray:
@@ -106,9 +107,9 @@ class StoredColumn:
         if flat.min() < 0 or flat.max() >= self.size:
             raise IndexError(f"index out of {self.size}")
         u, inv = np.unique(flat, return_inverse=True)
-        breaks = np.flatnonzero(np.diff(u) > _GATHER_GAP) + 1
         parts = []
-        for g in np.split(u, breaks):
+        for a, b in _slices(u):
+            g = u[a:b]
             block = self._read(int(g[0]), int(g[-1]) + 1)
             parts.append(block[g - g[0]])
         return np.concatenate(parts)[inv].reshape(idx.shape + self.shape[1:])
@@ -116,6 +117,19 @@ class StoredColumn:
     def scaled(self, factor: float) -> ScaledColumn:
         """This column times ``factor``, read as it is (a uniform trial's feeds on the store)."""
         return ScaledColumn(self, factor)
+
+
+def _slices(u: np.ndarray) -> list[tuple[int, int]]:
+    """Runs [a, b) of the sorted unique indices ``u`` each read as one slice: nearby indices
+    (gaps up to :data:`_GATHER_GAP`) together, no slice spanning more than :data:`_GATHER_SPAN` items."""
+    out, a = [], 0
+    breaks = np.flatnonzero(np.diff(u) > _GATHER_GAP) + 1
+    while a < u.size:
+        gap = breaks[np.searchsorted(breaks, a, side="right")] if breaks.size and breaks[-1] > a else u.size
+        b = min(int(gap), int(np.searchsorted(u, u[a] + _GATHER_SPAN, side="left")))
+        out.append((a, max(b, a + 1)))
+        a = out[-1][1]
+    return out
 
 
 class ScaledColumn:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fuzzyfeed.machine.description import Machine
+from fuzzyfeed.machine import plan_parts
 from fuzzyfeed.machine.plan_parts import changed_sweep, stream_parts
 from fuzzyfeed.machine.plan_windows import plan_windows
 from fuzzyfeed.machine.planner import Motion, Plan
@@ -137,8 +138,9 @@ def _passes(st, machine: Machine, tol: float, progress, sink, seg_sinks) -> Refe
             motion = chain_motion(chain, st.feed(i))
             # the new plan window by window against the kept profile (overwritten with it): the
             # segments to run again (_changed's), then their stretches part by part
-            sw, seg = changed_sweep(motion, machine, st.profile(i).arrays(), horizon)
-            r = stream_parts(motion, machine, chain.seg_measured, sw, sw.windows(machine), keep_mm=tol,
+            size = plan_parts.WINDOW_SEGMENTS
+            sw, seg = changed_sweep(motion, machine, st.profile(i).arrays(), horizon, size)
+            r = stream_parts(motion, machine, chain.seg_measured, sw, sw.windows(machine), keep_mm=tol, size=size,
                              part_summary=_nothing)
             st.set_events(i, ev.splice(r.stream, seg))
             del r, sw, seg, motion, chain, ev
@@ -190,8 +192,9 @@ def _whole_run(st, i: int, machine: Machine, feed, tol: float, seg_sink=None) ->
 
 def _window_profile(motion: Motion, machine: Machine, out: Profile) -> Profile:
     """The plan's speed profile (:class:`Profile`) made window by window into ``out``
-    (:func:`~fuzzyfeed.machine.plan_windows.plan_windows`, bit for bit ``plan_motion``'s arrays)."""
-    for pw in plan_windows(motion, machine):
+    (:func:`~fuzzyfeed.machine.plan_windows.plan_windows`, bit for bit ``plan_motion``'s arrays; the
+    passes' windows, :data:`~fuzzyfeed.machine.plan_parts.WINDOW_SEGMENTS`)."""
+    for pw in plan_windows(motion, machine, plan_parts.WINDOW_SEGMENTS):
         sl = slice(pw.first, pw.stop)
         out.v_entry[sl], out.v_peak[sl], out.v_exit[sl], out.acc[sl] = pw.v_entry, pw.v_peak, pw.v_exit, pw.acc
     return out

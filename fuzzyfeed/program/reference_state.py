@@ -222,7 +222,7 @@ class StoredState:
         self.folder = path.store.folder.with_name(path.store.folder.name + ".reference")
         store = self.store = ChainStore(self.folder, path.chord_tol_mm)
         try:
-            refine_into(path, piece_mm, store)
+            refine_into(path, piece_mm, store, REFINE_SEGMENTS)
             store.add_column("feeds", np.float64, like="feed")
             for name in _PROFILE:
                 store.add_column(name, np.float64)
