@@ -97,7 +97,7 @@ def test_changed_sweep_marks_what_the_whole_plans_comparison_marks(size):
     # profile, then the servo's memory after each) as program/reference.py's _changed on whole plans
     from fuzzyfeed.machine.plan_parts import changed_sweep
     from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS
-    from fuzzyfeed.program.reference import _changed, _Profile
+    from fuzzyfeed.program.reference import Profile, _changed
 
     machine = load_machine("reference")
     path = program_path(parse_program(_raster_program(rows=6)), machine.chord_tol_mm)
@@ -111,7 +111,7 @@ def test_changed_sweep_marks_what_the_whole_plans_comparison_marks(size):
     new_motion = Motion(m.points, feed, m.rapid, m.arc_radius_mm)
     new = plan_motion(new_motion, machine)
     horizon = WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s
-    want = np.flatnonzero(_changed(_Profile.of(old), new, machine))
+    want = np.flatnonzero(_changed(Profile.of(old), new, machine))
     profile = tuple(a.copy() for a in (old.v_entry, old.v_peak, old.v_exit, old.acc))
     sw, seg = changed_sweep(new_motion, machine, profile, horizon, size)
     assert 0 < want.size < m.n_segments

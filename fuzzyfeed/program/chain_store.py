@@ -16,6 +16,7 @@ part by part).
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,6 +29,8 @@ from fuzzyfeed.program.path_builder import PathBuilder
 WRITE_SEGMENTS = 1 << 16
 #: Gaps (items) below which the indices of a gathered read are read as one slice.
 _GATHER_GAP = 4096
+#: The most items one slice of a gathered read (or scattered write) spans.
+_GATHER_SPAN = 1 << 16
 
 _VERTEX = (("points", np.float64, 3), ("radius", np.float64, 1))
 _SEGMENT = (("feed", np.float64, 1), ("rapid", np.bool_, 1), ("move", np.int64, 1), ("measured", np.bool_, 1),
@@ -73,6 +76,29 @@ class StoredColumn:
             raise IndexError("a stored column takes slices or integer indices")
         return self.gather(idx.astype(np.int64))
 
+    def __setitem__(self, key, values) -> None:
+        """Items ``key`` (a slice of step 1) written to the file (a column the store added to itself:
+        :meth:`ChainStore.add_column`; its handle is open for writing)."""
+        if not isinstance(key, slice):
+            raise IndexError("a stored column is written in slices (or by scatter)")
+        a, b, step = key.indices(self.size)
+        if step != 1:
+            raise IndexError("a stored column is written in slices of step 1")
+        block = np.ascontiguousarray(np.broadcast_to(np.asarray(values, dtype=self.dtype), (max(b - a, 0),)))
+        self._handle.seek((self._start + a) * self.dtype.itemsize)
+        block.tofile(self._handle)
+
+    def scatter(self, idx: np.ndarray, values: np.ndarray) -> None:
+        """Items ``idx`` (sorted, unique, in range) set to ``values``: read, changed and written in
+        slices of nearby indices (:meth:`gather`'s)."""
+        idx = np.asarray(idx, dtype=np.int64)
+        values = np.asarray(values, dtype=self.dtype)
+        for a, b in _slices(idx):
+            g = idx[a:b]
+            block = self._read(int(g[0]), int(g[-1]) + 1)
+            block[g - g[0]] = values[a:b]
+            self[int(g[0]):int(g[-1]) + 1] = block
+
     def gather(self, idx: np.ndarray) -> np.ndarray:
         """The items at ``idx`` (any shape, in range), read in slices of nearby indices."""
         flat = idx.ravel()
@@ -81,9 +107,9 @@ class StoredColumn:
         if flat.min() < 0 or flat.max() >= self.size:
             raise IndexError(f"index out of {self.size}")
         u, inv = np.unique(flat, return_inverse=True)
-        breaks = np.flatnonzero(np.diff(u) > _GATHER_GAP) + 1
         parts = []
-        for g in np.split(u, breaks):
+        for a, b in _slices(u):
+            g = u[a:b]
             block = self._read(int(g[0]), int(g[-1]) + 1)
             parts.append(block[g - g[0]])
         return np.concatenate(parts)[inv].reshape(idx.shape + self.shape[1:])
@@ -91,6 +117,19 @@ class StoredColumn:
     def scaled(self, factor: float) -> ScaledColumn:
         """This column times ``factor``, read as it is (a uniform trial's feeds on the store)."""
         return ScaledColumn(self, factor)
+
+
+def _slices(u: np.ndarray) -> list[tuple[int, int]]:
+    """Runs [a, b) of the sorted unique indices ``u`` each read as one slice: nearby indices
+    (gaps up to :data:`_GATHER_GAP`) together, no slice spanning more than :data:`_GATHER_SPAN` items."""
+    out, a = [], 0
+    breaks = np.flatnonzero(np.diff(u) > _GATHER_GAP) + 1
+    while a < u.size:
+        gap = breaks[np.searchsorted(breaks, a, side="right")] if breaks.size and breaks[-1] > a else u.size
+        b = min(int(gap), int(np.searchsorted(u, u[a] + _GATHER_SPAN, side="left")))
+        out.append((a, max(b, a + 1)))
+        a = out[-1][1]
+    return out
 
 
 class ScaledColumn:
@@ -167,6 +206,7 @@ class ChainStore:
         self.entries: list[ChainEntry] = []
         self._out = {name: open(self.folder / name, "wb") for name, _, _ in _VERTEX + _SEGMENT}
         self._in: dict | None = None
+        self._extra: dict[str, tuple] = {}       # columns added after writing (add_column)
         self._n_vertices = self._n_segments = 0
         self._pending: dict[str, list] = {name: [] for name, _, _ in _VERTEX + _SEGMENT}
         self._pending_segments = 0
@@ -181,16 +221,17 @@ class ChainStore:
 
     def _chunk(self, program, tag, pts, radius, feed, rapid, seg_move, measured) -> None:
         move0, line0, cut0 = tag
-        p = self._pending
-        p["points"].append(pts)
-        p["radius"].append(radius)
-        p["feed"].append(feed)
-        p["rapid"].append(rapid)
-        p["move"].append(seg_move + move0)
-        p["measured"].append(measured)
-        p["line"].append(program.move_line[seg_move].astype(np.int64) + line0)
         cut = program.cut[seg_move].astype(np.int64)
-        p["cut"].append(np.where(cut >= 0, cut + cut0, -1))
+        self.append(pts, radius, feed, rapid, seg_move + move0, measured,
+                    program.move_line[seg_move].astype(np.int64) + line0, np.where(cut >= 0, cut + cut0, -1))
+
+    def append(self, pts, radius, feed, rapid, move, measured, line, cut) -> None:
+        """The open chain's next rows: its vertices (the chain's first with its first rows) and
+        segments, every column as the store keeps it (:meth:`end_chain` closes the chain)."""
+        p = self._pending
+        for name, values in (("points", pts), ("radius", radius), ("feed", feed), ("rapid", rapid), ("move", move),
+                             ("measured", measured), ("line", line), ("cut", cut)):
+            p[name].append(values)
         if pts.size:
             self._chain_max = max(self._chain_max, float(np.abs(pts).max()))
         self._pending_segments += feed.size
@@ -226,6 +267,10 @@ class ChainStore:
         self._pending_segments = self._chain_vertices = self._chain_segments = 0
         self._chain_max = 0.0
 
+    def end_chain(self) -> None:
+        """The chain :meth:`append` wrote closed (a builder's chains close themselves)."""
+        self._close_chain(True)
+
     def close_writing(self) -> None:
         for handle in self._out.values():
             handle.close()
@@ -237,13 +282,28 @@ class ChainStore:
             for handle in handles.values():
                 handle.close()
 
+    def add_column(self, name: str, dtype, like: str | None = None) -> None:
+        """A segment column of the store's own, written as well as read (:meth:`StoredColumn.__setitem__`:
+        a pass's feeds, a plan's speed profile), ``n_segments`` items: a copy of column ``like``,
+        or zeros."""
+        if self._in is None or name in self._in:
+            raise ValueError(f"column {name!r}: the store is being written, or has it")
+        file = self.folder / name
+        if like is None:
+            with open(file, "wb") as handle:
+                handle.truncate(self._n_segments * np.dtype(dtype).itemsize)
+        else:
+            shutil.copyfile(self.folder / like, file)
+        self._extra[name] = (np.dtype(dtype), 1)
+        self._in[name] = open(file, "r+b")
+
     # reading -------------------------------------------------------------------------------
     @property
     def n_segments(self) -> int:
         return self._n_segments
 
     def _column(self, name: str, start: int, size: int) -> StoredColumn:
-        dtype, width = next((d, w) for n, d, w in _VERTEX + _SEGMENT if n == name)
+        dtype, width = self._extra.get(name) or next((d, w) for n, d, w in _VERTEX + _SEGMENT if n == name)
         return StoredColumn(self._in[name], dtype, width, start, size)
 
     def stored_chain(self, i: int) -> StoredChain:

@@ -23,8 +23,8 @@ program): :func:`fuzzyfeed.report.value.evaluate_program`'s stages, in passes ov
    ``check=False``: its trials plan and run the hot stretches part by part, the time from the
    planner window by window); with ``check`` (``--report``) its checking run
    (:func:`~fuzzyfeed.program.uniform.check_uniform`) and the limit reference
-   (:func:`~fuzzyfeed.program.reference.limit_reference`, each chain read whole from the store)
-   on the store too, and the value plot's trace drawn from both stores block by block.
+   (:func:`~fuzzyfeed.program.reference.limit_reference`: its refined chains, feeds, profiles and
+   events in scratch files beside the store, a long chain read a window at a time) on the store too, and the value plot's trace drawn from both stores block by block.
 
 Where a step cannot give the whole read's result — a cut split between windows with arcs or G5.2
 blocks, a table advised whole, places the uniform slowdown sets apart (and with them the limit
@@ -382,7 +382,10 @@ def _checked(sp: StoredPath, machine: Machine, u, reference: bool, step, seg_max
         raise Fallback("the limit reference beside places set apart is judged on the whole read")
     step("limit reference")
     ref = limit_reference(sp, machine, seg_sinks=_spilled(seg_max, "reference"))
-    out = ReferenceFigures(RunFigures.of(ref.run), ref.converged)
+    try:
+        out = ReferenceFigures(RunFigures.of(ref.run), ref.converged)
+    finally:
+        ref.close()           # its refined store, feeds and profiles (scratch files beside the store)
     del ref
     release_free_memory()
     return u, out
