@@ -205,7 +205,7 @@ def test_the_freed_heap_is_given_back_after_every_window_of_every_read(tmp_path,
     """The heap a window frees goes back to the system before the next window is read, in each of
     the three reads (the written store, the advice, the advised store): kept, its free pages pile up
     window by window and the peak grows with the program (issue 36: 323 / 329 / 335 MB at 1 M / 2 M
-    / 4 M lines, with glibc's free heap 33 -> 55 MB over ten windows, live Python objects flat).
+    / 4 M lines: glibc's free heap ~33 -> ~52 MB over ten windows, live Python objects flat).
     The outputs stay the whole read's."""
     import fuzzyfeed.program.machine_windows as mw
 
