@@ -116,3 +116,43 @@ def test_speed_along_a_polyline_is_the_axes_reach_in_each_direction():
     machine = _replace(load_machine("reference"), axis_vel_mm_s=(100.0, 100.0, 50.0))
     pts = [[0, 0, 0], [10, 0, 0], [20, 10, 0], [20, 10, 5], [20, 10, 5]]
     assert np.allclose(machine.speed_along(pts), [100.0, 100.0 * np.sqrt(2), 50.0, 50.0])
+
+
+def _along_per_axis(per_axis, unit, cap):
+    """Machine._along as every machine computed it before the equal-axes form (a frozen copy: the
+    reference): min over the axes of A_j / |u_j|, |u_j| > 1e-12, else the slowest axis's A."""
+    u = np.abs(np.asarray(unit, dtype=float))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        each = np.where(u > 1e-12, per_axis[None, :] / u, np.inf)
+    out = each[:, 0].copy()
+    for j in range(1, each.shape[1]):
+        np.minimum(out, each[:, j], out=out)
+    out = np.where(np.isfinite(out), out, per_axis.min())
+    return out if cap is None else np.minimum(out, cap)
+
+
+@pytest.mark.parametrize("a", [100.0, 1000.0, 3.3, 0.1, 7e5])
+@pytest.mark.parametrize("cap", [None, 500.0])
+def test_the_reach_along_a_direction_with_equal_axes_is_the_per_axis_ones_bit_for_bit(a, cap):
+    """Equal axes take A / max_j |u_j| (one division instead of one per axis): the same floats as the
+    per-axis minimum on random directions, axis-aligned ones, directions with components at and
+    around the 1e-12 cut, zero, NaN and inf components (fails if the cut, the NaN rule or the
+    fallback to the slowest axis differ)."""
+    rng = np.random.default_rng(int(a * 10) + (cap is None))
+    u = rng.normal(size=(20000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    u[:100, 1:] = 0.0
+    u[100:200] = 0.0
+    u[200:300, 0] = 1e-13
+    u[300:400] = [1e-12, -1e-12, 0.0]
+    u[400:500] = [1e-12, np.nextafter(1e-12, 1.0), 0.0]
+    u[500:600] = np.nan
+    u[600:700, 1] = np.nan
+    u[700:800, 2] = np.inf
+    u[800:900] = [-1e-300, 0.0, 1e-300]
+    per_axis = np.full(3, a)
+    with np.errstate(over="ignore"):
+        got = Machine._along(per_axis, u, cap)
+    assert got.tobytes() == _along_per_axis(per_axis, u, cap).tobytes()
+    m = Machine(axis_vel_mm_s=(a, a, a), axis_acc_mm_s2=(a, a, a))
+    assert m.move_velocity(u[900:]).tobytes() == _along_per_axis(per_axis, u[900:], None).tobytes()

@@ -203,7 +203,18 @@ class Machine:
 
     @staticmethod
     def _along(per_axis: np.ndarray, unit: np.ndarray, cap: float | None) -> np.ndarray:
+        """min_j A_j / |u_j| over the axes with |u_j| > 1e-12 (the slowest axis's A where none is)."""
         u = np.abs(np.asarray(unit, dtype=float))
+        if u.ndim == 2 and u.shape[1] and per_axis.size == u.shape[1] and (per_axis == per_axis[0]).all():
+            # every axis the same A: A / max_j |u_j|, the same floats (a correctly rounded A / x does
+            # not grow with x); fmax skips a NaN as the test below does
+            top = u[:, 0].copy()
+            for j in range(1, u.shape[1]):
+                np.fmax(top, u[:, j], out=top)
+            a = per_axis[0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out = np.where(top > 1e-12, a / top, a)
+            return out if cap is None else np.minimum(out, cap)
         with np.errstate(divide="ignore"):
             each = np.where(u > 1e-12, per_axis[None, :] / u, np.inf)
         # the least of the columns (np.min over a 3-wide axis is ~5x slower; min is exact: the same floats)

@@ -88,6 +88,8 @@ def build_store(path, store: ChainStore, tools, window_lines: int, coverage: boo
         totals.windows += 1
         if coverage:
             totals.coverages.append((win.line0, program_coverage(wp)))
+        del wp, win
+        release_free_memory()          # the window's freed heap: else it creeps up window by window
     builder.finish()
     store.close_writing()
     totals.moves = move0
@@ -220,6 +222,8 @@ def advise_windows(path, table, machine: Machine, over, *, cap_mm_min, step_mm: 
             for chunk in rewrite_chunks(wp, pm[keep], pe[keep], pf[keep], carry=carry):
                 write(chunk)
             entry.after(wp)
+            del wp, win, pm, pe, pf, keep
+            release_free_memory()      # the window's freed heap: else it creeps up window by window
     finally:
         cuts.close()
     cuts.ended()
