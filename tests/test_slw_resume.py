@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import slw_cases
+import fuzzyfeed.slw.check as check_mod
 import fuzzyfeed.slw.resume as resume_mod
 import fuzzyfeed.slw.trajectory as trajectory
 from fuzzyfeed.io.shapes import load_shape
@@ -27,9 +28,9 @@ def _curve(name):
 
 
 def _with_breaches(monkeypatch, at):
-    """trajectory.breach reporting a made-up breach at the fractions ``at`` of the ticks, one per
-    pass, then the real check."""
-    real = trajectory.breach
+    """The tick check (slw/check.breach, as the schedule's checked_positions calls it) reporting a
+    made-up breach at the fractions ``at`` of the ticks, one per pass, then the real check."""
+    real = check_mod.breach
     left = list(at)
 
     def fake(xyz, u, j, limits, corner_u):
@@ -37,7 +38,7 @@ def _with_breaches(monkeypatch, at):
             return ("acceleration y", int(left.pop(0) * (xyz.shape[0] - 1)), 1.01)
         return real(xyz, u, j, limits, corner_u)
 
-    monkeypatch.setattr(trajectory, "breach", fake)
+    monkeypatch.setattr(check_mod, "breach", fake)
 
 
 @pytest.mark.parametrize("name", ["butterfly", "passes"])

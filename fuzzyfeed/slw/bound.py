@@ -137,6 +137,13 @@ def _grid(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
     return s, x, t, k
 
 
+def insert_sorted(s: np.ndarray, mid: np.ndarray, *columns: tuple[np.ndarray, np.ndarray]):
+    """``s`` with the points ``mid`` put in order, and each (values at s, values at mid) pair of
+    ``columns`` put in the same order (a grid's refinement) → (s, [columns])."""
+    order = np.argsort(np.concatenate([s, mid]), kind="stable")
+    return np.concatenate([s, mid])[order], [np.concatenate([a, b])[order] for a, b in columns]
+
+
 def _grid_raw(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
     """:func:`_grid` and the pointwise limit without the corners' caps (the limit on either side
     of a corner, between grid points)."""
@@ -166,11 +173,7 @@ def _grid_raw(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
             break
         mid = 0.5 * (s[:-1][split] + s[1:][split])
         xm, tm, km = _evaluate(curve, limits, mid)
-        order = np.argsort(np.concatenate([s, mid]), kind="stable")
-        s = np.concatenate([s, mid])[order]
-        x = np.concatenate([x, xm])[order]
-        t = np.concatenate([t, tm])[order]
-        k = np.concatenate([k, km])[order]
+        s, (x, t, k) = insert_sorted(s, mid, (x, xm), (t, tm), (k, km))
     raw = x.copy()
     if corner_s.size:
         idx = np.searchsorted(s, corner_s)

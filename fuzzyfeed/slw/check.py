@@ -141,6 +141,21 @@ def breach(xyz: np.ndarray, u: np.ndarray, jerk_mm_s3: np.ndarray, limits: Machi
     return (name, k, float(ratios[name][k])) if r > 1.0 + TICK_RTOL else None
 
 
+def checked_positions(curve, s_mm: np.ndarray, jerk_mm_s3: np.ndarray, limits: MachineLimits,
+                      corner_u: np.ndarray):
+    """The ticks' arc lengths on ``curve`` (the chord-exact interpolator, "best"), their positions
+    (always 3 columns) and :func:`breach` of them: (u, xyz, breach or None); the window's and the
+    whole-path LP's schedules are judged alike."""
+    from fuzzyfeed.geometry.interpolate import interpolate_u
+
+    u = interpolate_u(curve, s_mm, "best")
+    xyz = curve.evaluate(u, order=0)[0]
+    if xyz.shape[1] == 2:
+        xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 1))])
+    # the motion the machine makes, tick by tick and axis by axis, within every limit
+    return u, xyz, breach(xyz, u, jerk_mm_s3, limits, corner_u)
+
+
 def breach_error(found: tuple[str, int, float], s_mm: np.ndarray, limits: MachineLimits) -> InputError:
     """The one-line error of a breach: the limit, the axis, the arc length and the ratio."""
     name, k, r = found

@@ -51,10 +51,12 @@ HIGHS_OPTIONS = {"presolve": "off"}
 #: Stop when the time changes by less than this (relative), or after MAX_ITER LPs.
 T_RTOL = 1e-4
 MAX_ITER = 30
-#: Budgets: a grid of more nodes is refused (RuntimeError: the caller falls back), and no new LP is
-#: started after this much CPU time (s) in solve_grid (the best iterate so far is kept).
+#: Budgets: a grid of more nodes is refused (RuntimeError: the caller falls back), and at most
+#: WORK_BUDGET / nodes LPs are solved (at least MIN_ITER; the best iterate so far is kept). A count,
+#: not a clock: the same path and limits give the same schedule on a busy machine and an idle one.
 MAX_NODES = 20_000
-TIME_BUDGET_S = 6.0
+WORK_BUDGET = 120_000
+MIN_ITER = 3
 #: x below this share of F² counts as rest in the weights (their 1/x^{3/2} is clipped there).
 WEIGHT_FLOOR = 1e-6
 
@@ -181,7 +183,7 @@ def grid_problem(curve: Nurbs, limits: MachineLimits, cap=None, max_step_mm: flo
     acceleration-limited passes change √x by more than REFINE_RATIO across an interval (at most
     REFINE_LEVELS halvings): the jerk rows take the larger x of an interval, which near rest and
     in a sharp dip is far above the smaller."""
-    from fuzzyfeed.slw.bound import _evaluate, _grid_raw
+    from fuzzyfeed.slw.bound import _evaluate, _grid_raw, insert_sorted
     from fuzzyfeed.slw.preprocess import corners
 
     s, x_lim, tangent, kn, raw = _grid_raw(curve, limits, max_step_mm)
@@ -200,12 +202,8 @@ def grid_problem(curve: Nurbs, limits: MachineLimits, cap=None, max_step_mm: flo
             break
         mid = 0.5 * (s[:-1][split] + s[1:][split])
         xm, tm, km = _evaluate(curve, limits, mid)
-        order = np.argsort(np.concatenate([s, mid]), kind="stable")
-        s = np.concatenate([s, mid])[order]
-        x_lim = np.concatenate([x_lim, xm])[order]
-        tangent = np.concatenate([tangent, tm])[order]
-        kn = np.concatenate([kn, km])[order]
-        corner = np.concatenate([corner, np.zeros(mid.size, dtype=bool)])[order]
+        s, (x_lim, tangent, kn, corner) = insert_sorted(s, mid, (x_lim, xm), (tangent, tm), (kn, km),
+                                                        (corner, np.zeros(mid.size, dtype=bool)))
     keep = _spaced(s, corner, min_ds)
     s, x_lim, tangent, kn, corner = s[keep], x_lim[keep], tangent[keep], kn[keep], corner[keep]
     x_lim = _limit(s, x_lim, cap)
@@ -323,12 +321,10 @@ def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_
     """Sequential LP on a prepared grid → (x, a) at the nodes, every iterate within every limit
     (the convex-concave procedure: the jerk rows' tangents at the last iterate). ``log``
     (optional) receives each iteration's time."""
-    import time
-
     n1 = s.size
     if n1 > MAX_NODES:
         raise RuntimeError(f"{n1} grid nodes, over the LP's budget of {MAX_NODES}")
-    started = time.process_time()
+    max_iter = min(max_iter, max(MIN_ITER, WORK_BUDGET // n1))
     feed = limits.feed_mm_s
     acc = ACC_MARGIN * np.asarray(limits.axis_acc_mm_s2, dtype=float)
     a_max = float(np.max(limits.axis_acc_mm_s2))
@@ -366,8 +362,6 @@ def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_
             break
         t_prev = t
         x_hat = x
-        if time.process_time() - started > TIME_BUDGET_S:
-            break
     return best
 
 

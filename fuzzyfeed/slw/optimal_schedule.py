@@ -16,10 +16,9 @@ from collections.abc import Callable
 import numpy as np
 
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.geometry.interpolate import interpolate_u
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.machine.limits import MachineLimits
-from fuzzyfeed.slw.check import breach, breach_error
+from fuzzyfeed.slw.check import breach_error, checked_positions
 from fuzzyfeed.slw.feed_cap import FeedCap
 from fuzzyfeed.slw.optimal import JERK_MARGIN, optimal_profile
 from fuzzyfeed.slw.phase_ticks import ticks_from_phase
@@ -40,11 +39,7 @@ def schedule_optimal(curve: Nurbs, limits: MachineLimits, cap: FeedCap | None, k
                                          jerk_mm_s3=JERK_MARGIN * limits.jerk_mm_s3)
         if t.size < 2:
             raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")
-        u = interpolate_u(curve, s, "best")
-        xyz = curve.evaluate(u, order=0)[0]
-        if xyz.shape[1] == 2:
-            xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 1))])
-        found = breach(xyz, u, j, limits, kinks_u)
+        u, xyz, found = checked_positions(curve, s, j, limits, kinks_u)
         if found is None:
             break
         if attempt == repairs:

@@ -16,7 +16,6 @@ import numpy as np
 from fuzzyfeed.base.cache import per_curve
 from fuzzyfeed.base.checks import expect
 from fuzzyfeed.errors import InputError
-from fuzzyfeed.geometry.interpolate import interpolate_u
 from fuzzyfeed.machine.limits import AXES, MachineLimits
 from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.geometry.polyline_fit import PolylineFit, fit_polyline
@@ -25,7 +24,7 @@ from fuzzyfeed.geometry.sampling import PathSamples
 from fuzzyfeed.machine.simulate import Simulation, TimeLaw, simulate
 from fuzzyfeed.slw.lookahead import KINK_MIN, LookaheadStats, ScheduledBlock, SlidingWindow
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
-from fuzzyfeed.slw.check import breach, breach_error
+from fuzzyfeed.slw.check import breach_error, checked_positions
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, joins, machine_cap
 from fuzzyfeed.slw.profile import COSINE, TRANSITIONS, segment_table, segments_state
 from fuzzyfeed.slw.resume import Recorder, resume
@@ -335,12 +334,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
         t, s, v, a, j = _sample_profile(blocks, limits.ts_s, total)
         if t.size < 2:
             raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")
-        u = interpolate_u(curve, s, "best")
-        xyz = curve.evaluate(u, order=0)[0]
-        if xyz.shape[1] == 2:
-            xyz = np.hstack([xyz, np.zeros((xyz.shape[0], 1))])
-        # the motion the machine makes, tick by tick and axis by axis, within every limit
-        found = breach(xyz, u, j, limits, kinks_u)
+        u, xyz, found = checked_positions(curve, s, j, limits, kinks_u)
         if found is None:
             break
         if attempt == TICK_REPAIRS:
