@@ -55,7 +55,7 @@ MAX_ITER = 30
 #: WORK_BUDGET / nodes LPs are solved (at least MIN_ITER; the best iterate so far is kept). A count,
 #: not a clock: the same path and limits give the same schedule on a busy machine and an idle one.
 MAX_NODES = 20_000
-WORK_BUDGET = 120_000
+WORK_BUDGET = 40_000
 MIN_ITER = 3
 #: x below this share of F² counts as rest in the weights (their 1/x^{3/2} is clipped there).
 WEIGHT_FLOOR = 1e-6
