@@ -145,8 +145,12 @@ def checked_positions(curve, s_mm: np.ndarray, jerk_mm_s3: np.ndarray, limits: M
                       corner_u: np.ndarray):
     """The ticks' arc lengths on ``curve`` (the chord-exact interpolator, "best"), their positions
     (always 3 columns) and :func:`breach` of them: (u, xyz, breach or None); the window's and the
-    whole-path LP's schedules are judged alike."""
+    whole-path LP's schedules are judged alike. Fewer than two ticks is an InputError."""
     from fuzzyfeed.geometry.interpolate import interpolate_u
+
+    if s_mm.size < 2:
+        raise InputError(f"path of {float(s_mm[-1]) if s_mm.size else 0.0!r} mm is scheduled in {s_mm.size} "
+                         "servo periods; need at least 1")
 
     u = interpolate_u(curve, s_mm, "best")
     xyz = curve.evaluate(u, order=0)[0]

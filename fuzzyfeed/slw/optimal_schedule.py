@@ -37,8 +37,6 @@ def schedule_optimal(curve: Nurbs, limits: MachineLimits, cap: FeedCap | None, k
             raise InputError(f"the whole-path feed LP failed on the path of {total:.6g} mm: {exc}") from None
         t, s, v, a, j = ticks_from_phase(s_grid, x_grid, limits.ts_s, a_grid=a_grid,
                                          jerk_mm_s3=JERK_MARGIN * limits.jerk_mm_s3)
-        if t.size < 2:
-            raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")
         u, xyz, found = checked_positions(curve, s, j, limits, kinks_u)
         if found is None:
             break

@@ -332,8 +332,6 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
                 bar.close()
                 bar = None
         t, s, v, a, j = _sample_profile(blocks, limits.ts_s, total)
-        if t.size < 2:
-            raise InputError(f"path of {total!r} mm is scheduled in {t.size} servo periods; need at least 1")
         u, xyz, found = checked_positions(curve, s, j, limits, kinks_u)
         if found is None:
             break
