@@ -143,15 +143,16 @@ def _rows(s, tangent, kn, stops, c, jerk: float, acc: np.ndarray, x_top: np.ndar
 
 
 def _solve_lp(a, row_lo, row_hi, cost, col_lo, col_hi, basis=None):
-    """min cost·z under the rows and bounds with scipy's bundled HiGHS (its private binding:
-    linprog starts every solve cold), from ``basis`` if given → (z or None, the final basis).
-    Without presolve first (HIGHS_OPTIONS: faster from a basis); HiGHS's defaults if that ends
-    without an optimum (random curve 11 on slow-y: status "Unknown" without presolve)."""
-    from scipy.optimize._highspy import _core
+    """min cost·z under the rows and bounds with HiGHS (the ``highspy`` package's solver class, which
+    keeps the basis between solves: linprog starts every solve cold), from ``basis`` if given →
+    (z or None, the final basis). Without presolve first (HIGHS_OPTIONS: faster from a basis); HiGHS's
+    defaults if that ends without an optimum (random curve 11 on slow-y: status "Unknown" without
+    presolve). ``highspy._Highs``, not ``highspy.Highs``: the latter prints a banner on construction."""
+    import highspy
 
     a.sort_indices()
     for options, start in ((HIGHS_OPTIONS, basis), ({}, None)):
-        h = _core._Highs()
+        h = highspy._Highs()
         h.setOptionValue("output_flag", False)
         for key, value in options.items():
             h.setOptionValue(key, value)
@@ -162,7 +163,7 @@ def _solve_lp(a, row_lo, row_hi, cost, col_lo, col_hi, basis=None):
         if start is not None:
             h.setBasis(start)
         h.run()
-        if h.getModelStatus() == _core.HighsModelStatus.kOptimal:
+        if h.getModelStatus() == highspy.HighsModelStatus.kOptimal:
             return np.asarray(h.getSolution().col_value), h.getBasis()
     return None, None
 
