@@ -74,11 +74,12 @@ INLINE_DPI = 110
 
 
 def _steps_per_column(ax, lines, dpi: float) -> None:
-    """The step ``lines`` of ``ax`` cut to the vertices the pixel columns of the figure saved at
-    ``dpi`` need (:func:`~fuzzyfeed.report.value_trace.column_extremes`): Agg holds a cell for every
-    pixel each edge of a path crosses before it fills the path, so a many-cut program's F steps
-    drawn whole cost memory in proportion to their cuts (issue 36: ~40 B a line of the program);
-    at most four vertices a column, they cost at most the figure's width."""
+    """The step ``lines`` of ``ax`` with more vertices than four a pixel column of the figure saved
+    at ``dpi`` cut to those the columns need (:func:`~fuzzyfeed.report.value_trace.column_extremes`;
+    the others drawn as they are): Agg holds a cell for every pixel each edge of a path crosses
+    before it fills the path, so a many-cut program's F steps drawn whole cost memory in proportion
+    to their cuts (issue 36: ~40 B a line of the program); at most four vertices a column, they
+    cost at most the figure's width."""
     from fuzzyfeed.report.value_trace import column_extremes
 
     x0, x1 = ax.get_xlim()          # autoscaled from the whole lines (the extremes are kept: the same)
@@ -86,9 +87,11 @@ def _steps_per_column(ax, lines, dpi: float) -> None:
         return
     box = ax.get_position()
     width_px = ax.figure.get_figwidth() * dpi
+    columns = box.width * width_px
     for line in lines:
         x, y = line.get_data()
-        line.set_data(*column_extremes(x, y, x0, box.width * width_px / (x1 - x0), box.x0 * width_px))
+        if np.size(x) > 4 * columns:
+            line.set_data(*column_extremes(x, y, x0, columns / (x1 - x0), box.x0 * width_px))
 
 
 def report_table_html(reports: Sequence[ValueReport]) -> str:
