@@ -181,3 +181,24 @@ def test_the_value_plot_in_windows_is_the_whole_reads(tmp_path, monkeypatch, cap
     assert "p.png" in out
     assert (tmp_path / "win" / "p.png").stat().st_size > 10_000   # a drawn plot, not an empty figure
 
+
+
+def test_the_uniform_checking_run_on_the_store_keeps_no_error_per_segment_in_memory(tmp_path, monkeypatch, capsys):
+    """The checking run of the uniform slowdown (a whole run at the factor) on the store sends its
+    largest error per segment to a scratch file, as the runs as written and advised do: none held
+    per segment of the program (issue 36: 8 B a segment, twice where the p99 is run again); the
+    report is the whole read's, byte for byte."""
+    import fuzzyfeed.program.uniform as uniform
+
+    real = uniform.run_program
+    seen = []
+
+    def spy(path, *a, **k):
+        run = real(path, *a, **k)
+        if getattr(path, "store", None) is not None:
+            seen.append([getattr(r.stream.seg_max_mm, "stored", False) for r in run.runs])
+        return run
+    monkeypatch.setattr(uniform, "run_program", spy)
+    prog = _raster(tmp_path / "r.ngc")
+    _compare(tmp_path, prog, monkeypatch, capsys, 160, "--machine", "reference", "--report", "r.html")
+    assert seen and all(all(kept) for kept in seen), seen

@@ -113,14 +113,50 @@ def test_changed_sweep_marks_what_the_whole_plans_comparison_marks(size):
     horizon = WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s
     want = np.flatnonzero(_changed(Profile.of(old), new, machine))
     profile = tuple(a.copy() for a in (old.v_entry, old.v_peak, old.v_exit, old.acc))
-    sw, seg = changed_sweep(new_motion, machine, profile, horizon, size)
+    sw, (starts, stops) = changed_sweep(new_motion, machine, profile, horizon, size)
     assert 0 < want.size < m.n_segments
+    seg = np.concatenate([np.arange(a, b) for a, b in zip(starts, stops)])
     assert np.array_equal(seg, want)
-    assert sw.t_a.tobytes() == new.t_start[want].tobytes() and sw.t_b.tobytes() == new.t_start[want + 1].tobytes()
+    assert starts.size <= want.size and np.all(stops > starts) and np.all(starts[1:] >= stops[:-1])
     assert sw.windows(machine) == segment_windows(new, machine, want)
     # the profile kept is now the new plan's
     for kept, arr in zip(profile, (new.v_entry, new.v_peak, new.v_exit, new.acc)):
         assert kept.tobytes() == arr.tobytes()
+
+
+def _nbytes(x) -> int:
+    """Bytes of the arrays in ``x`` (an array, or tuples / lists of them, or of numbers)."""
+    if isinstance(x, np.ndarray):
+        return x.nbytes
+    if isinstance(x, (tuple, list)):
+        return sum(_nbytes(y) for y in x) + 8 * len(x)
+    return 0
+
+
+def test_a_pass_redoing_most_of_a_chain_keeps_its_runs_not_its_segments():
+    """Feeds lowered over most of a chain: the sweep redoes thousands of segments in a few runs; what
+    it hands on (their times, indices and tick windows) is O(runs), not 24–48 B a segment redone
+    (issue 36: the limit reference's pass on a 4 M-line raster); the same tick windows as the whole plan's."""
+    from fuzzyfeed.machine.plan_parts import changed_sweep
+    from fuzzyfeed.machine.stream import WARMUP_TIME_CONSTANTS
+    from fuzzyfeed.program.reference import Profile, _changed
+
+    machine = load_machine("reference")
+    path = program_path(parse_program(_raster_program(rows=12)), machine.chord_tol_mm)
+    m = max(path.chains, key=lambda c: c.motion.n_segments).motion
+    old = plan_motion(m, machine)
+    feed = m.feed_mm_s.copy()
+    feed[100:m.n_segments - 100] *= 0.5
+    new_motion = Motion(m.points, feed, m.rapid, m.arc_radius_mm)
+    new = plan_motion(new_motion, machine)
+    want = np.flatnonzero(_changed(Profile.of(old), new, machine))
+    assert want.size > 2000
+    profile = tuple(a.copy() for a in (old.v_entry, old.v_peak, old.v_exit, old.acc))
+    sw, redone = changed_sweep(new_motion, machine, profile, WARMUP_TIME_CONSTANTS * machine.servo.time_constant_s,
+                               size=500)
+    kept = _nbytes(sw.t_a) + _nbytes(sw.t_b) + _nbytes(redone) + _nbytes(getattr(sw, "spans", None))
+    assert kept <= 400, (kept, want.size)
+    assert sw.windows(machine) == segment_windows(new, machine, want)
 
 
 def _hot_trial_with_plans(st, scale, hot):

@@ -25,8 +25,8 @@ import numpy as np
 from fuzzyfeed.machine.description import Machine
 from fuzzyfeed.machine.plan_windows import Carries, PlanWindow, first_sweep, plan_windows
 from fuzzyfeed.machine.planner import Motion
-from fuzzyfeed.machine.stream import BOX_BLOCK, StreamRun, TickPass, skip_threshold, tick_count, tick_windows, \
-    warmup_ticks
+from fuzzyfeed.machine.stream import BOX_BLOCK, StreamRun, TickPass, merge_windows, skip_threshold, tick_count, \
+    tick_windows, warmup_ticks
 
 #: Segments per plan window of the sweeps (at least; they end at move boundaries): a part holds
 #: its tick windows' stretch and a window or more on each side.
@@ -67,6 +67,8 @@ class Sweep:
     t_a: np.ndarray
     t_b: np.ndarray
     carries: Carries
+    spans: tuple[tuple[int, int], ...] | None = None   # the tick windows, merged as the sweep went
+    #                                                    (changed_sweep: no time kept per segment)
 
     @property
     def time_s(self) -> float:
@@ -74,6 +76,9 @@ class Sweep:
 
     def windows(self, machine: Machine) -> list[tuple[int, int]]:
         """The tick windows of the segments asked for (:func:`~fuzzyfeed.machine.stream.segment_windows`)."""
+        if self.spans is not None:     # ticks k_a <= k_end always: only the ends can pass it
+            k_end = tick_count(self, machine.ts_s)
+            return [(a, min(b, k_end)) for a, b in self.spans]
         if self.t_a.size == 0:
             return []
         return tick_windows(self.t_a, self.t_b, tick_count(self, machine.ts_s), machine)
@@ -205,16 +210,19 @@ def stream_parts(motion: Motion, machine: Machine, measured: np.ndarray, sw: Swe
 
 
 def changed_sweep(motion: Motion, machine: Machine, profile: tuple[np.ndarray, ...], horizon_s: float,
-                  size: int = WINDOW_SEGMENTS) -> tuple[Sweep, np.ndarray]:
+                  size: int = WINDOW_SEGMENTS) -> tuple[Sweep, tuple[np.ndarray, np.ndarray]]:
     """The first sweep of ``motion``'s plan against ``profile`` — (v_entry, v_peak, v_exit, acc) of
     the chain's last plan, per segment — for the segments whose run may differ: those whose speed
     profile changed and, after each, those starting within ``horizon_s`` of its end (the servo's
     memory), as the limit reference's whole-plan comparison marks them. ``profile`` is overwritten
     window by window with the new plan's (it is the only copy kept). Returns the sweep (with the
-    times of those segments) and their indices."""
+    tick windows of those segments, merged window by window: :attr:`Sweep.spans`) and the runs
+    [start, stop) of those segments: O(runs), nothing per segment redone (issue 36: a pass that
+    redoes most of a long chain held 24–48 B a segment)."""
     v_entry, v_peak, v_exit, acc = profile
-    first, t0, s0, redo_parts, ta_parts, tb_parts = [], [], [], [], [], []
+    first, t0, s0, starts, stops, spans = [], [], [], [], [], []
     carry = -np.inf
+    ts, gap = machine.ts_s, warmup_ticks(machine)
     carries = first_sweep(motion, machine, size)
     for pw in plan_windows(motion, machine, size, carries=carries):
         sl = slice(pw.first, pw.stop)
@@ -227,9 +235,15 @@ def changed_sweep(motion: Motion, machine: Machine, profile: tuple[np.ndarray, .
         redo = diff | (pw.t_start[:-1] <= reach[:-1])
         carry = float(reach[-1])
         local = np.flatnonzero(redo)
-        redo_parts.append(pw.first + local)
-        ta_parts.append(pw.t_start[local])
-        tb_parts.append(pw.t_start[local + 1])
+        if local.size:
+            # runs of consecutive segments: each one tick window from its first segment's start to
+            # its last one's end (tick_windows would merge them so: their windows touch)
+            cut = np.flatnonzero(np.diff(local) > 1)
+            a, b = local[np.concatenate([[0], cut + 1])], local[np.concatenate([cut, [local.size - 1]])]
+            starts.append(pw.first + a)
+            stops.append(pw.first + b + 1)
+            merge_windows(np.floor(pw.t_start[a] / ts).astype(np.int64),
+                          np.ceil(pw.t_start[b + 1] / ts).astype(np.int64), gap, spans)
         v_entry[sl], v_peak[sl], v_exit[sl], acc[sl] = pw.v_entry, pw.v_peak, pw.v_exit, pw.acc
         first.append(pw.first)
         t0.append(float(pw.t_start[0]))
@@ -238,6 +252,7 @@ def changed_sweep(motion: Motion, machine: Machine, profile: tuple[np.ndarray, .
     first.append(end.stop)
     t0.append(float(end.t_start[-1]))
     s0.append(float(end.s_start[-1]))
-    sw = Sweep(np.array(first, np.int64), np.array(t0), np.array(s0), np.concatenate(ta_parts),
-               np.concatenate(tb_parts), carries)
-    return sw, np.concatenate(redo_parts)
+    sw = Sweep(np.array(first, np.int64), np.array(t0), np.array(s0), np.zeros(0), np.zeros(0), carries,
+               spans=tuple(spans))
+    cat = (lambda parts: np.concatenate(parts) if parts else np.zeros(0, np.int64))
+    return sw, (cat(starts), cat(stops))

@@ -219,8 +219,12 @@ def tick_windows(t_a: np.ndarray, t_b: np.ndarray, k_end: int, machine: Machine)
     ts = machine.ts_s
     ka = np.clip(np.floor(np.asarray(t_a) / ts).astype(np.int64), 0, k_end)
     kb = np.clip(np.ceil(np.asarray(t_b) / ts).astype(np.int64), 0, k_end)
-    gap = warmup_ticks(machine)
-    out: list[tuple[int, int]] = []
+    return merge_windows(ka, kb, warmup_ticks(machine), [])
+
+
+def merge_windows(ka: np.ndarray, kb: np.ndarray, gap: int, out: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The tick windows [ka, kb] (in order) appended to ``out``, each merged into the last where
+    its warm-up (``gap`` ticks) would overlap it; ``out``."""
     for a, b in zip(ka.tolist(), kb.tolist()):
         if out and a - gap <= out[-1][1]:
             out[-1] = (out[-1][0], max(out[-1][1], b))

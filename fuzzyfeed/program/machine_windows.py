@@ -376,7 +376,7 @@ def _checked(sp: StoredPath, machine: Machine, u, reference: bool, step, seg_max
 
     if not u.checked:
         step("uniform check")
-        u = check_uniform(sp, machine, u)
+        u = check_uniform(sp, machine, u, seg_sinks=_spilled(seg_max, "uniform"))
         if u.run is not None:
             u = replace(u, run=RunFigures.of(u.run))
         release_free_memory()

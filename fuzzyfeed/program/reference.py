@@ -139,11 +139,11 @@ def _passes(st, machine: Machine, tol: float, progress, sink, seg_sinks) -> Refe
             # the new plan window by window against the kept profile (overwritten with it): the
             # segments to run again (_changed's), then their stretches part by part
             size = plan_parts.WINDOW_SEGMENTS
-            sw, seg = changed_sweep(motion, machine, st.profile(i).arrays(), horizon, size)
+            sw, redone = changed_sweep(motion, machine, st.profile(i).arrays(), horizon, size)
             r = stream_parts(motion, machine, chain.seg_measured, sw, sw.windows(machine), keep_mm=tol, size=size,
                              part_summary=_nothing)
-            st.set_events(i, ev.splice(r.stream, seg))
-            del r, sw, seg, motion, chain, ev
+            st.set_events(i, ev.splice(r.stream, redone))
+            del r, sw, redone, motion, chain, ev
             touched[i] = changed = True
         passes += 1
         if progress is not None:

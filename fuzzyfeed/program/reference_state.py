@@ -114,21 +114,23 @@ class Events:
     def of(cls, stream) -> Events:
         return cls(*(getattr(stream, name) for name in EVENT_FIELDS))
 
-    def splice(self, stream, redone: np.ndarray) -> Events:
-        """These events with those on the segments ``redone`` (sorted unique indices) taken from
-        ``stream``, a run of their stretches made part by part
-        (:func:`~fuzzyfeed.machine.plan_parts.stream_parts`)."""
+    def splice(self, stream, redone: tuple[np.ndarray, np.ndarray]) -> Events:
+        """These events with those on the segments ``redone`` (runs [start, stop), sorted, apart:
+        :func:`~fuzzyfeed.machine.plan_parts.changed_sweep`'s) taken from ``stream``, a run of
+        their stretches made part by part (:func:`~fuzzyfeed.machine.plan_parts.stream_parts`)."""
         old = ~_member(redone, self.tick_segment)
         new = _member(redone, stream.tick_segment)
         return Events(*(np.concatenate([getattr(self, k)[old], getattr(stream, k)[new]]) for k in EVENT_FIELDS))
 
 
-def _member(sorted_idx: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Whether each of ``x`` is in ``sorted_idx`` (sorted, unique): a bool array of ``x``'s shape."""
-    if sorted_idx.size == 0:
+def _member(runs: tuple[np.ndarray, np.ndarray], x: np.ndarray) -> np.ndarray:
+    """Whether each of ``x`` lies in one of the ``runs`` (starts, stops: [start, stop), sorted, not
+    overlapping): a bool array of ``x``'s shape."""
+    starts, stops = runs
+    if starts.size == 0:
         return np.zeros(np.shape(x), bool)
-    at = np.minimum(np.searchsorted(sorted_idx, x), sorted_idx.size - 1)
-    return sorted_idx[at] == x
+    at = np.searchsorted(starts, x, side="right") - 1
+    return (at >= 0) & (x < stops[np.maximum(at, 0)])
 
 
 class HeldState:

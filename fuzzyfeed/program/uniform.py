@@ -116,6 +116,7 @@ class _Search:
         self.first: ProgramRun | None = first     # dropped when the state is kept for later
         self.runs = 1
         self.checks_left = UNIFORM_CHECKS
+        self.seg_sinks = None                # where a checking run's largest errors per segment go
 
     def hot_trial(self, scale: float, hot: list[np.ndarray]) -> tuple[float, list[np.ndarray]] | None:
         """Largest error (µm) of the stretches around the ``hot`` segments (per chain) with every F ×
@@ -216,14 +217,17 @@ def uniform_slowdown(path: ProgramPath, machine: Machine, as_written: ProgramRun
 
 
 def check_uniform(path: ProgramPath, machine: Machine, u: Uniform, tol_um: float | None = None,
-                  max_ticks: float | None = None) -> Uniform:
+                  max_ticks: float | None = None, seg_sinks=None) -> Uniform:
     """``u`` (from :func:`uniform_slowdown` with ``check=False``) checked by a whole run, the search
     going on below should a place outside the hot stretches break it: what
     ``uniform_slowdown(..., check=True)`` returns. The search's path, machine, tolerance and tick
-    budget are ``u``'s (``tol_um``, ``max_ticks``: others instead, if given)."""
+    budget are ``u``'s (``tol_um``, ``max_ticks``: others instead, if given). ``seg_sinks``: where
+    the checking runs' largest errors per segment go (:func:`~fuzzyfeed.program.run.run_program`'s;
+    on a stored path, so that nothing per segment of the program is held: issue 36)."""
     if u.checked:
         return u
     st = u.resume[0].copy()
+    st.seg_sinks = seg_sinks
     if tol_um is not None:
         st.tol, st.tol_mm = tol_um, tol_um * 1e-3
     if max_ticks is not None:
@@ -248,7 +252,8 @@ def _verify(st: _Search, lo: float, lo_max: float) -> Uniform:
     if lo == 1.0 and st.first is not None:
         run = st.first
     else:
-        run = run_program(st.path, st.machine, feed_scale=lo, keep_plans=False)  # rows and times only
+        run = run_program(st.path, st.machine, feed_scale=lo, keep_plans=False,   # rows and times only
+                          seg_sinks=st.seg_sinks)
         st.runs += 1
     mx = run_max_um(run, st.apart)
     if mx <= st.tol:

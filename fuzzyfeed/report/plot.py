@@ -17,12 +17,16 @@ def _pyplot():
     return plt
 
 
+#: Resolution of the PNG files written.
+SAVE_DPI = 130
+
+
 def save_figure(fig, output: str | os.PathLike) -> None:
     """Write ``fig`` as PNG atomically and close it."""
     plt = _pyplot()
     try:
         with atomic_write(output, "wb") as handle:
-            fig.savefig(handle, format="png", dpi=130)
+            fig.savefig(handle, format="png", dpi=SAVE_DPI)
     finally:
         plt.close(fig)
 

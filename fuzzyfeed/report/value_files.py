@@ -18,7 +18,7 @@ def plot_value(report: ValueReport, output: str | os.PathLike | io.BytesIO) -> N
     """Two panels: the F in force along the feed moves end to end, as written and advised (ticks
     where the program as written takes the tool beyond the tolerance marked on the axis), and the
     path seen from above coloured by the advised fraction of F, those places circled."""
-    from fuzzyfeed.report.plot import _pyplot, save_figure
+    from fuzzyfeed.report.plot import SAVE_DPI, _pyplot, save_figure
 
     plt = _pyplot()
     tr = report.trace
@@ -26,11 +26,12 @@ def plot_value(report: ValueReport, output: str | os.PathLike | io.BytesIO) -> N
     if tr is not None and tr.segments.size:
         from matplotlib.collections import LineCollection
 
+        steps = []
         for label, color, lw in (("as written", "0.6", 2.2), ("advised", "tab:blue", 1.2)):
             s0, s1 = tr.s_mm[label]
             f = tr.feed_mm_min[label]
-            ax_f.plot(np.column_stack([s0, s1]).ravel(), np.repeat(f, 2), color=color, lw=lw,
-                      label=f"F {label}")
+            steps += ax_f.plot(np.column_stack([s0, s1]).ravel(), np.repeat(f, 2), color=color, lw=lw,
+                               label=f"F {label}")
         if tr.over_s_mm.size:
             ax_f.plot(tr.over_s_mm, np.zeros_like(tr.over_s_mm), "|", color="tab:red", ms=10,
                       label=f"beyond {report.tol_um:g} um as written")
@@ -58,11 +59,39 @@ def plot_value(report: ValueReport, output: str | os.PathLike | io.BytesIO) -> N
         ax_p.set_ylabel("y (mm)")
         ax_p.set_title("path from above, coloured by the advised F")
     fig.tight_layout()
-    if isinstance(output, io.BytesIO):
-        fig.savefig(output, format="png", dpi=110)
+    inline = isinstance(output, io.BytesIO)
+    if tr is not None and tr.segments.size:
+        _steps_per_column(ax_f, steps, INLINE_DPI if inline else SAVE_DPI)
+    if inline:
+        fig.savefig(output, format="png", dpi=INLINE_DPI)
         plt.close(fig)
     else:
         save_figure(fig, output)
+
+
+#: Resolution of the plot inlined in the HTML page.
+INLINE_DPI = 110
+
+
+def _steps_per_column(ax, lines, dpi: float) -> None:
+    """The step ``lines`` of ``ax`` with more vertices than four a pixel column of the figure saved
+    at ``dpi`` cut to those the columns need (:func:`~fuzzyfeed.report.value_trace.column_extremes`;
+    the others drawn as they are): Agg holds a cell for every pixel each edge of a path crosses
+    before it fills the path, so a many-cut program's F steps drawn whole cost memory in proportion
+    to their cuts (issue 36: ~40 B a line of the program); at most four vertices a column, they
+    cost at most the figure's width."""
+    from fuzzyfeed.report.value_trace import column_extremes
+
+    x0, x1 = ax.get_xlim()          # autoscaled from the whole lines (the extremes are kept: the same)
+    if not x1 > x0:
+        return
+    box = ax.get_position()
+    width_px = ax.figure.get_figwidth() * dpi
+    columns = box.width * width_px
+    for line in lines:
+        x, y = line.get_data()
+        if np.size(x) > 4 * columns:
+            line.set_data(*column_extremes(x, y, x0, columns / (x1 - x0), box.x0 * width_px))
 
 
 def report_table_html(reports: Sequence[ValueReport]) -> str:

@@ -119,6 +119,23 @@ def _thin_segments(a: np.ndarray, b: np.ndarray, frac: np.ndarray, eps: float):
     return a[sel], out_b, frac[sel]
 
 
+def column_extremes(x: np.ndarray, y: np.ndarray, x0: float, per_column: float, column0: float = 0.0):
+    """The vertices of a polyline (x nondecreasing) a line drawn over pixel columns needs, M4
+    (Jugel et al., "M4: A Visualization-Oriented Time Series Data Aggregation", PVLDB 7(10), 2014):
+    per column ⌊column0 + (x − x0)·per_column⌋ its first, last, lowest and highest vertex, in the
+    polyline's order. Every column is inked from the same lowest to the same highest y and joined
+    to its neighbours as before; at most four vertices a column, whatever the length of the line."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    if x.size <= 4:
+        return x, y
+    col = np.floor(column0 + (x - x0) * per_column).astype(np.int64)
+    first = np.flatnonzero(np.concatenate([[True], col[1:] != col[:-1]]))
+    last = np.append(first[1:], x.size) - 1
+    order = np.lexsort((y, np.repeat(np.arange(first.size), np.diff(np.append(first, x.size)))))
+    keep = np.unique(np.concatenate([first, last, order[first], order[last]]))
+    return x[keep], y[keep]
+
+
 def feed_trace(written_path: ProgramPath, written: ProgramRun, advised_path: ProgramPath,
                tol_um: float) -> FeedTrace:
     """The F in force along the measured segments of both programs (for the value plot), made
