@@ -85,14 +85,14 @@ def _rows(s, tangent, kn, stops, x_hat, a_hat, c_floor, jerk: float, acc: np.nda
       x_{k+1} = 1.5·h_k·a_{k+1}, to rest x_k = −1.5·h_k·a_k (the constant-jerk start/stop, x ∝ s^{4/3},
       whose jerk the bound of :func:`rest_step_limit` on x keeps, so no jerk row there);
     * the jerk √x·|da/ds| ≤ m_J·J on every moving interval at its largest x: x is quadratic there
-      (x'' = 2Δa/h) and humps between the nodes where a changes sign, so its maximum is at most
-      x_p + |Δa|·h/16 for one of p = the two nodes and the middle (the vertex is within h/4 of one of
-      them; the middle's x_m = (x_k + x_{k+1})/2 + h·(a_k − a_{k+1})/4). Per p and sign:
-      ±Δa·(√c/(1.5·m_J·J·h) + h/(48c)) + x_p/(3c) ≤ 1, 1/√x replaced by its tangent at c,
+      (x'' = 2Δa/h) and humps between the nodes where a changes sign; it is at most its chord plus
+      |x''|·h²/8, so at most x_i + |Δa|·h/4 for one of its nodes i. Per node and sign:
+      ±Δa·(√c/(1.5·m_J·J·h) + h/(12c)) + x_i/(3c) ≤ 1, 1/√x replaced by its tangent at c,
       (1.5 − 0.5·x/c)/√c, which is below it for every x (1/√x is convex): every solution keeps the
-      jerk. c is the last iterate's x_p + |Δa|·h/16 (``x_hat``, ``a_hat``; at least ``c_floor``),
+      jerk. c is the last iterate's x_i + |Δa|·h/4 (``x_hat``, ``a_hat``; at least ``c_floor``),
       where the tangent is exact: the last iterate keeps the rows. (With the nodes' x alone the
-      ticks broke J by 4 % on HelixEnter.gcode#1: a from +146 to −143 mm/s² over 0.25 mm at 8.3 mm/s);
+      ticks broke J by 4 % on HelixEnter.gcode#1: a from +146 to −143 mm/s² over 0.25 mm at 8.3 mm/s;
+      rows at the middle too, with |Δa|·h/16, would be tighter at 1.5 × the jerk rows);
     * |a_i·T_ij + x_i·κN_ij|/(m_A·A_j) ≤ 1 on every axis at the moving nodes (ranged rows, ``acc``
       the m_A·A_j), but not at ``held`` nodes (a piece's ends held at a state that keeps them);
     * x at the middle of each interval between moving nodes, (x_k + x_{k+1})/2 + h_k·(a_k − a_{k+1})/4,
@@ -115,19 +115,16 @@ def _rows(s, tangent, kn, stops, x_hat, a_hat, c_floor, jerk: float, acc: np.nda
     row = n1 - 1
     kk = k[(~(stops[:-1] | stops[1:]))]
     hk = h[kk]
-    swing = np.abs(a_hat[kk + 1] - a_hat[kk]) * hk / 16.0
+    swing = np.abs(a_hat[kk + 1] - a_hat[kk]) * hk / 4.0
     floor = np.maximum(c_floor[kk], c_floor[kk + 1])
-    middle = 0.5 * (x_hat[kk] + x_hat[kk + 1]) + 0.25 * hk * (a_hat[kk] - a_hat[kk + 1])
-    # the point p's x as (weight of x_k, weight of x_{k+1}, weight of a_k; of a_{k+1} its negative)
-    for wk, wk1, wa, x_p in ((one[kk], 0.0 * hk, 0.0 * hk, x_hat[kk]), (0.0 * hk, one[kk], 0.0 * hk, x_hat[kk + 1]),
-                             (0.5 * one[kk], 0.5 * one[kk], 0.25 * hk, middle)):
-        c = np.maximum(x_p + swing, floor)
-        slope = np.sqrt(c) / (1.5 * JERK_MARGIN * jerk * hk) + hk / (48.0 * c)
+    for node in (kk, kk + 1):
+        c = np.maximum(x_hat[node] + swing, floor)
+        slope = np.sqrt(c) / (1.5 * JERK_MARGIN * jerk * hk) + hk / (12.0 * c)
         for sign in (1.0, -1.0):
             rr = row + np.arange(kk.size)
-            r += [rr, rr, rr, rr]
-            cc += [n1 + kk + 1, n1 + kk, kk, kk + 1]
-            v += [sign * slope - wa / (3.0 * c), -sign * slope + wa / (3.0 * c), wk / (3.0 * c), wk1 / (3.0 * c)]
+            r += [rr, rr, rr]
+            cc += [n1 + kk + 1, n1 + kk, node]
+            v += [sign * slope, -sign * slope, 1.0 / (3.0 * c)]
             lo.append(np.full(kk.size, -np.inf))
             hi.append(np.ones(kk.size))
             row += kk.size
