@@ -77,17 +77,24 @@ def profile_time(s: np.ndarray, x: np.ndarray, jerk_mm_s3: float | None = None) 
     return float(dt.sum())
 
 
-def _rows(s, tangent, kn, stops, c, jerk: float, acc: np.ndarray, x_top: np.ndarray):
+def _rows(s, tangent, kn, stops, x_hat, a_hat, c_floor, jerk: float, acc: np.ndarray, x_top: np.ndarray,
+          held=None):
     """The LP's rows (variables [x_0 … x_n, a_0 … a_n]) as a CSC matrix with their bounds:
 
     * x_{k+1} − x_k − h_k·(a_k + a_{k+1}) = 0 (the interpolant); on an interval from rest
       x_{k+1} = 1.5·h_k·a_{k+1}, to rest x_k = −1.5·h_k·a_k (the constant-jerk start/stop, x ∝ s^{4/3},
       whose jerk the bound of :func:`rest_step_limit` on x keeps, so no jerk row there);
-    * ±(a_{k+1} − a_k)·√c_i/(1.5·m_J·J·h_k) + x_i/(3c_i) ≤ 1 for both nodes i of interval k (not at
-      rest): √x_i·|da/ds| ≤ m_J·J with 1/√x replaced by its tangent at c_i, (1.5 − 0.5·x/c)/√c,
-      which is below it for every x (1/√x is convex): every solution keeps the jerk;
+    * the jerk √x·|da/ds| ≤ m_J·J on every moving interval at its largest x: x is quadratic there
+      (x'' = 2Δa/h) and humps between the nodes where a changes sign; it is at most its chord plus
+      |x''|·h²/8, so at most x_i + |Δa|·h/4 for one of its nodes i. Per node and sign:
+      ±Δa·(√c/(1.5·m_J·J·h) + h/(12c)) + x_i/(3c) ≤ 1, 1/√x replaced by its tangent at c,
+      (1.5 − 0.5·x/c)/√c, which is below it for every x (1/√x is convex): every solution keeps the
+      jerk. c is the last iterate's x_i + |Δa|·h/4 (``x_hat``, ``a_hat``; at least ``c_floor``),
+      where the tangent is exact: the last iterate keeps the rows. (With the nodes' x alone the
+      ticks broke J by 4 % on HelixEnter.gcode#1: a from +146 to −143 mm/s² over 0.25 mm at 8.3 mm/s;
+      rows at the middle too, with |Δa|·h/16, would be tighter at 1.5 × the jerk rows);
     * |a_i·T_ij + x_i·κN_ij|/(m_A·A_j) ≤ 1 on every axis at the moving nodes (ranged rows, ``acc``
-      the m_A·A_j);
+      the m_A·A_j), but not at ``held`` nodes (a piece's ends held at a state that keeps them);
     * x at the middle of each interval between moving nodes, (x_k + x_{k+1})/2 + h_k·(a_k − a_{k+1})/4,
       at most max(x_top_k, x_top_{k+1}): the quadratic between two nodes at the limit would otherwise hump
       over it (at 8.3 mm/s the jerk rows let a swing ±150 mm/s² between nodes: ticks 1.2 % over F).
@@ -106,19 +113,22 @@ def _rows(s, tangent, kn, stops, c, jerk: float, acc: np.ndarray, x_top: np.ndar
     v = [np.stack([one, -one, -h_a, -h_b], axis=1).ravel()]
     lo, hi = [np.zeros(n1 - 1)], [np.zeros(n1 - 1)]
     row = n1 - 1
-    moving = ~(stops[:-1] | stops[1:])
-    for node in (k, k + 1):
-        keep = moving
-        kk, i = k[keep], node[keep]
-        scale = np.sqrt(c[i]) / (1.5 * JERK_MARGIN * jerk * h[kk])
+    kk = k[(~(stops[:-1] | stops[1:]))]
+    hk = h[kk]
+    swing = np.abs(a_hat[kk + 1] - a_hat[kk]) * hk / 4.0
+    floor = np.maximum(c_floor[kk], c_floor[kk + 1])
+    for node in (kk, kk + 1):
+        c = np.maximum(x_hat[node] + swing, floor)
+        slope = np.sqrt(c) / (1.5 * JERK_MARGIN * jerk * hk) + hk / (12.0 * c)
         for sign in (1.0, -1.0):
             rr = row + np.arange(kk.size)
             r += [rr, rr, rr]
-            cc += [n1 + kk + 1, n1 + kk, i]
-            v += [sign * scale, -sign * scale, 1.0 / (3.0 * c[i])]
+            cc += [n1 + kk + 1, n1 + kk, node]
+            v += [sign * slope, -sign * slope, 1.0 / (3.0 * c)]
             lo.append(np.full(kk.size, -np.inf))
             hi.append(np.ones(kk.size))
             row += kk.size
+    moving = ~(stops[:-1] | stops[1:])
     m = k[moving]
     rr = row + np.arange(m.size)
     r += [rr, rr, rr, rr]
@@ -128,9 +138,10 @@ def _rows(s, tangent, kn, stops, c, jerk: float, acc: np.ndarray, x_top: np.ndar
     hi.append(np.maximum(x_top[:-1], x_top[1:])[m])
     row += m.size
     idx = np.arange(n1)
+    free = ~stops if held is None else ~(stops | held)
     for j in range(3):
         tj, kj = tangent[:, j], kn[:, j]
-        i = idx[((np.abs(tj) > 1e-12) | (np.abs(kj) > 1e-12)) & ~stops]  # at rest x = a = 0 hold it
+        i = idx[((np.abs(tj) > 1e-12) | (np.abs(kj) > 1e-12)) & free]  # at rest x = a = 0 hold it
         rr = row + np.arange(i.size)
         r += [rr, rr]
         cc += [i, n1 + i]
@@ -138,7 +149,8 @@ def _rows(s, tangent, kn, stops, c, jerk: float, acc: np.ndarray, x_top: np.ndar
         lo.append(np.full(i.size, -1.0))
         hi.append(np.ones(i.size))
         row += i.size
-    a = coo_matrix((np.concatenate(v), (np.concatenate(r), np.concatenate(cc))), shape=(row, 2 * n1)).tocsc()
+    v, r, cc = np.concatenate(v), np.concatenate(r), np.concatenate(cc)
+    a = coo_matrix((v[v != 0.0], (r[v != 0.0], cc[v != 0.0])), shape=(row, 2 * n1)).tocsc()
     return a, np.concatenate(lo), np.concatenate(hi)
 
 
@@ -318,14 +330,27 @@ def _line_search(s, x0, a0, x1, a1, jerk: float, steps: int = 12):
 
 
 def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_iter: int = MAX_ITER,
-               log: list | None = None):
+               log: list | None = None, start=None, end=None, seed=None, exact_seed: bool = False):
     """Sequential LP on a prepared grid → (x, a) at the nodes, every iterate within every limit
     (the convex-concave procedure: the jerk rows' tangents at the last iterate). ``log``
-    (optional) receives each iteration's time."""
+    (optional) receives each iteration's time.
+
+    A piece of a longer path (slw/optimal_pieces.py): ``start`` / ``end`` (optional) the state
+    (x, a) held at the first / last node instead of rest (x = 0 holds a rest); ``seed`` (optional)
+    (x, a) for the first tangent points where finite: at the larger of its x and the passes', or
+    with ``exact_seed`` at its own x (a solution over the same nodes: with the tangents at itself
+    it keeps every jerk row, so the first LP is feasible there; the passes converge faster: the
+    rows hold x ≤ 3c, and a seed that slows to a rest holds the first LPs near it)."""
     n1 = s.size
     if n1 > MAX_NODES:
         raise RuntimeError(f"{n1} grid nodes, over the LP's budget of {MAX_NODES}")
     max_iter = min(max_iter, max(MIN_ITER, WORK_BUDGET // n1))
+    stops, x_lim, held = stops.copy(), x_lim.copy(), np.zeros(n1, dtype=bool)
+    for node, state in ((0, start), (n1 - 1, end)):
+        if state is not None:
+            stops[node] = state[0] <= 0.0
+            held[node] = not stops[node]
+            x_lim[node] = max(float(state[0]), x_lim[node]) if held[node] else 0.0
     feed = limits.feed_mm_s
     acc = ACC_MARGIN * np.asarray(limits.axis_acc_mm_s2, dtype=float)
     a_max = float(np.max(limits.axis_acc_mm_s2))
@@ -340,11 +365,20 @@ def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_
     col_lo = np.concatenate([np.zeros(n1), a_lo])
     col_hi = np.concatenate([x_lim, a_hi])
     x_hat = _start(s, x_lim, tangent, kn, limits)
+    for node, state in ((0, start), (n1 - 1, end)):
+        if state is not None and held[node]:
+            col_lo[node] = col_hi[node] = x_hat[node] = state[0]
+            col_lo[n1 + node] = col_hi[n1 + node] = state[1]
+    a_hat = np.zeros(n1)
+    if seed is not None:
+        x_hat = np.where(np.isfinite(seed[0]), seed[0] if exact_seed else np.maximum(seed[0], x_hat), x_hat)
+        a_hat = np.where(np.isfinite(seed[1]), seed[1], a_hat)
     floor_x = WEIGHT_FLOOR * feed ** 2
     best, best_t, t_prev, basis = None, np.inf, np.inf, None
     for it in range(max_iter):
-        c = np.maximum(x_hat, np.maximum(TANGENT_FLOOR * x_lim, floor_x))
-        a_mat, row_lo, row_hi = _rows(s, tangent, kn, stops, c, limits.jerk_mm_s3, acc, x_lim)
+        c_floor = np.maximum(TANGENT_FLOOR * x_lim, floor_x)
+        a_mat, row_lo, row_hi = _rows(s, tangent, kn, stops, x_hat, a_hat, c_floor, limits.jerk_mm_s3, acc,
+                                      x_lim, held)
         cost = np.concatenate([-_weights(s, x_hat, floor_x), np.zeros(n1)])
         z, basis = _solve_lp(a_mat, row_lo, row_hi, cost, col_lo, col_hi, basis)
         if z is None:
@@ -362,7 +396,7 @@ def solve_grid(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits, max_
         if abs(t_prev - t) <= T_RTOL * t:
             break
         t_prev = t
-        x_hat = x
+        x_hat, a_hat = x, a
     return best
 
 

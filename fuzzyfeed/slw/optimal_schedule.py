@@ -1,11 +1,12 @@
 """``schedule(planner="optimal")``: the whole-path LP's feed (slw/optimal.py) as servo ticks
 (slw/phase_ticks.py), through the same interpolation, tick check and repair as the window.
 
-The profile x(s) = v² and the nodal accelerations of :func:`fuzzyfeed.slw.optimal.optimal_profile`
-become ticks t_k = k·Ts (:func:`fuzzyfeed.slw.phase_ticks.ticks_from_phase`, with the planner's a and
+The profile x(s) = v² and the nodal accelerations of the LP in bounded pieces
+(:func:`fuzzyfeed.slw.optimal_pieces.pieced_profile`) become ticks t_k = k·Ts (:func:`fuzzyfeed.slw.phase_ticks.ticks_from_phase`, with the planner's a and
 J); the ticks' arc lengths are interpolated on the curve (``interpolate_u`` "best") and every tick
 checked against every limit (:func:`fuzzyfeed.slw.check.breach`). On a breach the feed is capped
-around it (``trajectory._dip``) and the LP solved again, at most ``TICK_REPAIRS`` times; a breach
+around it (``trajectory._dip``) and the LP solved again over the span around it
+(:func:`fuzzyfeed.slw.optimal_pieces.repair`), at most ``TICK_REPAIRS`` times; a breach
 left after that is an InputError. No schedule above a limit is returned.
 """
 
@@ -20,7 +21,8 @@ from fuzzyfeed.geometry.nurbs import Nurbs
 from fuzzyfeed.machine.limits import MachineLimits
 from fuzzyfeed.slw.check import breach_error, checked_positions
 from fuzzyfeed.slw.feed_cap import FeedCap
-from fuzzyfeed.slw.optimal import JERK_MARGIN, optimal_profile
+from fuzzyfeed.slw.optimal import JERK_MARGIN
+from fuzzyfeed.slw.optimal_pieces import pieced_profile, repair
 from fuzzyfeed.slw.phase_ticks import ticks_from_phase
 
 
@@ -30,11 +32,16 @@ def schedule_optimal(curve: Nurbs, limits: MachineLimits, cap: FeedCap | None, k
     trajectory._dip, at most ``repairs`` times) → (t, s, u, xyz, v, a, j, critical arc lengths: the
     profile's rests and valleys on its grid), the arrays read-only."""
     total = float(curve.length)
+    grid = None
     for attempt in range(repairs + 1):
         try:
-            s_grid, x_grid, a_grid = optimal_profile(curve, limits, cap)
+            if grid is None:
+                grid, x_grid, a_grid = pieced_profile(curve, limits, cap)
+            else:  # only the span around the breach solved again
+                grid, x_grid, a_grid = repair(grid, x_grid, a_grid, cap, limits)
         except RuntimeError as exc:
             raise InputError(f"the whole-path feed LP failed on the path of {total:.6g} mm: {exc}") from None
+        s_grid = grid[0]
         t, s, v, a, j = ticks_from_phase(s_grid, x_grid, limits.ts_s, a_grid=a_grid,
                                          jerk_mm_s3=JERK_MARGIN * limits.jerk_mm_s3)
         u, xyz, found = checked_positions(curve, s, j, limits, kinks_u)
