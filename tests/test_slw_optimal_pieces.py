@@ -103,3 +103,37 @@ def test_a_path_over_the_work_budget_is_refused_and_the_window_kept(monkeypatch)
     monkeypatch.setattr(optimal_pieces, "PIECE_NODES", grid[0].size // 4)
     best = schedule(curve, SLOW_Y, planner="optimal", transition="seven-phase")
     assert best.n_blocks > 0   # the window's (the LP's has no blocks)
+
+
+def test_a_path_the_budget_refuses_on_its_length_is_refused_before_its_grid(monkeypatch):
+    """A 30 m path: its uniform nodes alone are over the work budget, so pieced_profile refuses it
+    without building the grid (a spy on grid_problem) — and the grid, built here, is refused by
+    solve_pieces too (the early refusal never refuses what the full count would take)."""
+    curve = Nurbs(1, np.array([0.0, 0.0, 0.5, 1.0, 1.0]), np.array([[0.0, 0.0], [15_000.0, 0.0], [15_000.0, 15_000.0]]))
+    limits = MachineLimits()
+    built = []
+    real = optimal_pieces.grid_problem
+    monkeypatch.setattr(optimal_pieces, "grid_problem", lambda *a, **k: built.append(1) or real(*a, **k))
+    with pytest.raises(RuntimeError, match="budget"):
+        optimal_pieces.pieced_profile(curve, limits)
+    assert not built
+    grid = real(curve, limits)
+    assert grid[0].size >= optimal_pieces.least_nodes(float(curve.length)) // 2
+    with pytest.raises(RuntimeError, match="budget"):
+        solve_pieces(*grid, limits)
+
+
+def test_a_path_under_the_early_count_still_gets_its_grid(monkeypatch):
+    """Half the budget's length: the early count lets it through to the grid (whatever the full
+    count then says)."""
+    curve = Nurbs(1, np.array([0.0, 0.0, 1.0, 1.0]), np.array([[0.0, 0.0], [2_000.0, 0.0]]))
+    built = []
+    real = optimal_pieces.grid_problem
+
+    def spy(*a, **k):
+        built.append(1)
+        raise RuntimeError("stop here")
+    monkeypatch.setattr(optimal_pieces, "grid_problem", spy)
+    with pytest.raises(RuntimeError, match="stop here"):
+        optimal_pieces.pieced_profile(curve, MachineLimits())
+    assert built and real is not spy
