@@ -177,12 +177,13 @@ HEADER = (f"{'path / machine / transition':<34} {'length mm':>9} {'SLW s':>9} {'
           f"{'/floor':>7} {'/old':>7} {'worst':>8} {'limit':>8} {'crit':>6} {'cpu s':>7} {'/cosJ':>7}")
 
 
-def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None, builtin_only: bool = False):
+def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None, builtin_only: bool = False,
+          first_cut: int = 1):
     """(name, curve, limits, feed cap or None) of every benchmark case; with ``programs`` = (first,
     end), only the programs whose path in the library is in [first, end) ("" = no end); with
     ``builtin_only``, every case but the programs."""
     if programs is not None:
-        yield from _program_cases(max_cuts, programs)
+        yield from _program_cases(max_cuts, programs, first_cut)
         return
     for name in shape_names():
         for mname, lim in MACHINES.items():
@@ -201,10 +202,10 @@ def cases(n_random: int, max_cuts: int, programs: tuple[str, str] | None = None,
         for mname, lim in MACHINES.items():
             yield f"nurbs{seed} p{curve.degree} {curve.dim}-D/{mname}", curve, lim, None
     if not builtin_only:
-        yield from _program_cases(max_cuts, ("", ""))
+        yield from _program_cases(max_cuts, ("", ""), first_cut)
 
 
-def _program_cases(max_cuts: int, programs: tuple[str, str]):
+def _program_cases(max_cuts: int, programs: tuple[str, str], first_cut: int = 1):
     first, end = programs
     folder = LIBRARY if LIBRARY.is_dir() else ROOT / "tests" / "programs" / "corpus"
     for path in sorted(p for ext in ("ngc", "nc", "gcode") for p in folder.rglob(f"*.{ext}")):
@@ -217,6 +218,8 @@ def _program_cases(max_cuts: int, programs: tuple[str, str]):
             print(f"# {path.relative_to(folder)}: not read ({type(exc).__name__}: {str(exc)[:80]})")
             continue
         for i, shape in enumerate(shapes[:max_cuts], start=1):
+            if i < first_cut:
+                continue
             for mname, lim in MACHINES.items():
                 try:
                     lim_f, cap, _ = program_feed_limits(shape, lim)
@@ -255,6 +258,8 @@ def main() -> None:
     ap.add_argument("--planner", choices=("window", "optimal"), default="window", help="'optimal': the whole-path "
                     "LP (schedule(planner='optimal')), once per case, instead of the window's transitions")
     ap.add_argument("--max-cuts", type=int, default=2, help="cuts of each program (default: %(default)s)")
+    ap.add_argument("--first-cut", type=int, default=1, help="the programs' cuts from this one (1 = the first) "
+                    "up to --max-cuts: a run split by cut")
     ap.add_argument("--corner-bound", nargs="+", metavar="NAME", help="only these cases (path/machine, as "
                     "printed): the proven corner-chain lower bound beside the floor and the SLW time")
     ap.add_argument("--programs", nargs=2, metavar=("FIRST", "END"), help="only the programs whose path "
@@ -288,10 +293,11 @@ def main() -> None:
     print("-" * len(HEADER))
     results: dict[str, list[dict]] = {t: [] for t in transitions}
     if args.program:
-        chosen = (c for p in args.program for c in _program_cases(args.max_cuts, (p, p + "\x7f"))
+        chosen = (c for p in args.program for c in _program_cases(args.max_cuts, (p, p + "\x7f"), args.first_cut)
                   if c[0].split("#")[0] == p)
     else:
-        chosen = cases(args.random, args.max_cuts, args.programs and tuple(args.programs), args.builtin_only)
+        chosen = cases(args.random, args.max_cuts, args.programs and tuple(args.programs), args.builtin_only,
+                       args.first_cut)
     for name, curve, lim, cap in chosen:
         if args.machine and not name.endswith(f"/{args.machine}"):
             continue

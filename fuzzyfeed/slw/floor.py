@@ -82,6 +82,8 @@ CHAIN_BATCH = 2048
 #: bisection steps for the crossing of :func:`max_distance_held`.
 HELD_BINS = 3
 HELD_ALPHA_STEPS = 14
+#: The time grid's points as fractions of a gap's time (np.linspace, as max_distance builds it).
+_FRAC = np.linspace(0.0, 1.0, CHAIN_POINTS + 1)
 
 
 def _rise(alpha, t, acc: float, jerk: float):
@@ -201,14 +203,17 @@ def _acc_only_s(gaps, c1, c2, feed: float, acc: float):
     return ramps + np.where(peak > feed, cruise, 0.0)
 
 
-def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float, a_start=None, a_end=None):
+def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float, a_start=None, a_end=None,
+              compiled: bool = True):
     """Per gap, a time no motion of :func:`max_distance`'s kind covers the gap in less than:
     bisection on T keeping max_distance(lo) < gap, which alone proves lo (a motion covering the
     gap in T' ≤ lo, run slower by lo/T', would cover it in lo; no monotonicity of the bound is
     assumed). It starts from the acceleration-only time (where the bound confirms it, else the
     gap at F) and widens the bracket by steps of A/J. With ``a_start`` ≥ 0 ≥ ``a_end`` (per gap)
     the motions start with a ≤ a_start and end with a ≥ a_end (:func:`max_distance_held`): run
-    slower by ρ = T'/lo < 1 their end accelerations become ρ²·a, still within both (the signs)."""
+    slower by ρ = T'/lo < 1 their end accelerations become ρ²·a, still within both (the signs).
+    The held case runs compiled (slw/_floor_jit.py, the same values bit for bit; ``compiled=False``
+    runs these numpy lines, the tests' reference)."""
     gaps, c1, c2 = (np.asarray(x, dtype=float) for x in (gaps, c1, c2))
     acc = np.broadcast_to(np.asarray(acc, dtype=float), gaps.shape)
     if a_start is None:
@@ -219,6 +224,15 @@ def gap_times(gaps, c1, c2, feed: float, acc: float, jerk: float, a_start=None, 
         a_end = np.broadcast_to(np.asarray(a_end, dtype=float), gaps.shape)
         if (a_start < 0.0).any() or (a_end > 0.0).any():
             raise ValueError("held end accelerations: a_start >= 0 >= a_end (the time-scaling proof)")
+
+        if compiled:  # the bisection below with max_distance_held, compiled (bit for bit)
+            from fuzzyfeed.slw._floor_jit import held_gap_times
+
+            lo0 = 0.999 * _acc_only_s(gaps, c1, c2, feed, acc)
+            out = np.empty(gaps.size)
+            args = (np.ascontiguousarray(x, dtype=float).ravel() for x in (gaps, c1, c2, a_start, a_end, acc, lo0))
+            held_gap_times(*args, float(feed), float(jerk), _FRAC, HELD_ALPHA_STEPS, TIME_STEPS, out)
+            return out.reshape(gaps.shape)
 
         def reach(T, i):
             return max_distance_held(T, c1[i], c2[i], a_start[i], a_end[i], feed, acc[i], jerk)
