@@ -144,14 +144,20 @@ def insert_sorted(s: np.ndarray, mid: np.ndarray, *columns: tuple[np.ndarray, np
     return np.concatenate([s, mid])[order], [np.concatenate([a, b])[order] for a, b in columns]
 
 
+def uniform_intervals(total_mm: float, max_step_mm: float | None = None) -> int:
+    """The grid's uniform intervals over a path of ``total_mm``: steps of min(MAX_STEP_MM,
+    L/MIN_INTERVALS), at least 2 (knots, corners and refinements only add points)."""
+    h = min(MAX_STEP_MM if max_step_mm is None else max_step_mm, total_mm / MIN_INTERVALS)
+    return max(int(np.ceil(total_mm / h)), 2)
+
+
 def _grid_raw(curve: Nurbs, limits: MachineLimits, max_step_mm: float | None):
     """:func:`_grid` and the pointwise limit without the corners' caps (the limit on either side
     of a corner, between grid points)."""
     from fuzzyfeed.slw.preprocess import corners
 
     total = float(curve.length)
-    h = min(MAX_STEP_MM if max_step_mm is None else max_step_mm, total / MIN_INTERVALS)
-    n = max(int(np.ceil(total / h)), 2)
+    n = uniform_intervals(total, max_step_mm)
     knots = np.atleast_1d(curve.arc_length(curve.span_breaks))
     corner_s, corner_cap = corners(curve, limits)
     left = knots[1:-1] - 1e-9 * max(total, 1.0)  # the left-hand limit at a curvature jump

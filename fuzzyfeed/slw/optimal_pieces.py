@@ -58,14 +58,12 @@ def iterations(n_nodes: int) -> int:
 
 
 def least_nodes(length_mm: float, max_step_mm: float | None = None) -> int:
-    """The uniform nodes of the bound's grid (bound._grid_raw: steps of min(MAX_STEP_MM,
-    L/MIN_INTERVALS)); knots, corners and refinements only add to them, and the LP's spacing
+    """The uniform nodes of the bound's grid (bound.uniform_intervals + 1); knots, corners and refinements only add to them, and the LP's spacing
     (optimal._spaced) drops at most one of a pair closer than a few µm, so the grid has at least
     half this many nodes (pieced_profile's early refusal counts half)."""
-    from fuzzyfeed.slw.bound import MAX_STEP_MM, MIN_INTERVALS
+    from fuzzyfeed.slw.bound import uniform_intervals
 
-    h = min(MAX_STEP_MM if max_step_mm is None else max_step_mm, length_mm / MIN_INTERVALS)
-    return max(int(np.ceil(length_mm / h)), 2) + 1
+    return uniform_intervals(length_mm, max_step_mm) + 1
 
 
 def _piece_end(s: np.ndarray, keep: int, overlap_mm: float) -> int:
@@ -139,16 +137,25 @@ def _solve_seeded(*args, seed=None, **kwargs):
         return solve_grid(*args, seed=seed, exact_seed=True, **kwargs)
 
 
+def refused_on_length(length_mm: float, max_step_mm: float | None = None, piece_nodes: int | None = None) -> str:
+    """Why the work budget refuses a path of ``length_mm`` on its length alone (half of
+    :func:`least_nodes`, as :func:`solve_pieces` would count them), or "" when it may not."""
+    least = least_nodes(length_mm, max_step_mm)
+    keep = PIECE_NODES if piece_nodes is None else piece_nodes
+    if least // 2 > keep + 1 and MIN_ITER * (least // 2) > PATH_WORK_BUDGET:
+        return (f"a path of {length_mm:.6g} mm: at least {least} grid nodes, {MIN_ITER * least} node-LPs "
+                f"at the least, over the LP's budget of {PATH_WORK_BUDGET}")
+    return ""
+
+
 def pieced_profile(curve, limits: MachineLimits, cap=None, max_step_mm: float | None = None,
                    piece_nodes: int | None = None, log: list | None = None):
     """:func:`fuzzyfeed.slw.optimal.optimal_profile` by pieces → (s_grid, x_grid, a_grid), plus the
     grid problem (for :func:`repair`). A path the work budget refuses on its length alone
     (:func:`least_nodes`) is refused before its grid is built (~1 s on a 24 m cut)."""
-    least = least_nodes(float(curve.length), max_step_mm)
-    keep = PIECE_NODES if piece_nodes is None else piece_nodes
-    if least // 2 > keep + 1 and MIN_ITER * (least // 2) > PATH_WORK_BUDGET:  # solve_pieces would refuse
-        raise RuntimeError(f"a path of {float(curve.length):.6g} mm: at least {least} grid nodes, "
-                           f"{MIN_ITER * least} node-LPs at the least, over the LP's budget of {PATH_WORK_BUDGET}")
+    why = refused_on_length(float(curve.length), max_step_mm, piece_nodes)
+    if why:
+        raise RuntimeError(why)
     grid = grid_problem(curve, limits, cap, max_step_mm)
     x, a = solve_pieces(*grid, limits, piece_nodes=piece_nodes, log=log)
     return grid, x, a

@@ -193,9 +193,12 @@ def _faster_optimal(window: Trajectory, cap: FeedCap | None) -> Trajectory:
     """The whole-path LP's schedule on the window's followed path (slw/optimal_schedule.py) if it
     passes the tick check and is faster than ``window``; else ``window`` (also when the LP fails,
     exceeds its node budget or breaks a limit after its repairs)."""
+    from fuzzyfeed.slw.optimal_pieces import refused_on_length
     from fuzzyfeed.slw.optimal_schedule import schedule_optimal
 
     curve, limits = window.curve, window.limits
+    if refused_on_length(float(curve.length)):  # before the path's joins are read
+        return window
     s_j, _, _, jump = joins(curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
     kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
