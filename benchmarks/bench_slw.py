@@ -9,7 +9,9 @@ programs in benchmarks/library/programs of the main repository, or tests/program
 that is absent (its first ``--max-cuts`` cuts, each at the program's own F words, capped at the command feed, as
 ``fuzzyfeed schedule`` runs it).
 
-Per case and transition (seed 000's cosine, the default, and seven-phase): failure or not; the
+Per case, the schedule users get by default (``schedule``'s: the faster of the whole-path LP and the
+seven-phase window; ``--planner window`` runs the window alone with seed 000's cosine and the
+seven-phase transitions, ``--transition``): failure or not; the
 worst ratio to every limit measured by the one simulator from the interpolated positions (feed,
 axis velocity, axis acceleration, chord error; the profile's jerk); the cycle time over the
 jerk-limited floor (fuzzyfeed.slw.floor.jerk_floor: the acceleration-limited bound, and every
@@ -17,12 +19,12 @@ leg between full stops at least its seven-phase rest-to-rest time), printed besi
 the CPU time of ``schedule``. Anchor in the same run: the bound against toppra 0.6 on infinity
 (DESIGN §6: 4.9008 s).
 
-Run: python benchmarks/bench_slw.py [--random N] [--transition both|seven-phase|cosine] [--planner window|optimal]
+Run: python benchmarks/bench_slw.py [--random N] [--planner optimal|window] [--transition both|seven-phase|cosine]
 ``--corner-bound NAME ...`` prints, for the named cases only, a proven lower bound on the cycle time
 of any jerk-limited schedule through the path's true corners (:func:`corner_chain_bound`) beside
 the floor and the SLW time: where it is above the floor, no scheduler can reach the floor there.
 Last line: median_ratio_to_floor=M worst_ratio_to_floor=W worst_compute_s=C failed=F over_limit=V
-(of the default transition, over every case).
+(of the planner, or with ``--planner window`` of the first transition, over every case).
 """
 
 from __future__ import annotations
@@ -144,7 +146,7 @@ def run_case(name: str, curve, limits: MachineLimits, transition: str, cap=None,
         if transition == "optimal":
             traj = schedule(curve, limits, feed_cap=cap, planner="optimal", transition="seven-phase")
         else:
-            traj = schedule(curve, limits, transition=transition, feed_cap=cap)
+            traj = schedule(curve, limits, transition=transition, feed_cap=cap, planner="window")
     except Exception as exc:  # noqa: BLE001 - a benchmark reports every failure
         return {"name": name, "fail": f"{type(exc).__name__}: {exc}"[:240], "cpu": time.process_time() - t0}
     cpu = time.process_time() - t0
@@ -255,8 +257,9 @@ def main() -> None:
     ap.add_argument("--random", type=int, default=110, help="random NURBS, each on both machines "
                                                               "(default: %(default)s)")
     ap.add_argument("--transition", choices=("both", "seven-phase", "cosine"), default="both")
-    ap.add_argument("--planner", choices=("window", "optimal"), default="window", help="'optimal': the whole-path "
-                    "LP (schedule(planner='optimal')), once per case, instead of the window's transitions")
+    ap.add_argument("--planner", choices=("optimal", "window"), default="optimal", help="optimal (schedule's "
+                    "default): the faster of the whole-path LP and the seven-phase window, once per case; "
+                    "window: the window alone with each --transition (default: %(default)s)")
     ap.add_argument("--max-cuts", type=int, default=2, help="cuts of each program (default: %(default)s)")
     ap.add_argument("--first-cut", type=int, default=1, help="the programs' cuts from this one (1 = the first) "
                     "up to --max-cuts: a run split by cut")

@@ -59,7 +59,7 @@ def main() -> None:
     t0 = time.process_time()
     if prof:
         prof.enable()
-    traj = schedule(shape.curve, limits, transition=transition, feed_cap=cap)
+    traj = schedule(shape.curve, limits, transition=transition, feed_cap=cap, planner="window")
     if prof:
         prof.disable()
     cpu = time.process_time() - t0

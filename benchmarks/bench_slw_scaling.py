@@ -53,7 +53,7 @@ nurbs_kernel()  # the compiled NURBS loop long paths use: loaded in the anchor t
 
 def run(path):  # the measured command; run once on a small curve first (imports, first calls)
     if what == "schedule":
-        return schedule(path, lim).t_s.size
+        return schedule(path, lim, planner="window", transition="cosine").t_s.size
     from fuzzyfeed.report.compare import compare
     from fuzzyfeed.geometry.sampling import sample_uniform_u
     c = compare(sample_uniform_u(path, 2000), lim)

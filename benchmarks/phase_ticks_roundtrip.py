@@ -72,7 +72,7 @@ def ratios(curve, limits, s, jerk, kinks_u) -> dict[str, float]:
 
 
 def run(name: str, curve, limits: MachineLimits, step: float, junctions_on: bool = True) -> dict:
-    traj = schedule(curve, limits, transition="seven-phase")
+    traj = schedule(curve, limits, transition="seven-phase", planner="window")
     s_j, _, _, jump = joins(traj.curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
     kinks_u = np.atleast_1d(traj.curve.param_at_length(kinks)) if kinks.size else kinks

@@ -41,7 +41,7 @@ def run(name: str, curve, limits) -> dict:
     cpu = time.process_time() - t0
     lp = profile_time(s, x, limits.jerk_mm_s3)
     t0 = time.process_time()
-    window = schedule(curve, limits, transition="seven-phase").cycle_time_s
+    window = schedule(curve, limits, transition="seven-phase", planner="window").cycle_time_s
     wcpu = time.process_time() - t0
     return {"name": name, "n": s.size, "lp": lp / floor, "window": window / floor, "bound": lp / bound.time_s,
             "cpu": cpu, "wcpu": wcpu, "its": len(log)}

@@ -66,7 +66,7 @@ def gap_bounds(curve, limits, bound):
 
 
 def split(name: str, curve, limits, transition: str, cap=None) -> dict:
-    traj = schedule(curve, limits, transition=transition, feed_cap=cap)
+    traj = schedule(curve, limits, transition=transition, feed_cap=cap, planner="window")
     c = traj.curve
     bound = path_bound(c, limits, feed_cap=cap, halve=False)
     floor = jerk_floor(c, limits, bound)

@@ -183,7 +183,7 @@ def recorded_schedule(name: str, machine: str, **options):
     ("equal" or "slow-y"), ``options`` passed to slw.schedule (transition=...)."""
     from fuzzyfeed.slw import schedule
 
-    return schedule(named_curve(name), RECORDED_MACHINES[machine], **options)
+    return schedule(named_curve(name), RECORDED_MACHINES[machine], **{"planner": "window", "transition": "cosine", **options})
 
 
 def profile_at(segs: list, s_query: np.ndarray, scale: float = 1.0):

@@ -217,7 +217,7 @@ def _old_beside_corners(curve: Nurbs, u: np.ndarray, steps: np.ndarray, hard: np
 def _corner_schedules():
     for curve in (slw_cases.rectangle(), slw_cases.cam_polyline(300)):      # 2-D and 3-D, every vertex a corner
         for machine in ("equal", "slow-y"):
-            yield schedule(curve, slw_cases.RECORDED_MACHINES[machine], blend=False)
+            yield schedule(curve, slw_cases.RECORDED_MACHINES[machine], blend=False, planner="window", transition="cosine")
 
 
 @pytest.mark.parametrize("case", range(4))

@@ -26,8 +26,11 @@ def test_schedule_writes_trajectory_and_summary(tmp_path, capsys):
     feed = data[:, header.index("feed_mm_s")]
     assert feed[0] == 0 and feed[-1] == 0 and feed.max() <= 100 + 1e-9
     text = capsys.readouterr().out
-    for word in ("cycle time", "critical points", "blocks", "chord error", "axis acc", "jerk", "ratio"):
+    for word in ("cycle time", "critical points", "chord error", "axis acc", "jerk", "ratio"):
         assert word in text
+    assert "whole-path LP (faster than the look-ahead window)" in text  # the default planner, the LP kept
+    assert main(["schedule", "wm", "-o", str(out), "--planner", "window"]) == 0
+    assert "(look-ahead window)" in capsys.readouterr().out
 
 
 def test_limit_flags_are_used(tmp_path, capsys):

@@ -28,7 +28,7 @@ def test_simulator_reproduces_slw_trajectory(name):
     the extrema recomputed here from the trajectory's positions (plain differences at Ts)."""
     curve = load_shape(name).curve
     limits = MachineLimits()
-    traj = schedule(curve, limits)
+    traj = schedule(curve, limits, planner="window", transition="cosine")
     sim = simulate(curve, traj.time_law(), limits, "slw")
     m = sim.metrics
     assert m.cycle_time_s == pytest.approx(traj.cycle_time_s, rel=1e-12)
@@ -153,7 +153,7 @@ def test_table_jerk_is_measured_at_the_table_resolution():
     the per-sample execution does not invent jerk from its own sampling."""
     samples = sample_shape(load_shape("infinity"), 2000)
     limits = MachineLimits()
-    table = schedule(samples.curve, limits).feed_at(samples)
+    table = schedule(samples.curve, limits, planner="window", transition="cosine").feed_at(samples)
     from fuzzyfeed.machine.simulate import simulate_profile
 
     m = simulate_profile(table, limits).metrics

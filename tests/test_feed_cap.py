@@ -146,7 +146,7 @@ def test_a_sharp_dip_of_the_cap_is_held_from_the_positions():
     line = Nurbs(1, [0, 0, 1, 1], [[0.0, 0.0], [100.0, 0.0]])
     s = np.array([0.0, 50.0, 50.5333, 51.1, 100.0])
     v = np.array([80.0, 80.0, 9.0, 80.0, 80.0])
-    traj = schedule(line, LIM, feed_cap=(s, v))
+    traj = schedule(line, LIM, feed_cap=(s, v), planner="window", transition="cosine")
     cap = FeedCap(s, v, 100.0)
     step = np.linalg.norm(np.diff(traj.xyz, axis=0), axis=1) / LIM.ts_s
     # the cap's least value over each tick's chord (its ends and any cap point inside)
@@ -178,7 +178,7 @@ def test_a_wandering_advice_is_followed_without_a_repair_storm():
     curve = Nurbs(3, knots, pts)
     smp = sample_uniform_u(curve, 2000)
     wobble = 25.0 + 8.0 * np.sin(smp.s / 3.0) + 3.0 * np.sin(smp.s * 1.7)
-    traj = schedule(curve, LIM, feed_cap=(smp.s, wobble))
+    traj = schedule(curve, LIM, feed_cap=(smp.s, wobble), planner="window", transition="cosine")
     cap = FeedCap(np.asarray(smp.s), wobble, traj.curve.length)
     m = measure(traj)
     for key in ("feed", "axis_vel", "axis_acc", "chord", "jerk"):
@@ -198,11 +198,11 @@ def test_a_machine_limit_under_a_flat_cap_is_still_a_critical_point():
     # curvature spike, its minimum was never found and the spike was passed at the cap's feed
     # (axis acceleration 2.36x its limit)
     curve = load_shape("butterfly").curve
-    plain = schedule(curve, LIM)
+    plain = schedule(curve, LIM, planner="window", transition="cosine")
     spike = plain.critical_s_mm[np.argmin(np.interp(plain.critical_s_mm, plain.s_mm, plain.feed_mm_s))]
     level = 1.5 * float(np.interp(spike, plain.s_mm, plain.feed_mm_s))
     cap = (np.array([0.0, curve.length]), np.array([level, level]))
-    traj = schedule(curve, LIM, feed_cap=cap)
+    traj = schedule(curve, LIM, feed_cap=cap, planner="window", transition="cosine")
     m = measure(traj)
     assert m["axis_acc"] <= 1.005 and m["feed"] <= 1.005, m
     assert np.min(np.abs(traj.critical_s_mm - spike)) < 0.01

@@ -82,7 +82,7 @@ def test_true_corner_after_a_fine_arc_is_a_stop():
                                     10.0 * np.sin(np.linspace(0, np.pi / 2, 800))]), 3)
     leg = np.column_stack([np.linspace(0.0, 30.0, 7)[1:], np.full(6, 10.0)])  # 90° turn at (0, 10)
     pts = np.vstack([arc, leg])
-    traj = schedule(polyline(pts), MachineLimits())
+    traj = schedule(polyline(pts), MachineLimits(), planner="window", transition="cosine")
     fit = traj.polyline_fit
     assert fit.corners == 1 and fit.fitted == 2  # the arc and the straight leg
     m = measure(traj)
@@ -95,8 +95,8 @@ def test_true_corner_after_a_fine_arc_is_a_stop():
 def test_blending_makes_a_rounded_finishing_pass_fast_and_keeps_every_limit():
     curve = polyline(rounded_arc(radius=30.0, sweep_deg=350.0, chord=0.02))
     lim = MachineLimits()
-    blended = schedule(curve, lim)
-    vertices = schedule(curve, lim, blend=False)
+    blended = schedule(curve, lim, planner="window", transition="cosine")
+    vertices = schedule(curve, lim, blend=False, planner="window", transition="cosine")
     for traj in (blended, vertices):
         m = measure(traj)
         assert max(m[k] for k in RATIOS) <= 1.005
@@ -107,7 +107,7 @@ def test_blending_makes_a_rounded_finishing_pass_fast_and_keeps_every_limit():
 
 
 def test_path_tolerance_is_passed_through():
-    traj = schedule(polyline(rounded_arc(chord=0.1)), MachineLimits(), path_tolerance_mm=0.05)
+    traj = schedule(polyline(rounded_arc(chord=0.1)), MachineLimits(), path_tolerance_mm=0.05, planner="window", transition="cosine")
     assert traj.polyline_fit.path_tolerance_mm == 0.05
     assert traj.polyline_fit.max_deviation_mm <= 0.05
 

@@ -80,7 +80,7 @@ def test_a_trajectory_simulates_the_same_with_its_own_positions():
     from fuzzyfeed.slw import schedule
 
     curve = circle_nurbs(10.0)
-    traj = schedule(curve, MachineLimits())
+    traj = schedule(curve, MachineLimits(), planner="window", transition="cosine")
     shared = traj.simulate()
     own = simulate(traj.curve, traj.time_law(), traj.limits, "slw", u=traj.u)
     a, b = shared.metrics.row(), own.metrics.row()

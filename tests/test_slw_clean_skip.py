@@ -55,10 +55,10 @@ def _watch(monkeypatch) -> list[int]:
 
 def _schedules_agree(monkeypatch, curve, lim, transition):
     stale = _watch(monkeypatch)
-    fast = schedule(curve, lim, transition=transition)
+    fast = schedule(curve, lim, transition=transition, planner="window")
     assert stale == []
     monkeypatch.setattr(window_check, "FAST_SKIP", False)
-    slow = schedule(curve, lim, transition=transition)
+    slow = schedule(curve, lim, transition=transition, planner="window")
     for name in TICK_ARRAYS:
         assert np.array_equal(getattr(fast, name), getattr(slow, name)), name
     assert fast.blocks == slow.blocks and fast.stats == slow.stats
@@ -83,7 +83,7 @@ def test_a_missed_feed_change_is_caught(monkeypatch):
     monkeypatch.setattr(SlidingWindow, "_set_feeds", unflagged)
     stale = _watch(monkeypatch)
     curve, lim = slw_cases.random_nurbs(1)  # 120 stale clean blocks so
-    schedule(curve, lim, transition="cosine")
+    schedule(curve, lim, transition="cosine", planner="window")
     assert stale
 
 

@@ -74,7 +74,7 @@ def test_floor_stays_below_the_schedule(seed):
     """Every schedule keeps its limits, so none may beat the floor (it would not be one)."""
     curve = slw_cases.corner_polyline(np.random.default_rng(seed))
     for lim in (MachineLimits(), MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))):
-        traj = schedule(curve, lim, transition="seven-phase")
+        traj = schedule(curve, lim, transition="seven-phase", planner="window")
         chain = fl.corner_chain_s(traj.curve, lim)
         assert 0.0 < chain <= traj.cycle_time_s
         assert fl.jerk_floor(traj.curve, lim) <= traj.cycle_time_s
@@ -189,7 +189,7 @@ def test_bound_gap_times_sum_to_the_bound_and_raise_the_chain():
 
     curve = slw_cases.corner_polyline(np.random.default_rng(5))
     lim = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
-    traj = schedule(curve, lim)
+    traj = schedule(curve, lim, planner="window", transition="cosine")
     bound = path_bound(traj.curve, lim, halve=False)
     s_p, _ = fl.chain_points(traj.curve, lim)
     s = np.unique(np.concatenate([[0.0], s_p, [traj.curve.length]]))
@@ -273,7 +273,7 @@ def test_floor_below_seven_phase_polylines(name):
 
     curve = getattr(slw_cases, name)()
     for lim in (MachineLimits(), MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))):
-        traj = schedule(curve, lim, transition="seven-phase")
+        traj = schedule(curve, lim, transition="seven-phase", planner="window")
         m = measure(traj)
         assert max(m[key] for key in ("feed", "axis_vel", "axis_acc", "chord", "jerk")) <= 1 + 5e-5
         assert fl.jerk_floor(traj.curve, lim) <= traj.cycle_time_s

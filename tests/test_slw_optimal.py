@@ -209,18 +209,24 @@ def test_schedule_optimal_is_never_slower_than_the_window(name):
     curve = load_shape(name).curve
     for limits in (MachineLimits(), SLOW_Y):
         best = schedule(curve, limits, planner="optimal", transition="seven-phase")
-        window = schedule(curve, limits, transition="seven-phase")
+        window = schedule(curve, limits, transition="seven-phase", planner="window")
         assert best.cycle_time_s <= window.cycle_time_s
         _assert_within_limits(best.curve, limits, best.t_s, best.s_mm, best.u, best.xyz, best.jerk_mm_s3)
     assert best.n_blocks == 0  # slow-y: the LP's (trident2 1.0293 against the window's 1.0903 x the floor)
 
 
-def test_schedule_planner_is_checked_and_the_window_stays_the_default():
+def test_schedule_planner_is_checked_and_the_lp_is_the_default():
+    """The default is the faster of the LP and the seven-phase window; seed 000's scheduler is an
+    option (planner="window", transition="cosine")."""
     from fuzzyfeed.errors import InputError
     from fuzzyfeed.slw import schedule
 
     curve = load_shape("trident2").curve
     with pytest.raises(InputError, match="planner"):
         schedule(curve, SLOW_Y, planner="lp")
-    a, b = schedule(curve, SLOW_Y), schedule(curve, SLOW_Y, planner="window")
-    assert np.array_equal(a.s_mm, b.s_mm) and a.n_blocks > 0
+    default = schedule(curve, SLOW_Y)
+    explicit = schedule(curve, SLOW_Y, planner="optimal", transition="seven-phase")
+    assert np.array_equal(default.t_s, explicit.t_s) and np.array_equal(default.s_mm, explicit.s_mm)
+    assert default.n_blocks == 0  # the LP's schedule (trident2 slow-Y: 1.0293 x the floor)
+    paper = schedule(curve, SLOW_Y, planner="window", transition="cosine")
+    assert paper.n_blocks > 0 and paper.cycle_time_s > default.cycle_time_s

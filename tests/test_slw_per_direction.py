@@ -48,7 +48,7 @@ def test_straight_line_runs_at_its_own_axis_acceleration(axis, transition):
     250 mm/s² on the X line would take 0.41 s longer with the cosine)."""
     end = [0.0, 0.0]
     end[axis] = 80.0
-    traj = schedule(slw_cases.polyline([[0.0, 0.0], end]), SLOW_Y, transition=transition)
+    traj = schedule(slw_cases.polyline([[0.0, 0.0], end]), SLOW_Y, transition=transition, planner="window")
     feed, acc = SLOW_Y.axis_vel_mm_s[axis], SLOW_Y.axis_acc_mm_s2[axis]
     want = rest_to_rest(80.0, feed, acc, SLOW_Y.jerk_mm_s3, transition)
     assert abs(traj.cycle_time_s - want) <= 2 * SLOW_Y.ts_s, (traj.cycle_time_s, want)
@@ -83,7 +83,7 @@ def test_block_rises_and_falls_each_under_their_own_acceleration():
 
 
 def assert_keeps_limits_on_slow_y(curve, transition):
-    assert_keeps_limits(schedule(curve, SLOW_Y, transition=transition))
+    assert_keeps_limits(schedule(curve, SLOW_Y, transition=transition, planner="window"))
 
 
 @settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])

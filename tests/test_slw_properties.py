@@ -57,15 +57,17 @@ def assert_keeps_limits(traj):
 
 
 def assert_within_limits_and_floor(curve, lim):
-    traj = schedule(curve, lim, transition="seven-phase")  # the faster one, where the breaks were
-    assert_keeps_limits(traj)
-    bound = path_bound(traj.curve, lim)
-    floor = jerk_floor(traj.curve, lim, bound.time_s)
-    # the bound is exact to its grid's change when halved (0.35 % on a polyline of 28 corners)
-    assert bound.time_s * (1 - bound.grid_change - 1e-3) <= traj.cycle_time_s
-    assert traj.cycle_time_s <= FLOOR_MULTIPLE * floor, traj.cycle_time_s / floor
-    # the floor's corner chain is a proven bound (no grid error): no schedule beats it
-    assert corner_chain_s(traj.curve, lim) <= traj.cycle_time_s
+    # the default (the faster of the LP and the window) and the seven-phase window alone (the
+    # faster window, where the breaks were)
+    for traj in (schedule(curve, lim), schedule(curve, lim, transition="seven-phase", planner="window")):
+        assert_keeps_limits(traj)
+        bound = path_bound(traj.curve, lim)
+        floor = jerk_floor(traj.curve, lim, bound.time_s)
+        # the bound is exact to its grid's change when halved (0.35 % on a polyline of 28 corners)
+        assert bound.time_s * (1 - bound.grid_change - 1e-3) <= traj.cycle_time_s
+        assert traj.cycle_time_s <= FLOOR_MULTIPLE * floor, traj.cycle_time_s / floor
+        # the floor's corner chain is a proven bound (no grid error): no schedule beats it
+        assert corner_chain_s(traj.curve, lim) <= traj.cycle_time_s
 
 
 @SETTINGS

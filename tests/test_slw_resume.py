@@ -61,7 +61,7 @@ def test_a_resumed_repair_is_the_whole_pass(monkeypatch, name, transition):
         for flag in (True, False):
             monkeypatch.setattr(trajectory, "RESUME", flag)
             _with_breaches(monkeypatch, (1 / 3, 2 / 3))
-            got[flag] = schedule(curve, limits, transition=transition)
+            got[flag] = schedule(curve, limits, transition=transition, planner="window")
         a, b = got[True], got[False]
         for f in FIELDS:
             x, y = getattr(a, f), getattr(b, f)
@@ -117,7 +117,7 @@ def test_repaired_schedules_as_recorded_on_main(monkeypatch, row):
     else:
         curve, limits = _curve(name), (MachineLimits() if machine == "equal" else SLOW_Y)
     _with_breaches(monkeypatch, at)
-    tr = schedule(curve, limits, transition=transition)
+    tr = schedule(curve, limits, transition=transition, planner="window")
     assert tr.u.size == ticks
     w = np.linspace(1.0, 2.0, ticks)
     got = [float(tr.u @ w), *(float(tr.xyz[:, i] @ w) for i in range(3)), *map(float, tr.xyz[ticks // 3]),

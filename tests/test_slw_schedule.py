@@ -36,7 +36,7 @@ def assert_feasible(traj) -> dict:
 
 @pytest.fixture(scope="module")
 def trajectories():
-    return {name: schedule(load_shape(name).curve) for name in shape_names()}
+    return {name: schedule(load_shape(name).curve, planner="window", transition="cosine") for name in shape_names()}
 
 
 @pytest.mark.parametrize("name", shape_names())
@@ -46,14 +46,14 @@ def test_shipped_shapes_are_feasible(trajectories, name):
 
 @pytest.mark.parametrize("name", shape_names())
 def test_seven_phase_transitions_are_feasible_and_not_slower_than_cosine(trajectories, name):
-    seven = schedule(load_shape(name).curve, transition="seven-phase")
+    seven = schedule(load_shape(name).curve, transition="seven-phase", planner="window")
     assert_feasible(seven)
     assert seven.cycle_time_s <= trajectories[name].cycle_time_s + 1e-9
 
 
 @pytest.mark.parametrize("name", shape_names())
 def test_approach_1_is_feasible_and_the_default_not_slower(trajectories, name):
-    traj = schedule(load_shape(name).curve, approach=1)  # seed 000's own choice, kept as an option
+    traj = schedule(load_shape(name).curve, approach=1, planner="window", transition="cosine")  # seed 000's own choice, kept as an option
     assert_feasible(traj)
     assert trajectories[name].cycle_time_s <= traj.cycle_time_s + 1e-9
 
@@ -63,7 +63,7 @@ def test_approach_1_keeps_seed_000_figures_on_wm():
     # follows the schedule (fluctuation with parameter compensation ≤ 0.001 %)
     from fuzzyfeed.geometry.interpolate import feed_fluctuation
 
-    traj = schedule(load_shape("wm").curve, approach=1, transition="cosine")  # the paper's scheduler
+    traj = schedule(load_shape("wm").curve, approach=1, transition="cosine", planner="window")  # the paper's scheduler
     assert traj.n_critical >= 4 and traj.n_blocks == traj.n_critical + 1
     assert all(seg.jerk_mm_s3 is None for b in traj.blocks for seg in b.segments)  # cosine transitions
     fluct = feed_fluctuation(traj.curve, traj.u, traj.s_mm)
@@ -156,7 +156,7 @@ def longer_than_a_stop(curve, lim) -> bool:
 @given(st.integers(0, 2**32 - 1))
 def test_random_nurbs_exceed_no_limit_and_stay_near_the_bound(seed):
     curve, lim = slw_cases.random_nurbs(seed)
-    traj = schedule(curve, lim)
+    traj = schedule(curve, lim, planner="window", transition="cosine")
     assert_feasible(traj)
     bound = path_bound(curve, lim, halve=False)
     assert bound.time_s <= traj.cycle_time_s * (1 + 1e-3)
@@ -167,7 +167,7 @@ def test_random_nurbs_exceed_no_limit_and_stay_near_the_bound(seed):
 @pytest.mark.parametrize("name", [c[0] for c in slw_cases.polyline_cases()])
 def test_polylines_with_true_corners_exceed_no_limit(name):
     _, curve, lim = next(c for c in slw_cases.polyline_cases() if c[0] == name)
-    traj = schedule(curve, lim)
+    traj = schedule(curve, lim, planner="window", transition="cosine")
     assert_feasible(traj)
     # the path followed: the polyline blended within P between its true corners
     fit = traj.polyline_fit
@@ -179,7 +179,7 @@ def test_polylines_with_true_corners_exceed_no_limit(name):
 def test_slow_axis_machine_schedules_infinity():
     # the issue's report: a slower y axis failed after 52 s
     lim = MachineLimits(axis_vel_mm_s=(100, 50, 100))
-    traj = schedule(load_shape("infinity").curve, lim)
+    traj = schedule(load_shape("infinity").curve, lim, planner="window", transition="cosine")
     assert_feasible(traj)
     assert traj.cycle_time_s <= 1.2 * path_bound(traj.curve, lim, halve=False).time_s
 
@@ -188,11 +188,11 @@ def test_feed_cap_is_held_with_every_limit():
     curve = load_shape("butterfly").curve
     smp = sample_uniform_u(curve, 2000)
     cap = 20.0 + 60.0 * (0.5 + 0.5 * np.sin(smp.s / 7.0))  # mm/s, a wavy advice
-    traj = schedule(curve, MachineLimits(), feed_cap=(smp.s, cap))
+    traj = schedule(curve, MachineLimits(), feed_cap=(smp.s, cap), planner="window", transition="cosine")
     assert_feasible(traj)
     assert np.all(traj.feed_mm_s <= np.interp(traj.s_mm, smp.s, cap) * (1 + 1e-6) + 1e-9)
     with pytest.raises(InputError, match="feed_cap"):
-        schedule(curve, MachineLimits(), feed_cap=(smp.s, -cap))
+        schedule(curve, MachineLimits(), feed_cap=(smp.s, -cap), planner="window", transition="cosine")
 
 
 def test_bound_agrees_with_toppra_on_unequal_axes():
@@ -251,7 +251,7 @@ def test_zero_or_negative_limits_are_refused(field, value):
 def test_straight_line_is_one_block_at_the_command_feed(transition, t_ramp):
     line = Nurbs(1, [0, 0, 1, 1], [[0, 0, 0], [60, 80, 0]])
     lim = MachineLimits(feed_mm_s=100, axis_vel_mm_s=1000, axis_acc_mm_s2=1000, jerk_mm_s3=10_000)
-    traj = schedule(line, lim, transition=transition)
+    traj = schedule(line, lim, transition=transition, planner="window")
     assert_feasible(traj)
     assert traj.n_blocks == 1 and traj.n_critical == 0
     expected = 100 / 100 + t_ramp  # cruise + two half ramps
@@ -260,7 +260,7 @@ def test_straight_line_is_one_block_at_the_command_feed(transition, t_ramp):
 
 def test_path_shorter_than_one_servo_step():
     tiny = Nurbs(1, [0, 0, 1, 1], [[0, 0], [1e-5, 0]])  # 10 nm, well under F*Ts = 0.1 mm
-    traj = schedule(tiny, MachineLimits())
+    traj = schedule(tiny, MachineLimits(), planner="window", transition="cosine")
     assert traj.t_s.size >= 2
     assert_feasible(traj)
 
@@ -269,7 +269,7 @@ def test_zero_length_span_and_corner_stop():
     # the middle control points coincide: a corner of a degree-1 path and a zero-length span
     pts = [[0, 0], [20, 0], [20, 0], [20, 20]]
     curve = Nurbs(1, [0, 0, 0.3, 0.6, 1, 1], pts)
-    traj = schedule(curve, MachineLimits())
+    traj = schedule(curve, MachineLimits(), planner="window", transition="cosine")
     assert_feasible(traj)
     corner = np.argmin(np.abs(traj.s_mm - 20.0))
     assert traj.feed_mm_s[corner] < 1.0  # (nearly) stops at the 90° corner
@@ -277,7 +277,7 @@ def test_zero_length_span_and_corner_stop():
 
 def test_schedule_rejects_wrong_limits_type():
     with pytest.raises(InputError, match="MachineLimits"):
-        schedule(load_shape("wm").curve, {"feed_mm_s": 1})
+        schedule(load_shape("wm").curve, {"feed_mm_s": 1}, planner="window", transition="cosine")
 
 
 def test_cached_results_do_not_keep_a_curve_alive():
@@ -288,7 +288,7 @@ def test_cached_results_do_not_keep_a_curve_alive():
 
     def run():
         line = Nurbs(1, [0, 0, 0.5, 1, 1], [[0, 0], [30, 0], [30, 20]])
-        traj = schedule(line, MachineLimits())
+        traj = schedule(line, MachineLimits(), planner="window", transition="cosine")
         traj.simulate()
         assert traj.polyline_fit.source is line
         return weakref.ref(line), weakref.ref(traj.curve)
@@ -317,7 +317,7 @@ def test_joins_closer_than_a_servo_step_hold_the_axis_acceleration(segment_mm):
 
     shape = polyline_shape(_flattened_arcs(6.0, segment_mm), name="slot")
     limits = MachineLimits()
-    traj = schedule(shape.curve, limits, blend=False)
+    traj = schedule(shape.curve, limits, blend=False, planner="window", transition="cosine")
     metrics = traj.simulate("slw").metrics
     for axis in "xyz":
         count, worst = metrics.violations[f"axis_acc_{axis}"]
@@ -339,8 +339,8 @@ def test_two_joins_closer_than_a_stair_are_one_corner():
     sharp = polyline_shape(np.array([[0, 0], [40, 0], [40, 30], [0, 30]], float), name="sharp")
     split = polyline_shape(np.array([[0, 0], [40, 0], [40.0, 0.001], [40, 30], [0, 30]], float),
                            name="split")
-    t_sharp = schedule(sharp.curve, limits, blend=False).cycle_time_s
-    traj = schedule(split.curve, limits, blend=False)
+    t_sharp = schedule(sharp.curve, limits, blend=False, planner="window", transition="cosine").cycle_time_s
+    traj = schedule(split.curve, limits, blend=False, planner="window", transition="cosine")
     assert traj.cycle_time_s < 1.02 * t_sharp, (traj.cycle_time_s, t_sharp)
     metrics = traj.simulate("slw").metrics
     for axis in "xy":
@@ -388,10 +388,10 @@ def test_a_corner_inside_a_merged_block_is_held():
 
     # the case needs the cosine's longer transitions: the seven-phase ramps reach the caps
     # without merging those blocks (run below too)
-    traj = schedule(polyline(pts), MachineLimits(), blend=False, transition="cosine")
+    traj = schedule(polyline(pts), MachineLimits(), blend=False, transition="cosine", planner="window")
     assert traj.stats.merged >= 1  # the case: a corner's junction merged into a block
     assert_feasible(traj)
-    assert_feasible(schedule(polyline(pts), MachineLimits(), blend=False, transition="seven-phase"))
+    assert_feasible(schedule(polyline(pts), MachineLimits(), blend=False, transition="seven-phase", planner="window"))
 
 
 # ---------------------------------------------------------------------- issue 27: the last limit breaks
@@ -408,7 +408,7 @@ def test_a_near_cusp_keeps_the_jerk_along_the_path():
     knot at 0.42 mm/s): the chord across the turn was 10 % shorter than the step, and the jerk of
     the distance travelled along the chords 9.3 × J. The interpolation now makes every chord of a
     smooth stretch μ × its step, the near-cusp's too."""
-    traj = schedule(slw_cases.cusp_cubic(), MachineLimits())
+    traj = schedule(slw_cases.cusp_cubic(), MachineLimits(), planner="window", transition="cosine")
     assert_feasible(traj)
     jerk = chord_jerk(traj)
     k = int(np.argmax(jerk))
@@ -421,7 +421,7 @@ def test_a_slow_y_axis_is_held_between_two_reference_points():
     T and κN interpolated between reference points 0.1 mm apart, passed 100.36 % of A_y at a
     short block's peak; samples within 1 % of a limit are now read at the path itself."""
     lim = MachineLimits(axis_vel_mm_s=(100, 30, 100), axis_acc_mm_s2=(1000, 100, 1000))
-    m = assert_feasible(schedule(load_shape("wm").curve, lim, transition="seven-phase"))
+    m = assert_feasible(schedule(load_shape("wm").curve, lim, transition="seven-phase", planner="window"))
     assert m["axis_acc"] <= 1 + 5e-5
 
 
@@ -429,7 +429,7 @@ def test_a_slow_y_axis_is_held_between_two_reference_points():
 def test_every_tick_of_the_shipped_shapes_on_a_slow_y_axis_is_within_the_limits(transition):
     lim = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
     for name in ("trident2", "wm"):
-        m = measure(schedule(load_shape(name).curve, lim, transition=transition))
+        m = measure(schedule(load_shape(name).curve, lim, transition=transition, planner="window"))
         assert max(m[k] for k in ("feed", "axis_vel", "axis_acc", "jerk")) <= 1 + 5e-5, (name, m)
 
 
@@ -443,12 +443,12 @@ def test_a_breach_left_after_the_repairs_is_one_line_naming_limit_axis_place_and
 
     rng = np.random.default_rng(27)
     curve, lim = slw_cases.general_nurbs(rng), slw_cases.ratio_machine(rng)
-    m = assert_feasible(schedule(curve, lim, transition="seven-phase", approach=1))
+    m = assert_feasible(schedule(curve, lim, transition="seven-phase", approach=1, planner="window"))
     assert m["axis_acc"] <= 1 + 5e-5
     monkeypatch.setattr(trajectory, "TICK_REPAIRS", 0)
     with pytest.raises(InputError, match=r"^acceleration y at s = [0-9.]+ mm: 1\.00[0-9]{2} x its limit of "
                                          r"280\.104 mm/s\^2; the schedule breaks a machine limit"):
-        schedule(curve, lim, transition="seven-phase", approach=1)
+        schedule(curve, lim, transition="seven-phase", approach=1, planner="window")
 
 
 def test_a_kink_under_full_tangential_acceleration_and_a_corner_within_a_tick_hold_the_axis():
@@ -457,7 +457,7 @@ def test_a_kink_under_full_tangential_acceleration_and_a_corner_within_a_tick_ho
     and a corner capped at 0.156 mm/s that the chords either side crossed at 0.2 (107 %)."""
     rng = np.random.default_rng(4)
     curve, lim = slw_cases.corner_polyline(rng), slw_cases.ratio_machine(rng)
-    m = assert_feasible(schedule(curve, lim, transition="seven-phase"))
+    m = assert_feasible(schedule(curve, lim, transition="seven-phase", planner="window"))
     assert m["axis_acc"] <= 1 + 5e-5
 
 
@@ -481,7 +481,7 @@ def test_a_span_shorter_than_the_join_offset_keeps_its_turns(monkeypatch):
     np.testing.assert_allclose(jump, np.abs(up - diag)[None, :].repeat(2, axis=0), atol=1e-9)
     monkeypatch.setattr(trajectory, "TICK_REPAIRS", 0)
     slow_y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
-    tr = schedule(curve, slow_y, blend=False)
+    tr = schedule(curve, slow_y, blend=False, planner="window", transition="cosine")
     ratios = tick_ratios(tr.xyz, tr.jerk_mm_s3, slow_y)
     assert max(np.nanmax(r) for k, r in ratios.items() if k != "path jerk") <= 1 + 5e-5
 
@@ -501,5 +501,5 @@ def test_pycut_backlash_cut_holds_every_tick_without_a_repair(monkeypatch):
     shape = load_shapes(path)[0]
     limits, cap, _ = program_feed_limits(shape, MachineLimits())
     monkeypatch.setattr(trajectory, "TICK_REPAIRS", 0)
-    tr = schedule(shape.curve, limits, feed_cap=cap)
+    tr = schedule(shape.curve, limits, feed_cap=cap, planner="window", transition="cosine")
     assert tr.cycle_time_s > tr.curve.length / limits.feed_mm_s

@@ -28,7 +28,7 @@ SLOW_Y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 
 @pytest.fixture(scope="module")
 def trident2():
     curve = load_shape("trident2").curve
-    traj = schedule(curve, SLOW_Y, transition="seven-phase")
+    traj = schedule(curve, SLOW_Y, transition="seven-phase", planner="window")
     at = {round(s, 9) for s, kind, _ in junction_kinds(traj, np.empty(0), 0.0) if kind == "valley"}
     pairs = [(a, b) for a, b in zip(traj.blocks[:-1], traj.blocks[1:]) if round(a.s1, 9) in at]
     assert pairs, "trident2 on a slow Y axis has valley junctions (bench_slw: 8)"
@@ -78,7 +78,7 @@ def test_ticks_are_interpolated_with_the_whole_path():
     import slw_cases
 
     curve, _ = slw_cases.random_nurbs(38)
-    traj = schedule(curve, EQUAL, transition="seven-phase")
+    traj = schedule(curve, EQUAL, transition="seven-phase", planner="window")
     at = {round(s, 9) for s, kind, _ in junction_kinds(traj, np.empty(0), 0.0) if kind == "valley"}
     pairs = [(a, b) for a, b in zip(traj.blocks[:-1], traj.blocks[1:]) if round(a.s1, 9) in at]
     assert len(pairs) >= 3

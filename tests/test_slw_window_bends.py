@@ -37,7 +37,7 @@ def test_a_fall_passes_a_bend_faster_than_a_zero_acceleration_allows():
     # nurbs88 on the slow-Y machine: the acceleration-limited bound passes the bend at s ≈ 24 mm
     # at ~53 mm/s braking against Y's centripetal part, where a zero acceleration allows 38 mm/s;
     # the window held every sample below 38 (main: at most 0.993 of it)
-    traj = schedule(slw_cases.random_nurbs(88)[0], SLOW_Y, transition="seven-phase")
+    traj = schedule(slw_cases.random_nurbs(88)[0], SLOW_Y, transition="seven-phase", planner="window")
     cen = feed_limit_components(samples_at(traj.curve, traj.u, s=traj.s_mm), SLOW_Y)[3]
     assert (traj.feed_mm_s / np.maximum(cen, 1e-9)).max() > 1.02
     assert_keeps_limits(traj)
@@ -47,11 +47,11 @@ def test_a_fall_passes_a_bend_faster_than_a_zero_acceleration_allows():
 def test_the_first_junction_is_one_a_rise_from_rest_reaches(transition):
     # main: the path's first critical point (0.59 mm, limit 48.7 mm/s) was a junction at zero
     # acceleration reached at 14-15 mm/s (0.29-0.31 of its limit), the start's rise cut there
-    traj = schedule(slw_cases.random_nurbs(88)[0], SLOW_Y, transition=transition)
+    traj = schedule(slw_cases.random_nurbs(88)[0], SLOW_Y, transition=transition, planner="window")
     assert junction_share(traj, SLOW_Y)[0] >= 0.5
     assert_keeps_limits(traj)
     # the paper's window (approach 1) keeps that junction
-    paper = schedule(slw_cases.random_nurbs(88)[0], SLOW_Y, transition=transition, approach=1)
+    paper = schedule(slw_cases.random_nurbs(88)[0], SLOW_Y, transition=transition, approach=1, planner="window")
     assert paper.blocks[0].s1 < 1.0 and junction_share(paper, SLOW_Y)[0] < 0.5
 
 
@@ -62,7 +62,7 @@ def test_every_junction_is_at_least_half_its_limit(seed, transition):
     # 0.29-0.31); now ≥ 0.66. (nurbs25 seven-phase keeps main's 0.35: its crossing's lowest limit
     # is at the crossing's end, where the junction is not moved — a chain of splits towards a
     # block's end, nurbs98 slow-Y)
-    traj = schedule(slw_cases.random_nurbs(seed)[0], SLOW_Y, transition=transition)
+    traj = schedule(slw_cases.random_nurbs(seed)[0], SLOW_Y, transition=transition, planner="window")
     assert junction_share(traj, SLOW_Y).min() >= 0.5
     assert_keeps_limits(traj)
 
@@ -73,7 +73,7 @@ def test_every_junction_is_at_least_half_its_limit(seed, transition):
 def test_random_curves_keep_every_limit_with_the_lifted_feed_limit(seed, transition, machine):
     limits = EQUAL if machine == "equal" else SLOW_Y
     curve = slw_cases.general_nurbs(np.random.default_rng(seed))
-    assert_keeps_limits(schedule(curve, limits, transition=transition))
+    assert_keeps_limits(schedule(curve, limits, transition=transition, planner="window"))
 
 
 def test_a_limit_falling_a_little_under_a_blocks_top_adds_no_junctions():
@@ -83,7 +83,7 @@ def test_a_limit_falling_a_little_under_a_blocks_top_adds_no_junctions():
     lowering the block's top to the limit instead leaves 3 there (before it took over), and every
     limit."""
     curve = slw_cases.random_nurbs(5)[0]
-    traj = schedule(curve, SLOW_Y, transition="seven-phase")
+    traj = schedule(curve, SLOW_Y, transition="seven-phase", planner="window")
     assert_keeps_limits(traj)
     inside = traj.critical_s_mm[(traj.critical_s_mm > 87.0) & (traj.critical_s_mm < 98.4)]
     assert inside.size <= 3, inside
@@ -115,7 +115,7 @@ def test_a_fall_keeps_the_acceleration_its_stretch_allows():
     """nurbs41 slow-Y seven-phase: a 27 mm block whose 17 mm fall (97.5 -> 13.7 mm/s) ran at
     287 mm/s² for one point near its end, where the rest of the fall allows up to 742 (main:
     1.992 s); a junction at that point lets the fall before it keep ≥ 400 mm/s²."""
-    traj = schedule(slw_cases.random_nurbs(41)[0], SLOW_Y, transition="seven-phase")
+    traj = schedule(slw_cases.random_nurbs(41)[0], SLOW_Y, transition="seven-phase", planner="window")
     falls = [(b.s1 - b.s0, b.acc_down_mm_s2) for b in traj.blocks
              if b.s0 < 50.0 < b.s1 and b.v_start > b.v_end]
     assert falls and falls[0][1] >= 400.0, falls

@@ -17,14 +17,15 @@ def add_limit_arguments(parser: argparse.ArgumentParser) -> None:
     add_machine_arguments(parser)
 
 
-def add_approach_argument(parser: argparse.ArgumentParser) -> None:
+def add_approach_argument(parser: argparse.ArgumentParser, transition: str = "cosine") -> None:
     """``--approach`` (the SLW scheduler's short-block profile) and ``--transition`` (the shape of
-    its feed changes), the same on schedule and compare."""
+    its feed changes, default ``transition``: schedule's is seven-phase, compare's seed 000's
+    cosine), the same on schedule and compare."""
     parser.add_argument("--approach", type=int, choices=(1, 2), default=2,
                         help="SLW short blocks (seed 000 Table 1, types 2-3): 2 rises to a peak "
                              "between the two transitions (faster); 1 cruises at the higher end feed "
                              "(the paper's choice, smoother) (default: %(default)s)")
-    parser.add_argument("--transition", choices=("cosine", "seven-phase"), default="cosine",
+    parser.add_argument("--transition", choices=("cosine", "seven-phase"), default=transition,
                         help="SLW feed changes: cosine (seed 000's; with --approach 1 the paper's "
                              "scheduler) or seven-phase (trapezoidal acceleration, jerk J all through "
                              "its ramps; faster on most paths) (default: %(default)s)")

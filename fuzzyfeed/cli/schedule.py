@@ -19,8 +19,10 @@ def register(sub) -> None:
     p = sub.add_parser(
         "schedule", help=COMMANDS["schedule"],
         description="Preprocess SHAPE (feed limits, critical points, blocks), schedule the "
-                    "jerk-limited feed (seven-phase or seed 000's cosine transitions) with the "
-                    "sliding look-ahead window, interpolate at the servo period and write one CSV row per period: t_s, u, x_mm, y_mm, z_mm, s_mm, "
+                    "jerk-limited feed (by default the faster of a whole-path time-optimal LP and the "
+                    "sliding look-ahead window; --planner window --transition cosine --approach 1 is "
+                    "seed 000's scheduler), interpolate at the servo period and write one CSV row per "
+                    "period: t_s, u, x_mm, y_mm, z_mm, s_mm, "
                     "feed_mm_s, feed_mm_min, acc_mm_s2, jerk_mm_s3. Prints the cycle time, the "
                     "critical points and blocks, the worst chord error, accelerations and jerk "
                     "(measured from the positions) and the ratio to the acceleration-limited "
@@ -29,12 +31,13 @@ def register(sub) -> None:
     add_shape_argument(p)
     p.add_argument("-o", "--output", required=True, metavar="TRAJ.csv", help="CSV file to write (atomically)")
     add_limit_arguments(p)
-    add_approach_argument(p)
-    p.add_argument("--planner", choices=("window", "optimal"), default="window",
-                   help="window: the sliding look-ahead window (seed 000); optimal: also a jerk-limited "
-                        "time-optimal feed over the whole path (a sequence of linear programs), the "
-                        "faster of the two kept, both checked tick by tick; slower to compute, and long "
-                        "paths (over 20 000 grid points) keep the window (default: %(default)s)")
+    add_approach_argument(p, transition="seven-phase")
+    p.add_argument("--planner", choices=("optimal", "window"), default="optimal",
+                   help="optimal: the jerk-limited time-optimal feed over the whole path (linear "
+                        "programs in bounded pieces) and the sliding look-ahead window, both checked "
+                        "tick by tick, the faster kept; paths over the LP's work budget (over 40 000 "
+                        "grid points, at most ~10 m) keep the window. window: the window alone "
+                        "(seed 000), faster to compute (default: %(default)s)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed, acceleration and jerk against time (and the feed against "
                         "arc length with the limit and the bound)")
@@ -70,7 +73,8 @@ def summary(shape_name: str, traj, m: dict, bound, feed_note: str | None = None)
         f"bound grid        {bound.s_mm.size} points, time changes {100 * bound.grid_change:.3f} % "
         "when the grid is halved",
         f"critical points   {traj.n_critical}   "
-        + (f"blocks {traj.n_blocks}" if traj.n_blocks else "whole-path LP (--planner optimal; faster than the window)"),
+        + (f"blocks {traj.n_blocks} (look-ahead window)" if traj.n_blocks
+           else "whole-path LP (faster than the look-ahead window)"),
         f"max feed          {m['feed'] * lim.feed_mm_min:.1f} mm/min ({100 * m['feed']:.2f} % of command)",
         f"max chord error   {1000 * m['chord'] * lim.chord_tol_mm:.4f} um ({100 * m['chord']:.2f} % of limit)",
         f"max axis velocity {100 * m['axis_vel']:.2f} % of limit",

@@ -81,7 +81,7 @@ def pareto_points(samples: PathSamples, limits: MachineLimits, feeds_mm_min, tol
         acc = tuple(min(a, 2.0 * kv * kv * tol * 1e-3) for a in limits.axis_acc_mm_s2)
         machine = replace(limits, axis_acc_mm_s2=acc)
         try:
-            traj = schedule(samples.curve, machine)
+            traj = schedule(samples.curve, machine, planner="window", transition="cosine")
         except InputError:  # the scheduler refuses some low-acceleration paths: leave the point out
             continue
         m = traj.simulate(servo=servo).metrics

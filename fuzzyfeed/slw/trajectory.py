@@ -26,7 +26,7 @@ from fuzzyfeed.slw.lookahead import KINK_MIN, LookaheadStats, ScheduledBlock, Sl
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
 from fuzzyfeed.slw.check import breach_error, checked_positions
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, joins, machine_cap
-from fuzzyfeed.slw.profile import COSINE, TRANSITIONS, segment_table, segments_state
+from fuzzyfeed.slw.profile import SEVEN_PHASE, TRANSITIONS, segment_table, segments_state
 from fuzzyfeed.slw.resume import Recorder, resume
 
 
@@ -224,17 +224,27 @@ def check_work(total_mm: float, limits: MachineLimits) -> None:
 def schedule(curve: Nurbs, limits: MachineLimits | None = None,
              progress: Callable[[float], None] | None = None, approach: int = 2,
              feed_cap=None, blend: bool = True, path_tolerance_mm: float | None = None,
-             transition: str = COSINE, planner: str = "window") -> Trajectory:
-    """Schedule ``curve`` under ``limits`` with the SLW method of seed 000 → :class:`Trajectory`.
+             transition: str = SEVEN_PHASE, planner: str = "optimal") -> Trajectory:
+    """Schedule ``curve`` under ``limits``, jerk-limited, within every machine limit at every servo
+    tick → :class:`Trajectory`.
+
+    ``planner``: ``"optimal"`` (default) runs the sliding look-ahead window of seed 000 with these
+    options and the whole-path jerk-limited LP (:mod:`fuzzyfeed.slw.optimal`, in bounded pieces:
+    :mod:`fuzzyfeed.slw.optimal_pieces`; ticks by :mod:`fuzzyfeed.slw.phase_ticks`, checked and
+    repaired tick by tick as the window is: :mod:`fuzzyfeed.slw.optimal_schedule`) and keeps the
+    faster — the window's when the LP fails, passes its work budget (long cuts: over 40 000 grid
+    nodes, at most ~10 m of path) or keeps a limit broken after its repairs.
+    ``"window"``: the window alone (with ``transition="cosine"`` and ``approach=1``, seed 000's
+    scheduler as published).
 
     ``approach`` selects seed 000's Table 1 profile for short blocks (types 2-3): 2 (default)
     rises to a peak between the two transitions (Table 1, figure (d)); 1, the paper's choice,
     cruises at the higher end feed (smoother, slower on paths of short blocks).
 
-    ``transition`` is the shape of every feed change: ``"cosine"`` (default; seed 000's,
-    eq. (16)-(21); with ``approach=1`` the paper's scheduler as published) or ``"seven-phase"``
-    (the trapezoidal-acceleration ramp, jerk J all through its ramps: 2.7 % faster at the median
-    of bench_slw, but slower on 11 of its 282 cases, up to 6.4 %, and 1.3 × the compute).
+    ``transition`` is the shape of the window's feed changes: ``"seven-phase"`` (default; the
+    trapezoidal-acceleration ramp, jerk J all through its ramps: 2.7 % faster than the cosine at
+    the median of bench_slw's window cases, slower on 11 of its 282, up to 6.4 %) or ``"cosine"``
+    (seed 000's, eq. (16)-(21)).
 
     ``feed_cap`` (optional) is one more pointwise feed limit in mm/s: a :class:`FeedProfile`
     (its samples' arc lengths and feeds), a pair ``(s_mm, feed_mm_s)`` or a :class:`FeedCap`;
@@ -247,12 +257,6 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     smooth within the path tolerance P (``path_tolerance_mm``, default G64 P0.01) between its true
     corners, which are passed within one servo period (:func:`fuzzyfeed.geometry.polyline_fit.fit_polyline`);
     ``blend=False`` takes every vertex as a corner. The fit is ``Trajectory.polyline_fit``.
-
-    ``planner``: ``"window"`` (default; the sliding look-ahead window above) or ``"optimal"``: the
-    window's schedule (with these options) and the whole-path jerk-limited LP's
-    (:mod:`fuzzyfeed.slw.optimal`, ticks by :mod:`fuzzyfeed.slw.phase_ticks`, checked and repaired tick by
-    tick as the window is: :mod:`fuzzyfeed.slw.optimal_schedule`), the faster of the two; the window's
-    when the LP fails, passes its node or time budget or keeps a limit broken after its repairs.
 
     ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
     ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal or a
@@ -282,7 +286,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     cap = _feed_cap(feed_cap, total)
     if planner == "optimal":  # the window's schedule first: the fallback and the one to beat
         window = schedule(curve if fit is None else fit.source, limits, progress, approach, feed_cap, blend,
-                          path_tolerance_mm, transition)
+                          path_tolerance_mm, transition, planner="window")
         return _faster_optimal(window, cap)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
     # corners closer together than a stair step needs are a cap, not critical points

@@ -42,5 +42,5 @@ def warm_kernels() -> float:
     slow_y = MachineLimits(axis_vel_mm_s=(100, 50, 100), axis_acc_mm_s2=(1000, 250, 1000))
     for curve in (line, cubic):
         for transition in ("cosine", "seven-phase"):
-            schedule(curve, slow_y, transition=transition)
+            schedule(curve, slow_y, transition=transition, planner="window")
     return time.process_time() - t0
