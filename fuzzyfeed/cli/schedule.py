@@ -1,4 +1,5 @@
-"""``fuzzyfeed schedule SHAPE -o TRAJ.csv``: the SLW scheduler's timed trajectory (seed 000)."""
+"""``fuzzyfeed schedule SHAPE -o TRAJ.csv``: the jerk-limited scheduler's timed trajectory (the whole-path
+LP beside seed 000's sliding look-ahead window)."""
 
 from __future__ import annotations
 
@@ -111,7 +112,12 @@ def run(args: argparse.Namespace) -> int:
         return seg
 
     lim = traj.limits
-    notes = (f"SLW schedule (seed 000): F = {lim.feed_mm_min:g} mm/min, cycle time "
+    if not traj.n_blocks:
+        how = "the whole-path LP"
+    else:
+        how = (f"the look-ahead window of seed 000, {args.transition} transitions"
+               + ("" if args.planner == "window" else "; the LP was not faster here"))
+    notes = (f"jerk-limited schedule ({how}): F = {lim.feed_mm_min:g} mm/min, cycle time "
              f"{traj.cycle_time_s:.4f} s",)
     gcode = prepare_gcode(args, lambda: traj.feed_at(samples), shape, notes, segment_feeds)
     write_columns(args.output, traj.columns())

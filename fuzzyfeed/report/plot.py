@@ -230,7 +230,7 @@ def plot_rule_surface(table, output: str | os.PathLike, points: int = 241) -> No
 
 def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike | None = None,
                   feed_cap=None):
-    """SLW trajectory: feed against arc length with the feed limit (and the time-optimal bound),
+    """A schedule (slw.schedule: the LP's or the window's): feed against arc length with the feed limit (and the time-optimal bound),
     and feed, tangential acceleration and jerk against time with their limits. ``feed_cap``
     ((s_mm, feed_mm_s), e.g. a program's F words) is drawn as part of the feed limit."""
     from fuzzyfeed.machine.limits import feed_limits
@@ -253,14 +253,16 @@ def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike |
         b_time = bound.time_s if hasattr(bound, "time_s") else bound.travel_time_s()
         ax.plot(b_s, b_v * 60, color="tab:green", lw=1.0, ls="--",
                 label="time-optimal bound (no jerk limit)")
-    ax.plot(traj.s_mm, traj.feed_mm_s * 60, color="tab:blue", lw=1.2, label="SLW feed")
+    window = bool(traj.n_blocks)  # the look-ahead window's blocks, or the whole-path LP's profile
+    ax.plot(traj.s_mm, traj.feed_mm_s * 60, color="tab:blue", lw=1.2,
+            label="scheduled feed (" + ("look-ahead window" if window else "whole-path LP") + ")")
     crit = traj.critical_s_mm
     if crit.size:
         ax.plot(crit, np.interp(crit, traj.s_mm, traj.feed_mm_s) * 60, "v", color="tab:red", ms=5,
-                label=f"block junctions ({crit.size})")
+                label=f"{'block junctions' if window else 'the profile’s valleys and rests'} ({crit.size})")
     ax.set_xlabel("arc length s (mm)")
     ax.set_ylabel("feed (mm/min)")
-    ax.set_title(f"{title}: SLW schedule, cycle time {traj.cycle_time_s:.3f} s"
+    ax.set_title(f"{title}: jerk-limited schedule, cycle time {traj.cycle_time_s:.3f} s"
                  + (f", bound {b_time:.3f} s" if bound is not None else ""))
     ax.legend(loc="lower right", fontsize=8)
     t = traj.t_s
