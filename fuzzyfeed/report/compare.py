@@ -130,7 +130,9 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     ceiling = np.full(len(samples), limits.feed_mm_s)
     if feed_cap is not None:
         ceiling = np.minimum(FeedCap(*feed_cap, samples.length)(samples.s), limits.feed_mm_s)
-    trajectory = schedule(curve, limits, approach=approach, feed_cap=feed_cap, transition=transition, planner="window")
+    # the SLW method of seed 000: the look-ahead window alone
+    trajectory = schedule(curve, limits, approach=approach, feed_cap=feed_cap, transition=transition,
+                          planner="window")
     slw_profile = trajectory.feed_at(samples)
     step("bound")
     # on the path the machine follows: a polyline blended within the path tolerance, as schedule
@@ -141,7 +143,8 @@ def compare(samples: PathSamples, limits: MachineLimits, table: RuleTable | None
     if feed_cap is not None:   # the advised fraction of the F in force
         fuzzy = FeedProfile(samples, fuzzy.feed_mm_s / limits.feed_mm_s * ceiling, "fuzzy", limits.feed_mm_s)
     step("fuzzy-safe")
-    safe_trajectory = schedule(curve, limits, approach=approach, feed_cap=fuzzy, transition=transition, planner="window")
+    safe_trajectory = schedule(curve, limits, approach=approach, feed_cap=fuzzy, transition=transition,
+                               planner="window")
     safe_at = safe_trajectory.feed_at(samples)
     safe = FeedProfile(samples, safe_at.feed_mm_s, "fuzzy-safe", limits.feed_mm_s)
     constant = FeedProfile(samples, ceiling, "constant", limits.feed_mm_s)

@@ -230,9 +230,10 @@ def plot_rule_surface(table, output: str | os.PathLike, points: int = 241) -> No
 
 def plot_schedule(traj, bound=None, title: str = "", output: str | os.PathLike | None = None,
                   feed_cap=None):
-    """A schedule (slw.schedule: the LP's or the window's): feed against arc length with the feed limit (and the time-optimal bound),
-    and feed, tangential acceleration and jerk against time with their limits. ``feed_cap``
-    ((s_mm, feed_mm_s), e.g. a program's F words) is drawn as part of the feed limit."""
+    """A schedule (slw.schedule: the LP's or the window's): feed against arc length with the feed limit
+    (and the time-optimal bound), and feed, tangential acceleration and jerk against time with their
+    limits. ``feed_cap`` ((s_mm, feed_mm_s), e.g. a program's F words) is drawn as part of the feed
+    limit."""
     from fuzzyfeed.machine.limits import feed_limits
     from fuzzyfeed.geometry.sampling import sample_by_arc_length
 

@@ -58,9 +58,10 @@ def iterations(n_nodes: int) -> int:
 
 
 def least_nodes(length_mm: float, max_step_mm: float | None = None) -> int:
-    """The uniform nodes of the bound's grid (bound.uniform_intervals + 1); knots, corners and refinements only add to them, and the LP's spacing
-    (optimal._spaced) drops at most one of a pair closer than a few µm, so the grid has at least
-    half this many nodes (pieced_profile's early refusal counts half)."""
+    """The uniform nodes of the bound's grid (bound.uniform_intervals + 1); knots, corners and
+    refinements only add to them, and the LP's spacing (optimal._spaced) drops at most one of a pair
+    closer than a few µm, so the grid has at least half this many nodes (pieced_profile's early
+    refusal counts half)."""
     from fuzzyfeed.slw.bound import uniform_intervals
 
     return uniform_intervals(length_mm, max_step_mm) + 1
