@@ -230,3 +230,18 @@ def test_schedule_planner_is_checked_and_the_lp_is_the_default():
     assert default.n_blocks == 0  # the LP's schedule (trident2 slow-Y: 1.0293 x the floor)
     paper = schedule(curve, SLOW_Y, planner="window", transition="cosine")
     assert paper.n_blocks > 0 and paper.cycle_time_s > default.cycle_time_s
+
+
+def test_the_lp_reports_its_pieces_as_it_plans(capsys):
+    """progress: the arc length planned after each piece, increasing to the path's end; with
+    progress=True the schedule shows a bar for the LP after the window's."""
+    from fuzzyfeed.slw import schedule
+    from fuzzyfeed.slw.optimal_pieces import pieced_profile
+
+    curve = load_shape("butterfly").curve
+    seen: list[float] = []
+    grid, _, _ = pieced_profile(curve, MachineLimits(), piece_nodes=1500, progress=seen.append)
+    assert len(seen) >= 2 and np.all(np.diff(seen) > 0) and seen[-1] == grid[0][-1]
+    schedule(load_shape("wm").curve, MachineLimits(), progress=True)
+    err = capsys.readouterr().err
+    assert "scheduling" in err and "whole-path LP" in err

@@ -73,10 +73,11 @@ def _piece_end(s: np.ndarray, keep: int, overlap_mm: float) -> int:
 
 
 def solve_pieces(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits,
-                 piece_nodes: int | None = None, log: list | None = None):
+                 piece_nodes: int | None = None, log: list | None = None, progress=None):
     """(x, a) at the grid's nodes by the receding horizon (module doc), ``piece_nodes`` kept a piece
     (default PIECE_NODES); ``log`` (optional) receives (first node, last node, LPs solved) per piece
-    (0 LPs: an LP found no optimum and the last piece was kept to its rest)."""
+    (0 LPs: an LP found no optimum and the last piece was kept to its rest); ``progress``
+    (optional) is called with the arc length planned so far after each piece."""
     n = s.size
     piece_nodes = PIECE_NODES if piece_nodes is None else piece_nodes
     overlap = OVERLAP_STOPS * stopping_distance(limits)
@@ -122,6 +123,8 @@ def solve_pieces(s, x_lim, tangent, kn, stops, corner, limits: MachineLimits,
         if log is not None:
             log.append((i0, i1, len(lp_log)))
         x[i0:k + 1], a[i0:k + 1] = xs[:k - i0 + 1], as_[:k - i0 + 1]
+        if progress is not None:
+            progress(float(s[k]))
         if k == n - 1:
             return x, a
         state, last, i0 = (float(xs[k - i0]), float(as_[k - i0])), (i0, i1, xs, as_), k
@@ -150,15 +153,16 @@ def refused_on_length(length_mm: float, max_step_mm: float | None = None, piece_
 
 
 def pieced_profile(curve, limits: MachineLimits, cap=None, max_step_mm: float | None = None,
-                   piece_nodes: int | None = None, log: list | None = None):
+                   piece_nodes: int | None = None, log: list | None = None, progress=None):
     """:func:`fuzzyfeed.slw.optimal.optimal_profile` by pieces → (s_grid, x_grid, a_grid), plus the
     grid problem (for :func:`repair`). A path the work budget refuses on its length alone
-    (:func:`least_nodes`) is refused before its grid is built (~1 s on a 24 m cut)."""
+    (:func:`least_nodes`) is refused before its grid is built (~1 s on a 24 m cut). ``progress``:
+    :func:`solve_pieces`'."""
     why = refused_on_length(float(curve.length), max_step_mm, piece_nodes)
     if why:
         raise RuntimeError(why)
     grid = grid_problem(curve, limits, cap, max_step_mm)
-    x, a = solve_pieces(*grid, limits, piece_nodes=piece_nodes, log=log)
+    x, a = solve_pieces(*grid, limits, piece_nodes=piece_nodes, log=log, progress=progress)
     return grid, x, a
 
 

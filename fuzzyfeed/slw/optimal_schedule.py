@@ -27,16 +27,17 @@ from fuzzyfeed.slw.phase_ticks import ticks_from_phase
 
 
 def schedule_optimal(curve: Nurbs, limits: MachineLimits, cap: FeedCap | None, kinks_u: np.ndarray,
-                     dip: Callable, repairs: int):
+                     dip: Callable, repairs: int, progress: Callable[[float], None] | None = None):
     """The ticks of the LP's profile under ``cap`` (or None), repaired as the window's are (``dip``:
     trajectory._dip, at most ``repairs`` times) → (t, s, u, xyz, v, a, j, critical arc lengths: the
-    profile's rests and valleys on its grid), the arrays read-only."""
+    profile's rests and valleys on its grid), the arrays read-only. ``progress`` (optional) is
+    called with the arc length planned so far after each piece of the first LP pass."""
     total = float(curve.length)
     grid = None
     for attempt in range(repairs + 1):
         try:
             if grid is None:
-                grid, x_grid, a_grid = pieced_profile(curve, limits, cap)
+                grid, x_grid, a_grid = pieced_profile(curve, limits, cap, progress=progress)
             else:  # only the span around the breach solved again
                 grid, x_grid, a_grid = repair(grid, x_grid, a_grid, cap, limits)
         except RuntimeError as exc:

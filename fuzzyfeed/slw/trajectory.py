@@ -189,10 +189,11 @@ def _dip(cap: FeedCap | None, found: tuple[str, int, float], s: np.ndarray, v: n
     return dip if cap is None else lower(cap, dip)
 
 
-def _faster_optimal(window: Trajectory, cap: FeedCap | None) -> Trajectory:
+def _faster_optimal(window: Trajectory, cap: FeedCap | None, bar: bool = False) -> Trajectory:
     """The whole-path LP's schedule on the window's followed path (slw/optimal_schedule.py) if it
     passes the tick check and is faster than ``window``; else ``window`` (also when the LP fails,
-    exceeds its node budget or breaks a limit after its repairs)."""
+    exceeds its node budget or breaks a limit after its repairs). ``bar``: a tqdm.auto bar over the
+    path's length as the LP's pieces are planned."""
     from fuzzyfeed.slw.optimal_pieces import refused_on_length
     from fuzzyfeed.slw.optimal_schedule import schedule_optimal
 
@@ -202,10 +203,22 @@ def _faster_optimal(window: Trajectory, cap: FeedCap | None) -> Trajectory:
     s_j, _, _, jump = joins(curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
     kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
+    progress, shown = None, None
+    if bar:
+        from tqdm.auto import tqdm
+
+        shown = tqdm(total=round(curve.length, 3), unit="mm", desc="whole-path LP", leave=False,
+                     bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} mm")
+
+        def progress(s_mm: float) -> None:
+            shown.update(round(s_mm, 3) - shown.n)
     try:
-        *ticks, critical = schedule_optimal(curve, limits, cap, kinks_u, _dip, TICK_REPAIRS)
+        *ticks, critical = schedule_optimal(curve, limits, cap, kinks_u, _dip, TICK_REPAIRS, progress)
     except InputError:
         return window
+    finally:
+        if shown is not None:
+            shown.close()
     if ticks[0][-1] >= window.cycle_time_s:
         return window
     return Trajectory(curve, limits, *ticks, (), LookaheadStats(), critical, window.polyline_fit)
@@ -258,9 +271,9 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     corners, which are passed within one servo period (:func:`fuzzyfeed.geometry.polyline_fit.fit_polyline`);
     ``blend=False`` takes every vertex as a corner. The fit is ``Trajectory.polyline_fit``.
 
-    ``progress``, if given, is called with the arc length scheduled so far (mm) after each block;
-    ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal or a
-    notebook widget).
+    ``progress``, if given, is called with the arc length scheduled so far (mm) after each block of
+    the window; ``progress=True`` shows a tqdm.auto bar over the path's length instead (a terminal
+    or a notebook widget), and a second one as the LP's pieces are planned.
     """
     expect(curve, Nurbs, "curve", "a Nurbs")
     limits = MachineLimits.default() if limits is None else limits
@@ -287,7 +300,7 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     if planner == "optimal":  # the window's schedule first: the fallback and the one to beat
         window = schedule(curve if fit is None else fit.source, limits, progress, approach, feed_cap, blend,
                           path_tolerance_mm, transition, planner="window")
-        return _faster_optimal(window, cap)
+        return _faster_optimal(window, cap, bar=progress is True)
     acc, jerk = limits.tangential_acc_mm_s2, limits.jerk_mm_s3
     # corners closer together than a stair step needs are a cap, not critical points
     dense = corner_plan(curve, limits)[2]
