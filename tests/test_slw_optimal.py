@@ -245,3 +245,38 @@ def test_the_lp_reports_its_pieces_as_it_plans(capsys):
     schedule(load_shape("wm").curve, MachineLimits(), progress=True)
     err = capsys.readouterr().err
     assert "scheduling" in err and "whole-path LP" in err
+
+
+@pytest.mark.parametrize("length", [0.2, 0.5, 2.0, 20.0, 100.0])
+def test_the_default_on_a_line_is_the_closed_form_move(length):
+    """A diagonal line from rest to rest under the default planner: the seven-phase closed form at
+    the line's own acceleration min_j A_j/|T_j| (the optimum), to one servo period under it (the
+    cycle time is the last tick) and 1 % and one period over it."""
+    from fuzzyfeed.slw import schedule
+
+    lim = MachineLimits()
+    line = Nurbs(1, np.array([0.0, 0.0, 1.0, 1.0]), np.array([[0.0, 0.0], [0.6 * length, 0.8 * length]]))
+    closed = rest_to_rest_s(length, lim.feed_mm_s, min(lim.axis_acc_mm_s2[0] / 0.6, lim.axis_acc_mm_s2[1] / 0.8),
+                            lim.jerk_mm_s3)
+    t = schedule(line, lim).cycle_time_s
+    assert closed - lim.ts_s <= t <= 1.01 * closed + lim.ts_s
+
+
+def test_the_default_at_a_reversal_and_a_right_angle_is_two_closed_form_moves():
+    """A reversal stops: out 10 mm and back is two rest-to-rest moves, to one servo period (the
+    cycle time is the last tick; the move's last nanometres are in the period after it). A 90° corner is passed within one servo period at the feed v_c that keeps the
+    direction's jump within 90 % of each axis's acceleration (0.9 mm/s here), so its legs are no
+    rest-to-rest moves: at most 1 % over them, and under them by at most 2·2√(v_c/J) (a rise from
+    rest to v_c, prepended to each end at v_c, would make a rest-to-rest move of a longer leg)."""
+    from fuzzyfeed.slw import schedule
+
+    lim = MachineLimits()
+    move = lambda x: rest_to_rest_s(x, lim.feed_mm_s, lim.axis_acc_mm_s2[0], lim.jerk_mm_s3)  # noqa: E731
+    back = Nurbs(1, np.array([0.0, 0.0, 1.0, 2.0, 2.0]), np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 0.0]]))
+    t = schedule(back, lim).cycle_time_s
+    assert 2 * move(10.0) - lim.ts_s <= t <= 2 * move(10.0) + lim.ts_s
+    corner = Nurbs(1, np.array([0.0, 0.0, 1.0, 2.0, 2.0]), np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 30.0]]))
+    legs = move(10.0) + move(30.0)
+    rise = 2.0 * np.sqrt(0.9 * lim.axis_acc_mm_s2[0] * lim.ts_s / lim.jerk_mm_s3)
+    t = schedule(corner, lim).cycle_time_s
+    assert legs - 2 * rise <= t <= 1.01 * legs + lim.ts_s
