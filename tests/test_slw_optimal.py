@@ -230,6 +230,10 @@ def test_schedule_planner_is_checked_and_the_lp_is_the_default():
     assert default.n_blocks == 0  # the LP's schedule (trident2 slow-Y: 1.0293 x the floor)
     paper = schedule(curve, SLOW_Y, planner="window", transition="cosine")
     assert paper.n_blocks > 0 and paper.cycle_time_s > default.cycle_time_s
+    assert "look-ahead window's" in default.planner_note and paper.planner_note == ""
+    long_line = Nurbs(1, np.array([0.0, 0.0, 1.0, 1.0]), np.array([[0.0, 0.0], [12_000.0, 0.0]]))
+    kept = schedule(long_line, SLOW_Y)
+    assert kept.n_blocks > 0 and "12000 mm" in kept.planner_note and "over the LP's budget" in kept.planner_note
 
 
 def test_the_lp_reports_its_pieces_as_it_plans(capsys):

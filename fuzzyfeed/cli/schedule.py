@@ -36,9 +36,10 @@ def register(sub) -> None:
     p.add_argument("--planner", choices=("optimal", "window"), default="optimal",
                    help="optimal: the jerk-limited time-optimal feed over the whole path (linear "
                         "programs in bounded pieces) and the sliding look-ahead window, both checked "
-                        "tick by tick, the faster kept; paths over the LP's work budget (over 40 000 "
-                        "grid points, at most ~10 m) keep the window. window: the window alone "
-                        "(seed 000), faster to compute (default: %(default)s)")
+                        "tick by tick, the faster kept; a path over the LP's work budget (over 40 000 "
+                        "grid points, its pieces' overlaps counted: any path over ~10 m, and shorter "
+                        "dense ones) keeps the window, and the summary says why. window: the window "
+                        "alone (seed 000), faster to compute (default: %(default)s)")
     p.add_argument("--plot", metavar="FIG.png", default=None,
                    help="also draw feed, acceleration and jerk against time (and the feed against "
                         "arc length with the limit and the bound)")
@@ -73,9 +74,9 @@ def summary(shape_name: str, traj, m: dict, bound, feed_note: str | None = None)
         f"ratio {traj.cycle_time_s / bound_s:.4f})",
         f"bound grid        {bound.s_mm.size} points, time changes {100 * bound.grid_change:.3f} % "
         "when the grid is halved",
-        f"critical points   {traj.n_critical}   "
-        + (f"blocks {traj.n_blocks} (look-ahead window)" if traj.n_blocks
-           else "whole-path LP (faster than the look-ahead window)"),
+        f"critical points   {traj.n_critical}" + (f"   blocks {traj.n_blocks}" if traj.n_blocks else ""),
+        "planner           " + ("look-ahead window" if traj.n_blocks else "whole-path LP")
+        + (f" ({traj.planner_note})" if traj.planner_note else ""),
         f"max feed          {m['feed'] * lim.feed_mm_min:.1f} mm/min ({100 * m['feed']:.2f} % of command)",
         f"max chord error   {1000 * m['chord'] * lim.chord_tol_mm:.4f} um ({100 * m['chord']:.2f} % of limit)",
         f"max axis velocity {100 * m['axis_vel']:.2f} % of limit",
@@ -116,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
         how = "the whole-path LP"
     else:
         how = (f"the look-ahead window of seed 000, {args.transition} transitions"
-               + ("" if args.planner == "window" else "; the LP was not faster here"))
+               + ("; the LP was not faster here" if "not faster" in traj.planner_note
+                  else "; the LP was not run here" if traj.planner_note else ""))
     notes = (f"jerk-limited schedule ({how}): F = {lim.feed_mm_min:g} mm/min, cycle time "
              f"{traj.cycle_time_s:.4f} s",)
     gcode = prepare_gcode(args, lambda: traj.feed_at(samples), shape, notes, segment_feeds)

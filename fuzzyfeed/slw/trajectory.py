@@ -57,6 +57,9 @@ class Trajectory:
     stats: LookaheadStats = field(repr=False)
     critical_s_mm: np.ndarray = field(repr=False, default=None)  # type: ignore[assignment]
     polyline_fit: PolylineFit | None = field(repr=False, default=None)
+    #: How the planner chose (``planner="optimal"``): why the window's schedule was kept (the LP
+    #: refused, failed or was not faster), or the window's time beside the LP's; "" for the window alone.
+    planner_note: str = field(repr=False, default="")
 
     @property
     def cycle_time_s(self) -> float:
@@ -198,8 +201,9 @@ def _faster_optimal(window: Trajectory, cap: FeedCap | None, bar: bool = False) 
     from fuzzyfeed.slw.optimal_schedule import schedule_optimal
 
     curve, limits = window.curve, window.limits
-    if refused_on_length(float(curve.length)):  # before the path's joins are read
-        return window
+    why = refused_on_length(float(curve.length))
+    if why:  # before the path's joins are read
+        return replace(window, planner_note=f"the LP refused {why}")
     s_j, _, _, jump = joins(curve)
     kinks = s_j[jump.max(axis=1, initial=0.0) > KINK_MIN] if s_j.size else s_j
     kinks_u = np.atleast_1d(curve.param_at_length(kinks)) if kinks.size else kinks
@@ -214,14 +218,15 @@ def _faster_optimal(window: Trajectory, cap: FeedCap | None, bar: bool = False) 
             shown.update(round(s_mm, 3) - shown.n)
     try:
         *ticks, critical = schedule_optimal(curve, limits, cap, kinks_u, _dip, TICK_REPAIRS, progress)
-    except InputError:
-        return window
+    except InputError as exc:
+        return replace(window, planner_note=f"the LP kept no schedule: {exc}")
     finally:
         if shown is not None:
             shown.close()
     if ticks[0][-1] >= window.cycle_time_s:
-        return window
-    return Trajectory(curve, limits, *ticks, (), LookaheadStats(), critical, window.polyline_fit)
+        return replace(window, planner_note=f"the LP's {ticks[0][-1]:.4f} s was not faster")
+    return Trajectory(curve, limits, *ticks, (), LookaheadStats(), critical, window.polyline_fit,
+                      f"the look-ahead window's {window.cycle_time_s:.4f} s was slower")
 
 
 def check_work(total_mm: float, limits: MachineLimits) -> None:
@@ -245,8 +250,9 @@ def schedule(curve: Nurbs, limits: MachineLimits | None = None,
     options and the whole-path jerk-limited LP (:mod:`fuzzyfeed.slw.optimal`, in bounded pieces:
     :mod:`fuzzyfeed.slw.optimal_pieces`; ticks by :mod:`fuzzyfeed.slw.phase_ticks`, checked and
     repaired tick by tick as the window is: :mod:`fuzzyfeed.slw.optimal_schedule`) and keeps the
-    faster — the window's when the LP fails, passes its work budget (long cuts: over 40 000 grid
-    nodes, at most ~10 m of path) or keeps a limit broken after its repairs.
+    faster — the window's when the LP fails, passes its work budget (over 40 000 grid nodes, its
+    pieces' overlaps counted: any path over ~10 m, and shorter dense ones) or keeps a limit broken
+    after its repairs; ``Trajectory.planner_note`` says which.
     ``"window"``: the window alone (with ``transition="cosine"`` and ``approach=1``, seed 000's
     scheduler as published).
 
