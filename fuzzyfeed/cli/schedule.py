@@ -117,8 +117,7 @@ def run(args: argparse.Namespace) -> int:
         how = "the whole-path LP"
     else:
         how = (f"the look-ahead window of seed 000, {args.transition} transitions"
-               + ("; the LP was not faster here" if "not faster" in traj.planner_note
-                  else "; the LP was not run here" if traj.planner_note else ""))
+               + ("" if args.planner == "window" else "; the LP's schedule not kept"))
     notes = (f"jerk-limited schedule ({how}): F = {lim.feed_mm_min:g} mm/min, cycle time "
              f"{traj.cycle_time_s:.4f} s",)
     gcode = prepare_gcode(args, lambda: traj.feed_at(samples), shape, notes, segment_feeds)

@@ -56,7 +56,7 @@ from fuzzyfeed.errors import InputError
 
 #: A node with x ≤ REST_RTOL·max(x) is a full stop (an LP's rounding of 0).
 REST_RTOL = 1e-12
-#: Most servo periods a profile may have (trajectory.MAX_TICKS: ≈ 14 h at 1 ms).
+#: Most servo periods a schedule may have, the window's or the LP's (≈ 14 h at 1 ms).
 MAX_TICKS = 5e7
 #: Grid steps shorter than min(MERGE_MM, MERGE_RTOL·L) are merged with their neighbour (merge_close).
 MERGE_MM, MERGE_RTOL = 1e-4, 1e-5

@@ -26,12 +26,9 @@ from fuzzyfeed.slw.lookahead import KINK_MIN, LookaheadStats, ScheduledBlock, Sl
 from fuzzyfeed.slw.feed_cap import FeedCap, lower, stairs
 from fuzzyfeed.slw.check import breach_error, checked_positions
 from fuzzyfeed.slw.preprocess import corner_plan, iter_blocks, joins, machine_cap
+from fuzzyfeed.slw.phase_ticks import MAX_TICKS  # the one limit on servo periods (≈ 14 h at 1 ms)
 from fuzzyfeed.slw.profile import SEVEN_PHASE, TRANSITIONS, segment_table, segments_state
 from fuzzyfeed.slw.resume import Recorder, resume
-
-
-#: Most servo periods a trajectory may have (≈ 14 h at 1 ms).
-MAX_TICKS = 5e7
 
 
 @dataclass(frozen=True, eq=False)
